@@ -1,0 +1,119 @@
+"""Closed-form contact geometry of a semi-ellipsoid on a floor (MODEL.md section 3).
+
+Scalar functions of plain floats, returning tuples, so they inline into the lane loops.
+Body frame: origin C at the centre of the flat face, z out of the flat face; the curved
+surface is x²/a² + y²/b² + z²/c² = 1 with z ≤ 0.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .jit import kernel
+from .layout import (
+    A2, B2, BLOCK, C2, GRAV, GX, GY, GZ, IXX, IXY, IXZ, IYY, IYZ, IZZ, MASS, OFF_P,
+    Q0, Q1, Q2, Q3, VX, VY, W0, W1, W2,
+)
+
+
+@kernel
+def cross(ax, ay, az, bx, by, bz):
+    """a × b."""
+    return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+
+
+@kernel
+def rotation(q0, q1, q2, q3):
+    """Rotation matrix R (body → world) of the quaternion (q0, q1, q2, q3).
+
+    The quaternion need not be exactly unit: R is built with 2/|q|², so it is a proper
+    rotation for any non-zero q (RK stages carry slightly non-unit quaternions).
+    Returns the nine elements row by row.
+    """
+    s = 2.0 / (q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+    r00 = 1.0 - s * (q2 * q2 + q3 * q3)
+    r01 = s * (q1 * q2 - q0 * q3)
+    r02 = s * (q1 * q3 + q0 * q2)
+    r10 = s * (q1 * q2 + q0 * q3)
+    r11 = 1.0 - s * (q1 * q1 + q3 * q3)
+    r12 = s * (q2 * q3 - q0 * q1)
+    r20 = s * (q1 * q3 - q0 * q2)
+    r21 = s * (q2 * q3 + q0 * q1)
+    r22 = 1.0 - s * (q1 * q1 + q2 * q2)
+    return r00, r01, r02, r10, r11, r12, r20, r21, r22
+
+
+@kernel
+def contact_point(a2, b2, c2, n0, n1, n2):
+    """Contact point s_P (body components, from C) for world-up n̂ in body components.
+
+    s_P = −A n̂ / σ with A = diag(a², b², c²), σ = √(n̂ᵀ A n̂). Returns (s0, s1, s2, σ).
+    """
+    an0 = a2 * n0
+    an1 = b2 * n1
+    an2 = c2 * n2
+    sigma = math.sqrt(n0 * an0 + n1 * an1 + n2 * an2)
+    inv = 1.0 / sigma
+    return -an0 * inv, -an1 * inv, -an2 * inv, sigma
+
+
+@kernel
+def contact_point_rate(a2, b2, c2, n0, n1, n2, sigma, d0, d1, d2):
+    """ds_P/dt = J dn̂/dt with J = −A/σ + (A n̂)(A n̂)ᵀ/σ³ (body components)."""
+    an0 = a2 * n0
+    an1 = b2 * n1
+    an2 = c2 * n2
+    inv = 1.0 / sigma
+    f = (an0 * d0 + an1 * d1 + an2 * d2) * inv * inv * inv
+    return (
+        -a2 * d0 * inv + an0 * f,
+        -b2 * d1 * inv + an1 * f,
+        -c2 * d2 * inv + an2 * f,
+    )
+
+
+@kernel
+def energy_terms(W, off, j):
+    """Energy (J), height of G (m) and vertical velocity of G (m/s) of lane j of the
+    state region starting at row ``off`` of the block workspace W.
+
+    E = ½ m |v_G|² + ½ ωᵀ I ω + m g z_G, with z_G = −ρ·n̂ and v_G,z = −n̂·(ω × ρ): the
+    material point at P has no vertical velocity in stick and in slip alike.
+    """
+    p = OFF_P * BLOCK + j
+    y = off * BLOCK + j
+    q0 = W[y + Q0 * BLOCK]
+    q1 = W[y + Q1 * BLOCK]
+    q2 = W[y + Q2 * BLOCK]
+    q3 = W[y + Q3 * BLOCK]
+    s = 2.0 / (q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+    n0 = s * (q1 * q3 - q0 * q2)
+    n1 = s * (q2 * q3 + q0 * q1)
+    n2 = 1.0 - s * (q1 * q1 + q2 * q2)
+    sp0, sp1, sp2, _ = contact_point(
+        W[p + A2 * BLOCK], W[p + B2 * BLOCK], W[p + C2 * BLOCK], n0, n1, n2
+    )
+    r0 = sp0 - W[p + GX * BLOCK]
+    r1 = sp1 - W[p + GY * BLOCK]
+    r2 = sp2 - W[p + GZ * BLOCK]
+    w0 = W[y + W0 * BLOCK]
+    w1 = W[y + W1 * BLOCK]
+    w2 = W[y + W2 * BLOCK]
+    c0, c1, c2 = cross(w0, w1, w2, r0, r1, r2)
+    vz = -(n0 * c0 + n1 * c1 + n2 * c2)
+    zg = -(r0 * n0 + r1 * n1 + r2 * n2)
+    m = W[p + MASS * BLOCK]
+    ixy = W[p + IXY * BLOCK]
+    ixz = W[p + IXZ * BLOCK]
+    iyz = W[p + IYZ * BLOCK]
+    iw0 = W[p + IXX * BLOCK] * w0 + ixy * w1 + ixz * w2
+    iw1 = ixy * w0 + W[p + IYY * BLOCK] * w1 + iyz * w2
+    iw2 = ixz * w0 + iyz * w1 + W[p + IZZ * BLOCK] * w2
+    vx = W[y + VX * BLOCK]
+    vy = W[y + VY * BLOCK]
+    e = (
+        0.5 * m * (vx * vx + vy * vy + vz * vz)
+        + 0.5 * (w0 * iw0 + w1 * iw1 + w2 * iw2)
+        + m * W[p + GRAV * BLOCK] * zg
+    )
+    return e, zg, vz

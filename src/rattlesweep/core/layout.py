@@ -1,0 +1,97 @@
+"""Row indices of the structure-of-arrays blocks the kernel works on.
+
+Every per-trajectory array the kernel sees has shape ``(n_blocks, n_rows, BLOCK)``: the
+last axis runs over the ``BLOCK`` lanes (trajectories) of a block, so each row is a
+contiguous vector the compiler steps with SIMD instructions. ``BLOCK`` is a
+compile-time constant, which gives the lane loops a known trip count (no scalar
+remainder loop) and makes a lane's arithmetic independent of its position in the batch.
+"""
+
+from __future__ import annotations
+
+BLOCK = 32
+"""Lanes per block. A multiple of the SIMD width (4 doubles for AVX2, 8 for AVX-512)."""
+
+# --- integrated state, rows of Y ---------------------------------------------------
+Q0, Q1, Q2, Q3 = 0, 1, 2, 3  # orientation quaternion (w, x, y, z), body -> world
+W0, W1, W2 = 4, 5, 6  # angular velocity, body components, rad/s
+PX, PY = 7, 8  # horizontal position of G, world, m
+VX, VY = 9, 10  # horizontal velocity of G, world, m/s
+N_STATE = 11
+
+# --- per-trajectory parameters, rows of P --------------------------------------------
+A2, B2, C2 = 0, 1, 2  # squared semi-axes, m^2
+MASS = 3  # kg
+GX, GY, GZ = 4, 5, 6  # centre of mass from C, body components, m
+IXX, IYY, IZZ, IXY, IXZ, IYZ = 7, 8, 9, 10, 11, 12  # inertia about G, kg m^2
+MU_K, MU_S = 13, 14  # kinetic / static friction coefficients (may be inf)
+DAMP = 15  # viscous torque coefficient c_v, N m s
+GRAV = 16  # m/s^2
+DT = 17  # time step, s
+FULL = 18  # 1.0 for a full ellipsoid (no rim, never capsizes), else 0.0
+EPS_U = 19  # slip speed below which the stored slip direction is used, m/s
+N_PARAM = 20
+
+# --- auxiliary outputs of one right-hand-side evaluation, rows of X -----------------
+X_N = 0  # normal force, N
+X_FX, X_FY = 1, 2  # horizontal friction force, world, N
+X_UX, X_UY = 3, 4  # horizontal slip velocity of the material contact point, world, m/s
+N_AUX = 5
+
+# --- per-lane switching state, rows of S ---------------------------------------------
+S_MODE = 0  # 0.0 stick, 1.0 slip
+S_UHX, S_UHY = 1, 2  # last known slip direction (unit, world)
+S_USX, S_USY = 3, 4  # slip velocity at the start of the current step
+S_UPREV = 5  # |u| at the end of the previous step
+N_SWITCH = 6
+
+# --- the per-block workspace ---------------------------------------------------------
+# Inside the time loop a block's arrays live in one flat float64 workspace W of
+# N_WORK * BLOCK elements; row r of region OFF_x starts at (OFF_x + r) * BLOCK. With one
+# base pointer and compile-time offsets LLVM can prove that a store never aliases a later
+# load of another row, so the lane loops vectorise without runtime alias checks (separate
+# arrays would each need such checks, and LLVM gives up past a handful).
+OFF_P = 0  # parameters (N_PARAM rows)
+OFF_Y = OFF_P + N_PARAM  # state at the start of the step (N_STATE rows)
+OFF_T = OFF_Y + N_STATE  # stage input: the state where the derivative is evaluated
+OFF_D = OFF_T + N_STATE  # derivative at the stage input
+OFF_A = OFF_D + N_STATE  # RK4 accumulator
+OFF_X = OFF_A + N_STATE  # auxiliary outputs (N_AUX rows)
+OFF_S = OFF_X + N_AUX  # switching state (N_SWITCH rows)
+N_WORK = OFF_S + N_SWITCH
+
+# --- status codes --------------------------------------------------------------------
+OK = 0
+CAPSIZED = 1
+LIFTED_OFF = 2
+NON_FINITE = 3
+STATUS_NAMES = ("ok", "capsized", "lifted_off", "non_finite")
+
+# --- per-run observables, rows of O --------------------------------------------------
+O_FIRST_REV = 0  # s, NaN when none
+O_N_REV = 1
+O_FINAL_SPIN = 2  # rad/s
+O_MEAN_FINAL_SPIN = 3  # rad/s, over the last 10 % of the run
+O_MAX_TILT = 4  # rad
+O_E0 = 5  # J
+O_E_END = 6  # J
+O_SLIP_FRAC = 7
+O_STATUS = 8
+O_T_END = 9  # s, time reached (earlier than t_end when frozen)
+O_SPIN0 = 10  # rad/s
+O_STEPS = 11  # steps taken
+N_OBS = 12
+
+# --- recorded time series, rows of the record array -----------------------------------
+R_Q0, R_Q1, R_Q2, R_Q3 = 0, 1, 2, 3
+R_W0, R_W1, R_W2 = 4, 5, 6
+R_PX, R_PY, R_PZ = 7, 8, 9
+R_VX, R_VY, R_VZ = 10, 11, 12
+R_SPIN = 13
+R_TILT = 14
+R_ENERGY = 15
+R_N = 16
+R_FX, R_FY = 17, 18
+R_UX, R_UY = 19, 20
+R_SLIP = 21
+N_REC = 22

@@ -1,0 +1,72 @@
+"""Launch conditions: orientation, angular velocity and velocity of G at t = 0.
+
+Conventions (radians, SI):
+
+* ``roll``, ``pitch``, ``yaw`` give the orientation R = R_z(yaw) R_y(pitch) R_x(roll)
+  (body → world): starting from upright, turn by ``roll`` about body x (the long axis),
+  then by ``pitch`` about the new body y, then by ``yaw`` about the vertical. Each turn is
+  right-handed: positive roll raises the body's +y side, positive pitch lowers its +x
+  end. Alternatively ``orientation=(w, x, y, z)``, a unit quaternion
+  taking body components to world components.
+* ``spin`` (rad/s) is a rotation about the world vertical, positive counter-clockwise seen
+  from above; alternatively ``omega`` gives the body-frame angular velocity (rad/s).
+* ``velocity=(vx, vy)`` (m/s, world) launches G sliding; by default G moves so that the
+  material contact point is at rest (pure rolling).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def quaternion_from_angles(roll, pitch, yaw) -> np.ndarray:
+    """Unit quaternions (..., 4) = q_z(yaw) ⊗ q_y(pitch) ⊗ q_x(roll), angles in rad."""
+    roll, pitch, yaw = np.broadcast_arrays(
+        *(np.asarray(x, dtype=float) for x in (roll, pitch, yaw))
+    )
+    cr, sr = np.cos(roll / 2), np.sin(roll / 2)
+    cp, sp = np.cos(pitch / 2), np.sin(pitch / 2)
+    cy, sy = np.cos(yaw / 2), np.sin(yaw / 2)
+    return np.stack([
+        cy * cp * cr + sy * sp * sr,
+        cy * cp * sr - sy * sp * cr,
+        cy * sp * cr + sy * cp * sr,
+        sy * cp * cr - cy * sp * sr,
+    ], axis=-1)
+
+
+def up_vector(q: np.ndarray) -> np.ndarray:
+    """World up-vector in body components, Rᵀ Ẑ, for unit quaternions (..., 4)."""
+    w, x, y, z = np.moveaxis(q, -1, 0)
+    return np.stack([
+        2 * (x * z - w * y),
+        2 * (y * z + w * x),
+        1 - 2 * (x * x + y * y),
+    ], axis=-1)
+
+
+def check_unit_quaternion(q: np.ndarray) -> None:
+    """Raise ValueError for a finite quaternion whose norm is not 1 (to 1e-6)."""
+    norm = np.linalg.norm(q, axis=-1)
+    bad = np.isfinite(norm) & (np.abs(norm - 1.0) > 1e-6)
+    if np.any(bad):
+        idx = np.argwhere(bad)[0]
+        raise ValueError(
+            f"orientation must be a unit quaternion (w, x, y, z), |q| = 1 to 1e-6; "
+            f"got |q| = {norm[tuple(idx)]:.9g} at index {tuple(int(i) for i in idx)}"
+        )
+
+
+def tilt_limit_error(tilt_cos: np.ndarray, full: np.ndarray) -> None:
+    """Raise ValueError when a semi-ellipsoid would start with its rim on the floor."""
+    bad = np.isfinite(tilt_cos) & (tilt_cos <= 0.0) & ~full
+    if np.any(bad):
+        idx = np.argwhere(bad)[0]
+        tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(tilt_cos[tuple(idx)])))))
+        raise ValueError(
+            f"roll/pitch/orientation: initial tilt {tilt:.3g} deg at index "
+            f"{tuple(int(i) for i in idx)} puts the rim of the semi-ellipsoid on the floor; "
+            "the tilt from upright must be below 90 deg"
+        )

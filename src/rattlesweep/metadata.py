@@ -1,0 +1,78 @@
+"""CF metadata (units, long names, flags) shared by every result rattlesweep writes."""
+
+from __future__ import annotations
+
+from .core.layout import STATUS_NAMES
+
+STATUS_ATTRS = {
+    "long_name": "trajectory status",
+    "flag_values": list(range(len(STATUS_NAMES))),
+    "flag_meanings": " ".join(STATUS_NAMES),
+    "comment": "ok: ran to t_end; capsized: the rim reached the floor; lifted_off: the "
+    "normal force went negative; non_finite: a state or input was NaN or inf. A stopped "
+    "trajectory keeps its last valid state.",
+}
+
+VARIABLE_ATTRS = {
+    # per-run observables
+    "first_reversal_time": ("s", "time of the first spin reversal (NaN when none)"),
+    "n_reversals": ("1", "number of spin reversals"),
+    "initial_spin": ("rad s-1", "vertical angular velocity at t = 0"),
+    "final_spin": ("rad s-1", "vertical angular velocity at the end of the run"),
+    "mean_final_spin": ("rad s-1", "mean vertical angular velocity over the last 10% of the run"),
+    "max_tilt": ("rad", "largest tilt of the body z axis from the vertical"),
+    "energy_initial": ("J", "mechanical energy at t = 0"),
+    "energy_final": ("J", "mechanical energy at the end of the run"),
+    "energy_lost": ("J", "energy_initial - energy_final"),
+    "slip_fraction": ("1", "fraction of steps spent slipping"),
+    "t_final": ("s", "time reached (earlier than t_end when the trajectory stopped)"),
+    "steps": ("1", "number of steps taken"),
+    # time series
+    "spin": ("rad s-1", "vertical angular velocity n = omega . Z"),
+    "energy": ("J", "mechanical energy"),
+    "tilt": ("rad", "tilt of the body z axis from the vertical"),
+    "slipping": ("1", "1 while the contact slips, 0 while it sticks"),
+    "normal_force": ("N", "normal contact force"),
+    "friction_force": ("N", "horizontal friction force on the body, world frame"),
+    "slip_velocity": ("m s-1", "horizontal velocity of the material contact point, world frame"),
+    "slip_speed": ("m s-1", "speed of the material contact point"),
+    "quaternion": ("1", "orientation quaternion (w, x, y, z), body to world"),
+    "omega": ("rad s-1", "angular velocity, body components"),
+    "position": ("m", "position of the centre of mass, world frame"),
+    "velocity": ("m s-1", "velocity of the centre of mass, world frame"),
+    "time": ("s", "time"),
+    # inputs
+    "roll": ("rad", "initial roll about body x"),
+    "pitch": ("rad", "initial pitch about body y"),
+    "yaw": ("rad", "initial yaw about the vertical"),
+    "orientation": ("1", "initial orientation quaternion (w, x, y, z)"),
+    "launch_spin": ("rad s-1", "initial spin about the vertical"),
+    "launch_omega": ("rad s-1", "initial angular velocity, body components"),
+    "launch_velocity": ("m s-1", "initial horizontal velocity of G (sliding launch)"),
+    "mu": ("1", "kinetic friction coefficient"),
+    "mu_static": ("1", "static friction coefficient"),
+    "damping": ("N m s", "viscous torque coefficient"),
+    "g": ("m s-2", "gravitational acceleration"),
+    "dt": ("s", "time step"),
+    "t_end": ("s", "requested end time"),
+    "a": ("m", "semi-axis along body x"),
+    "b": ("m", "semi-axis along body y"),
+    "c": ("m", "semi-axis along body z"),
+    "mass": ("kg", "mass"),
+    "com": ("m", "centre of mass from the centre of the flat face, body frame"),
+    "inertia_xx": ("kg m2", "inertia tensor element I_xx about G"),
+    "inertia_yy": ("kg m2", "inertia tensor element I_yy about G"),
+    "inertia_zz": ("kg m2", "inertia tensor element I_zz about G"),
+    "inertia_xy": ("kg m2", "inertia tensor element I_xy about G"),
+    "inertia_xz": ("kg m2", "inertia tensor element I_xz about G"),
+    "inertia_yz": ("kg m2", "inertia tensor element I_yz about G"),
+    "full_ellipsoid": ("1", "1 for a full ellipsoid (no rim), 0 for a semi-ellipsoid"),
+}
+
+
+def attrs_for(name: str) -> dict:
+    """CF attributes of a variable or coordinate."""
+    if name == "status":
+        return dict(STATUS_ATTRS)
+    units, long_name = VARIABLE_ATTRS[name]
+    return {"units": units, "long_name": long_name}

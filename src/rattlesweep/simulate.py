@@ -1,0 +1,96 @@
+"""One launch, with its time series: :func:`simulate`."""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+
+import numpy as np
+import xarray as xr
+
+from .batch import (
+    VECTOR_COORDS, check_band, check_method, check_record_every, execute,
+    observables_dataset, prepare, run_attrs, series_dataset,
+)
+from .body import Body
+from .core import layout as L
+from .metadata import attrs_for
+
+_MAX_DEFAULT_SAMPLES = 10_000
+
+
+def simulate(
+    body: Body,
+    *,
+    spin: float | None = None, omega=None, roll: float = 0.0, pitch: float = 0.0,
+    yaw: float = 0.0, orientation=None, velocity=None,
+    mu: float = math.inf, mu_static: float | None = None, damping: float = 0.0,
+    g: float = 9.81, dt: float | None = None, t_end: float,
+    method: str = "rk4", record_every: int | None = None, reversal_band: float = 0.05,
+) -> xr.Dataset:
+    """Simulate one launch and return its time series.
+
+    Arguments are those of :func:`rattlesweep.run_batch`, as scalars (``omega`` (3,),
+    ``orientation`` (4,), ``velocity`` (2,)). ``record_every`` defaults to the smallest
+    stride that keeps at most 10 000 samples (1 for runs of up to 10 000 steps).
+
+    Returns
+    -------
+    xarray.Dataset over ``time`` (s) with ``spin`` (rad/s), ``energy`` (J), ``tilt`` (rad),
+    ``slipping``, ``normal_force`` (N), ``friction_force`` (N), ``slip_velocity`` and
+    ``slip_speed`` (m/s), ``quaternion``, ``omega`` (rad/s), ``position`` (m) and
+    ``velocity`` (m/s) of G; the per-run observables of :func:`run_batch` as scalar
+    variables; every input as an attribute (units in ``<name>_units``). A status other
+    than ``ok`` also raises a RuntimeWarning.
+    """
+    if not isinstance(body, Body):
+        raise ValueError(f"body must be a Body, got {body!r}")
+    m = check_method(method)
+    rec_every = check_record_every(record_every)
+    band = check_band(reversal_band)
+    inputs = dict(spin=spin, omega=omega, roll=roll, pitch=pitch, yaw=yaw,
+                  orientation=orientation, velocity=velocity, mu=mu, mu_static=mu_static,
+                  damping=damping, g=g, dt=dt, t_end=t_end)
+    for name in ("spin", "roll", "pitch", "yaw", "mu", "mu_static", "damping", "g", "dt",
+                 "t_end"):
+        if inputs[name] is not None and np.ndim(inputs[name]) != 0:
+            raise ValueError(f"{name} must be a scalar for simulate(); use run_batch for arrays")
+    for name, width in (("omega", 3), ("orientation", 4), ("velocity", 2)):
+        if inputs[name] is not None and np.shape(inputs[name]) != (width,):
+            raise ValueError(f"{name} must have shape ({width},), got {np.shape(inputs[name])}")
+    prep = prepare(body, **inputs)
+    nsteps = int(prep.nsteps[0, 0])
+    if rec_every is None:
+        rec_every = max(1, -(-nsteps // _MAX_DEFAULT_SAMPLES))
+    obs, rec, _ = execute(prep, method=m, record_every=rec_every, band=band, parallel=False)
+
+    dt_used = float(prep.coords["dt"][1][0])
+    data = series_dataset(rec[0], ("time",))
+    data.update(observables_dataset(obs, None))
+    ds = xr.Dataset(data, coords={
+        "time": ("time", np.arange(rec.shape[1]) * rec_every * dt_used, attrs_for("time")),
+    })
+    ds = ds.assign_coords({k: v for k, v in VECTOR_COORDS.items() if k in ds.dims})
+    ds.attrs.update(run_attrs(method, rec_every, band))
+    for name, (dims, values) in prep.coords.items():
+        value = values[0]
+        if name == "body_name":
+            ds.attrs[name] = str(value)
+            continue
+        ds.attrs[name] = value.tolist() if isinstance(value, np.ndarray) else float(value)
+        ds.attrs[f"{name}_units"] = attrs_for(name)["units"]
+    ds.attrs["config"] = json.dumps({
+        "body": body.describe(),
+        "launch": {k: (np.asarray(v).tolist() if v is not None else None)
+                   for k, v in inputs.items()},
+        "dt_used": dt_used, "method": method, "record_every": rec_every,
+        "reversal_band": band,
+    })
+    status = int(obs[L.O_STATUS, 0])
+    if status != L.OK:
+        warnings.warn(
+            f"simulation stopped at t = {obs[L.O_T_END, 0]:.6g} s with status "
+            f"{L.STATUS_NAMES[status]!r}", RuntimeWarning, stacklevel=2,
+        )
+    return ds
