@@ -31,6 +31,16 @@ _BODY_COORDS = ("a", "b", "c", "mass", "full_ellipsoid", "inertia_xx", "inertia_
                 "inertia_zz", "inertia_xy", "inertia_xz", "inertia_yz")
 
 
+_FULL_COL = 13  # column of the full-ellipsoid flag in _body_row
+
+
+def _body_row(b: Body) -> list[float]:
+    """a, b, c, mass, com (3), I_xx, I_yy, I_zz, I_xy, I_xz, I_yz, full_ellipsoid."""
+    i = b.inertia
+    return [b.a, b.b, b.c, b.mass, *b.com, i[0, 0], i[1, 1], i[2, 2], i[0, 1], i[0, 2],
+            i[1, 2], float(b.full_ellipsoid)]
+
+
 @dataclass(frozen=True)
 class Prepared:
     """A validated batch packed into kernel blocks (see :mod:`rattlesweep.core.layout`)."""
@@ -144,9 +154,7 @@ def prepare(
         if k == len(table):
             table.append(b)
         index[i] = k
-    body_rows = np.array([[b.a, b.b, b.c, b.mass, *b.com, b.inertia[0, 0], b.inertia[1, 1],
-                           b.inertia[2, 2], b.inertia[0, 1], b.inertia[0, 2],
-                           b.inertia[1, 2], float(b.full_ellipsoid)] for b in table])[index]
+    body_rows = np.array([_body_row(b) for b in table])[index]
 
     if "dt" not in flat:
         pairs = {}
@@ -167,7 +175,7 @@ def prepare(
     else:
         q = quaternion_from_angles(flat["roll"], flat["pitch"], flat["yaw"])
     up = up_vector(q)
-    tilt_limit_error(up[:, 2], body_rows[:, 11] > 0.5)
+    tilt_limit_error(up[:, 2], body_rows[:, _FULL_COL] > 0.5)
     if "omega" in flat_vec:
         w = flat_vec["omega"]
     else:
@@ -185,8 +193,8 @@ def prepare(
 
     for row, col in ((L.A2, 0), (L.B2, 1), (L.C2, 2)):
         fill(P, row, body_rows[:, col] ** 2)
-    for row, col in ((L.MASS, 3), (L.GX, 4), (L.GY, 5), (L.GZ, 6), (L.IXX, 7), (L.IYY, 8),
-                     (L.IZZ, 9), (L.IXY, 10), (L.IXZ, 11), (L.IYZ, 12), (L.FULL, 13)):
+    for row, col in zip((L.MASS, L.GX, L.GY, L.GZ, L.IXX, L.IYY, L.IZZ, L.IXY, L.IXZ, L.IYZ,
+                         L.FULL), range(3, _FULL_COL + 1)):
         fill(P, row, body_rows[:, col])
     fill(P, L.MU_K, flat["mu"])
     fill(P, L.MU_S, flat["mu_static"])
@@ -237,7 +245,7 @@ def prepare(
         coords["launch_velocity"] = ((dim, "horizontal"), flat_vec["velocity"])
     for k in ("mu", "mu_static", "damping", "g", "dt", "t_end"):
         coords[k] = (dim, flat[k])
-    for k, col in zip(_BODY_COORDS, (0, 1, 2, 3, 13, 7, 8, 9, 10, 11, 12)):
+    for k, col in zip(_BODY_COORDS, (0, 1, 2, 3, _FULL_COL, 7, 8, 9, 10, 11, 12)):
         coords[k] = (dim, body_rows[:, col])
     coords["com"] = ((dim, "body_axis"), body_rows[:, 4:7])
     coords["body_name"] = (dim, np.array([table[i].name for i in index]))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import sys
 import time
@@ -26,6 +27,8 @@ def _demo(args: argparse.Namespace) -> int:
             for s in (5.0, -5.0)]
     elapsed = time.perf_counter() - t0
     both = xr.concat(runs, dim="launch", combine_attrs="drop_conflicts")
+    # per-launch inputs differ, so keep each run's full configuration explicitly
+    both.attrs["config"] = json.dumps([json.loads(r.attrs["config"]) for r in runs])
     both = both.assign_coords(launch=("launch", [5.0, -5.0],
                                       {"units": "rad s-1", "long_name": "launch spin"}))
     nc = write_netcdf(both, out / "kane_levinson.nc")

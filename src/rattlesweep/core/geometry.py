@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from .jit import kernel
 from .layout import (
     A2, B2, BLOCK, C2, GRAV, GX, GY, GZ, IXX, IXY, IXZ, IYY, IYZ, IZZ, MASS, OFF_P,
@@ -117,3 +119,77 @@ def energy_terms(W, off, j):
         + m * W[p + GRAV * BLOCK] * zg
     )
     return e, zg, vz
+
+
+@kernel
+def solve3(m00, m01, m02, m10, m11, m12, m20, m21, m22, b0, b1, b2):
+    """Solve the 3×3 system M x = b by Cramer's rule (adjugate over determinant)."""
+    c00 = m11 * m22 - m12 * m21
+    c01 = m12 * m20 - m10 * m22
+    c02 = m10 * m21 - m11 * m20
+    c10 = m02 * m21 - m01 * m22
+    c11 = m00 * m22 - m02 * m20
+    c12 = m01 * m20 - m00 * m21
+    c20 = m01 * m12 - m02 * m11
+    c21 = m02 * m10 - m00 * m12
+    c22 = m00 * m11 - m01 * m10
+    inv_det = 1.0 / (m00 * c00 + m01 * c01 + m02 * c02)
+    return (
+        (c00 * b0 + c10 * b1 + c20 * b2) * inv_det,
+        (c01 * b0 + c11 * b1 + c21 * b2) * inv_det,
+        (c02 * b0 + c12 * b1 + c22 * b2) * inv_det,
+    )
+
+
+@kernel
+def plastic_contact_impulse(W, off, j, ux, uy):
+    """Bring the material contact point of lane j to rest with a perfectly plastic impulse.
+
+    The impulse J (body components) acts at the contact point P: ΔV = R J / m and
+    Δω = I⁻¹(ρ × J), with J = −K⁻¹ u, K = 𝟙/m − [ρ]ₓ I⁻¹ [ρ]ₓ, u = (ux, uy, 0) the
+    slip velocity (world). The vertical slip velocity stays zero, so the floor constraint
+    still holds, and the energy change −½ uᵀ K⁻¹ u is never positive. (Zeroing u through
+    G's velocity alone, as MODEL.md section 4 words it, is not an impulse and can add
+    energy; both agree as dt → 0.)
+    """
+    p = OFF_P * BLOCK + j
+    y = off * BLOCK + j
+    r00, r01, r02, r10, r11, r12, n0, n1, n2 = rotation(
+        W[y + Q0 * BLOCK], W[y + Q1 * BLOCK], W[y + Q2 * BLOCK], W[y + Q3 * BLOCK])
+    sp0, sp1, sp2, _ = contact_point(
+        W[p + A2 * BLOCK], W[p + B2 * BLOCK], W[p + C2 * BLOCK], n0, n1, n2)
+    r0 = sp0 - W[p + GX * BLOCK]
+    r1 = sp1 - W[p + GY * BLOCK]
+    r2 = sp2 - W[p + GZ * BLOCK]
+    inv_m = 1.0 / W[p + MASS * BLOCK]
+    ixx = W[p + IXX * BLOCK]
+    iyy = W[p + IYY * BLOCK]
+    izz = W[p + IZZ * BLOCK]
+    ixy = W[p + IXY * BLOCK]
+    ixz = W[p + IXZ * BLOCK]
+    iyz = W[p + IYZ * BLOCK]
+    # K e_k = e_k/m − ρ × I⁻¹(ρ × e_k), column by column
+    k = np.empty((3, 3))
+    for col in range(3):
+        e0 = 1.0 if col == 0 else 0.0
+        e1 = 1.0 if col == 1 else 0.0
+        e2 = 1.0 if col == 2 else 0.0
+        t0, t1, t2 = cross(r0, r1, r2, e0, e1, e2)
+        a0, a1, a2 = solve3(ixx, ixy, ixz, ixy, iyy, iyz, ixz, iyz, izz, t0, t1, t2)
+        c0, c1, c2 = cross(r0, r1, r2, a0, a1, a2)
+        k[0, col] = e0 * inv_m - c0
+        k[1, col] = e1 * inv_m - c1
+        k[2, col] = e2 * inv_m - c2
+    # slip velocity in body components (world vertical part is zero)
+    u0 = r00 * ux + r10 * uy
+    u1 = r01 * ux + r11 * uy
+    u2 = r02 * ux + r12 * uy
+    j0, j1, j2 = solve3(k[0, 0], k[0, 1], k[0, 2], k[1, 0], k[1, 1], k[1, 2],
+                        k[2, 0], k[2, 1], k[2, 2], -u0, -u1, -u2)
+    t0, t1, t2 = cross(r0, r1, r2, j0, j1, j2)
+    dw0, dw1, dw2 = solve3(ixx, ixy, ixz, ixy, iyy, iyz, ixz, iyz, izz, t0, t1, t2)
+    W[y + W0 * BLOCK] += dw0
+    W[y + W1 * BLOCK] += dw1
+    W[y + W2 * BLOCK] += dw2
+    W[y + VX * BLOCK] += (r00 * j0 + r01 * j1 + r02 * j2) * inv_m
+    W[y + VY * BLOCK] += (r10 * j0 + r11 * j1 + r12 * j2) * inv_m

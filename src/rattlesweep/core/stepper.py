@@ -23,7 +23,7 @@ import numpy as np
 from numba import prange
 
 from .dynamics import eval_block
-from .geometry import energy_terms
+from .geometry import energy_terms, plastic_contact_impulse
 from .jit import kernel, parallel_kernel
 from .layout import (
     BLOCK, CAPSIZED, DT, EPS_U, FULL, GRAV, LIFTED_OFF, MU_K, MU_S, N_OBS, N_PARAM, N_STATE,
@@ -190,11 +190,19 @@ def note_slip(W, j):
 
 
 @kernel
-def stick_now(W, j):
-    """Slip → stick: set G's velocity so the material contact point is at rest."""
+def roll_now(W, j):
+    """Start lane j rolling: set G's velocity so the material contact point is at rest
+    (a launch condition, not a collision)."""
     W[at(OFF_S, S_MODE, j)] = 0.0
     W[at(OFF_Y, VX, j)] -= W[at(OFF_X, X_UX, j)]
     W[at(OFF_Y, VY, j)] -= W[at(OFF_X, X_UY, j)]
+
+
+@kernel
+def stick_now(W, j):
+    """Slip → stick: a plastic contact impulse brings the contact point to rest."""
+    W[at(OFF_S, S_MODE, j)] = 0.0
+    plastic_contact_impulse(W, OFF_Y, j, W[at(OFF_X, X_UX, j)], W[at(OFF_X, X_UY, j)])
 
 
 @kernel
@@ -246,7 +254,7 @@ def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
         ux = W[at(OFF_X, X_UX, j)]
         uy = W[at(OFF_X, X_UY, j)]
         if param(W, MU_S, j) > 0.0 and math.sqrt(ux * ux + uy * uy) <= param(W, EPS_U, j):
-            stick_now(W, j)  # a rolling launch: exactly
+            roll_now(W, j)  # a rolling launch: exactly
         else:
             note_slip(W, j)
         O[O_E0, j] = energy_terms(W, OFF_Y, j)[0]

@@ -1,0 +1,120 @@
+"""Public API: input validation, result metadata, files, command line."""
+
+import math
+import os
+
+import netCDF4
+import numpy as np
+import pytest
+import xarray as xr
+
+import rattlesweep as rs
+from rattlesweep.cli import main
+from rattlesweep.io import write_netcdf
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(mu=-0.1), r"mu must be >= 0.*-0\.1"),
+    (dict(mu=float("nan")), "mu must be >= 0"),
+    (dict(mu=0.5, mu_static=0.3), "mu_static must be >= mu"),
+    (dict(damping=-1.0), "damping must be finite and >= 0"),
+    (dict(g=0.0), "g must be finite and > 0"),
+    (dict(dt=-1e-3), "dt must be finite and > 0"),
+    (dict(t_end=[1.0, math.inf]), r"t_end must be finite and > 0.*index \(1,\)"),
+    (dict(spin=1.0, omega=(0, 0, 1)), "either spin .* or omega"),
+    (dict(orientation=(1, 0, 0, 0), roll=0.1), "either orientation or roll"),
+    (dict(orientation=(1.0, 0.1, 0.0, 0.0)), "unit quaternion"),
+    (dict(omega=(1.0, 2.0)), "omega must have a last axis of length 3"),
+    (dict(spin=[1.0, 2.0], mu=[0.1, 0.2, 0.3]), "cannot be broadcast"),
+    (dict(velocity=(0.1, 0.0)), "sliding launch.*finite mu_static"),
+    (dict(method="rk45"), "method must be one of"),
+    (dict(record_every=0), "record_every must be a positive integer"),
+    (dict(reversal_band=1.5), "reversal_band must be in"),
+    (dict(threads=0), "threads must be an integer"),
+    (dict(t_end=None), "t_end"),
+])
+def test_bad_input_is_refused_with_a_clear_message(kl, kwargs, message):
+    args = dict(spin=None, t_end=1.0)
+    args.update(kwargs)
+    if args["spin"] is None:
+        del args["spin"]
+    with pytest.raises(ValueError, match=message):
+        rs.run_batch(kl, **args)
+
+
+def test_tilt_past_the_rim_is_refused():
+    toy = rs.Body.preset("toy")
+    with pytest.raises(ValueError, match="rim of the semi-ellipsoid"):
+        rs.simulate(toy, roll=math.radians(95), t_end=1.0)
+    # a full ellipsoid has no rim
+    ds = rs.simulate(rs.Body.preset("kane_levinson"), roll=math.radians(95), t_end=0.01)
+    assert int(ds.status) == 0
+
+
+def test_simulate_refuses_arrays_and_non_bodies(kl):
+    with pytest.raises(ValueError, match="scalar for simulate"):
+        rs.simulate(kl, spin=[1.0, 2.0], t_end=1.0)
+    with pytest.raises(ValueError, match="body must be a Body"):
+        rs.simulate("kane_levinson", t_end=1.0)
+    with pytest.raises(ValueError, match="body must be a Body"):
+        rs.run_batch(["kane_levinson"], t_end=1.0)
+
+
+def test_results_carry_units_and_inputs(kl):
+    ds = rs.simulate(kl, spin=5.0, roll=0.01, mu=0.3, t_end=0.2)
+    for name, var in ds.variables.items():
+        if name in ("horizontal", "quaternion_component", "body_axis", "axis"):
+            continue
+        assert "long_name" in var.attrs, name
+        assert "units" in var.attrs or "flag_values" in var.attrs, name
+    assert ds.spin.attrs["units"] == "rad s-1"
+    assert ds.attrs["mu"] == 0.3 and ds.attrs["dt_units"] == "s"
+    assert ds.attrs["rattlesweep_version"] == rs.__version__
+    assert ds.attrs["dt"] == pytest.approx(kl.default_dt())
+    batch = rs.run_batch(kl, spin=[1.0, 2.0], mu=0.3, t_end=0.1)
+    assert batch.mu.dims == ("trajectory",) and batch.launch_spin.attrs["units"] == "rad s-1"
+    assert batch.com.dims == ("trajectory", "body_axis")
+
+
+def test_netcdf_round_trip_and_atomic_write(kl, tmp_path):
+    ds = rs.simulate(kl, spin=5.0, roll=0.01, t_end=0.2)
+    path = write_netcdf(ds, tmp_path / "sub" / "run.nc")
+    assert sorted(os.listdir(path.parent)) == ["run.nc"]  # no temporary left behind
+    back = xr.open_dataset(path)
+    np.testing.assert_array_equal(back.spin.values, ds.spin.values)
+    assert back.status.attrs["flag_meanings"] == "ok capsized lifted_off non_finite"
+    with netCDF4.Dataset(path) as nc:
+        assert nc.variables["spin"].units == "rad s-1"
+        assert nc.variables["spin"].filters()["zlib"]
+    batch = rs.run_batch(np.array([kl, rs.Body.preset("toy")], dtype=object), spin=3.0,
+                         t_end=0.1)
+    back = xr.open_dataset(write_netcdf(batch, tmp_path / "batch.nc"))
+    assert list(back.body_name.values) == ["kane_levinson", "toy"]
+
+
+def test_failed_write_leaves_no_file(kl, tmp_path):
+    ds = rs.simulate(kl, spin=5.0, t_end=0.05)
+    ds.attrs["bad"] = {"not": "serialisable"}
+    with pytest.raises(Exception):
+        write_netcdf(ds, tmp_path / "run.nc")
+    assert os.listdir(tmp_path) == []
+
+
+def test_cli_demo_writes_netcdf_and_png(tmp_path, capsys):
+    assert main(["demo", "--out", str(tmp_path), "--t-end", "8"]) == 0
+    out = capsys.readouterr().out
+    assert "spin +5.0 rad/s: first reversal at" in out
+    assert "spin -5.0 rad/s: first reversal none" in out
+    ds = xr.open_dataset(tmp_path / "kane_levinson.nc")
+    assert ds.sizes["launch"] == 2 and "config" in ds.attrs
+    png = (tmp_path / "kane_levinson_spin.png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 10_000
+
+
+def test_cli_simulate_and_errors(tmp_path, capsys):
+    assert main(["simulate", "--spin", "-5", "--t-end", "1", "--out",
+                 str(tmp_path / "one.nc")]) == 0
+    assert "status: ok" in capsys.readouterr().out
+    assert (tmp_path / "one.nc").exists()
+    assert main(["simulate", "--mu", "-1", "--t-end", "1"]) == 2
+    assert "mu must be >= 0" in capsys.readouterr().err

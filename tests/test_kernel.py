@@ -1,0 +1,120 @@
+"""Batch behaviour: statuses, independence from batch layout, threads, recording."""
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+import rattlesweep as rs
+from rattlesweep.core.layout import BLOCK, STATUS_NAMES
+
+from conftest import HALF_DEGREE
+
+OBSERVABLES = ["first_reversal_time", "n_reversals", "final_spin", "mean_final_spin",
+               "max_tilt", "energy_lost", "slip_fraction", "status", "t_final"]
+
+
+def test_each_status_comes_from_a_launch_that_causes_it(kl):
+    toy = rs.Body.preset("toy")
+    bodies = np.array([kl, toy, kl, kl], dtype=object)
+    omega = np.array([
+        [0.0, 0.0, 5.0],     # ordinary launch
+        [15.0, 0.0, 0.0],    # toy tipped to 80 deg and rolled over: the rim hits the floor
+        [60.0, 0.0, 0.0],    # violent roll kick: centripetal demand exceeds gravity
+        [np.nan, 0.0, 5.0],  # non-finite input
+    ])
+    roll = np.radians([0.5, 80.0, 0.5, 0.5])
+    ds = rs.run_batch(bodies, omega=omega, roll=roll, mu=0.5, t_end=1.0)
+    names = [STATUS_NAMES[s] for s in ds.status.values]
+    assert names == ["ok", "capsized", "lifted_off", "non_finite"]
+    assert ds.t_final[0] >= 1.0
+    assert 0 < ds.t_final[1] < 0.1 and 0 < ds.t_final[2] < 0.1
+    assert ds.t_final[3] == 0 and np.isnan(ds.final_spin[3])
+    # the capsized toy stopped at its last valid state, tilted nearly 90 degrees
+    assert math.radians(85) < float(ds.max_tilt[1]) <= math.pi / 2
+    assert set(ds.status.attrs["flag_meanings"].split()) == set(STATUS_NAMES)
+
+
+def test_simulate_warns_when_a_run_stops(kl):
+    with pytest.warns(RuntimeWarning, match="lifted_off"):
+        ds = rs.simulate(kl, omega=(60.0, 0.0, 0.0), t_end=0.5)
+    assert np.isnan(ds.spin.values[-1])  # samples after the stop are NaN, not made up
+    assert np.isfinite(ds.spin.values[0])
+
+
+def test_result_is_independent_of_position_and_batch_size(kl):
+    kw = dict(roll=HALF_DEGREE, mu=0.3, t_end=3.0)
+    alone = rs.run_batch(kl, spin=5.0, **kw)
+    rng = np.random.default_rng(1)
+    for n, pos in ((3, 2), (BLOCK + 5, BLOCK + 1), (100, 37)):
+        spins = rng.uniform(-10, 10, n)
+        spins[pos] = 5.0
+        batch = rs.run_batch(kl, spin=spins, **kw)
+        for name in OBSERVABLES:
+            np.testing.assert_array_equal(batch[name].values[pos], alone[name].values[0],
+                                          err_msg=name)
+
+
+def test_serial_and_parallel_entries_agree(kl):
+    kw = dict(spin=np.linspace(-8, 8, 70), roll=HALF_DEGREE, mu=0.4, t_end=2.0)
+    serial = rs.run_batch(kl, parallel=False, **kw)
+    threaded = rs.run_batch(kl, parallel=True, threads=2, **kw)
+    for name in OBSERVABLES:
+        np.testing.assert_array_equal(serial[name].values, threaded[name].values)
+
+
+def test_per_trajectory_parameters_span_a_grid():
+    bodies = [rs.Body.semi_ellipsoid(0.05, 0.01, 0.01, 0.02, d) for d in (-0.1, 0.1)]
+    ds = rs.run_batch(np.array(bodies, dtype=object)[:, None], spin=[[-4.0, 4.0]],
+                      roll=0.02, g=[[9.81, 3.0]], t_end=0.5, dt=5e-4)
+    assert ds.sizes["trajectory"] == 4
+    assert ds.attrs["batch_shape"] == [2, 2]
+    np.testing.assert_allclose(ds.inertia_xy.values[[0, 2]],
+                               [bodies[0].inertia[0, 1], bodies[1].inertia[0, 1]])
+    np.testing.assert_array_equal(ds.g.values, [9.81, 3.0, 9.81, 3.0])
+    # each lane ran with its own parameters: a lone run of lane 3 matches
+    lone = rs.run_batch(bodies[1], spin=4.0, roll=0.02, g=3.0, t_end=0.5, dt=5e-4)
+    assert float(lone.final_spin[0]) == float(ds.final_spin[3])
+
+
+def test_default_dt_converges_first_reversal_to_a_millisecond(kl):
+    dt = kl.default_dt()
+    ds = rs.run_batch(kl, spin=5.0, roll=HALF_DEGREE, dt=[dt, dt / 4], t_end=8.0)
+    t_default, t_fine = ds.first_reversal_time.values
+    assert np.isfinite(t_fine)
+    assert abs(t_default - t_fine) < 1e-3
+
+
+def test_recording_every_kth_step(kl):
+    ds = rs.simulate(kl, spin=2.0, t_end=0.1, dt=1e-3, record_every=10)
+    np.testing.assert_allclose(ds.time.values, np.arange(11) * 0.01, atol=1e-15)
+    assert ds.spin.values[0] == pytest.approx(2.0)
+    default = rs.simulate(kl, spin=2.0, t_end=30.0, dt=1e-3)
+    assert default.sizes["time"] <= 10_001
+
+
+def test_batch_time_series_need_one_dt(kl):
+    ds = rs.run_batch(kl, spin=[1.0, -1.0], t_end=0.05, dt=1e-3, record_every=5)
+    assert ds.spin.dims == ("trajectory", "time") and ds.sizes["time"] == 11
+    with pytest.raises(ValueError, match="record_every needs a single dt"):
+        rs.run_batch(kl, spin=1.0, t_end=0.05, dt=[1e-3, 2e-3], record_every=5)
+
+
+def test_zero_spin_has_no_reversal(kl):
+    ds = rs.run_batch(kl, spin=0.0, roll=0.05, t_end=2.0)
+    assert int(ds.n_reversals[0]) == 0 and np.isnan(float(ds.first_reversal_time[0]))
+
+
+def test_reversal_count_and_mean_final_spin(kl):
+    # undamped fast launch: reverses, then (slowly) reverses back, rattling each time
+    ds = rs.simulate(kl, spin=5.0, roll=HALF_DEGREE, t_end=40.0)
+    spin = ds.spin.values
+    band = 0.05 * 5.0
+    side, count = 1, 0
+    for s in spin:  # recount from the recorded series with the same hysteresis rule
+        if side * s < -band:
+            side, count = -side, count + 1
+    assert int(ds.n_reversals) == count >= 1
+    tail = spin[ds.time.values > 0.9 * 40.0]
+    assert float(ds.mean_final_spin) == pytest.approx(tail.mean(), rel=0.02)
