@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import math
 
-from .geometry import contact_point, contact_point_rate, cross
+import numba
+
+from .geometry import contact_point, contact_point_rate, cross, solve3
 from .jit import kernel
 from .layout import (
     A2, B2, BLOCK, C2, DAMP, EPS_U, GRAV, GX, GY, GZ, IXX, IXY, IXZ, IYY, IYZ, IZZ,
@@ -21,13 +23,15 @@ from .layout import (
 
 
 @kernel
-def eval_block(W):
+def eval_block(W, slip_possible):
     """Time derivative of every lane of a block, plus its contact forces.
 
     W is the block workspace (see :mod:`.layout`). Reads the parameters (region P), the
     stage input state (region T) and, from the switching state (region S), each lane's
     contact mode and stored slip direction; writes the derivative (region D) and the
-    normal force, friction force and slip velocity (region X).
+    normal force, friction force and slip velocity (region X). ``slip_possible`` must be
+    a literal: False promises that every lane sticks, and compiles a variant without the
+    slip-only work (the slip velocity in X is then not written).
 
     Stick (material contact point at rest):
         (I + m(|ρ|²𝟙 − ρρᵀ)) ω̇ = −ω × Iω − c_v ω + m ρ × (g n̂ − w)
@@ -35,6 +39,7 @@ def eval_block(W):
         (I + m k lᵀ) ω̇ = −ω × Iω − c_v ω + N₀ k,  l = ρ × n̂,  k = ρ × (n̂ − μ_k û)
     with w = ω × (ω × ρ + ṡ_P), N₀ = m(g − n̂·w) and, in both modes, N = N₀ − m l·ω̇.
     """
+    numba.literally(slip_possible)
     for j in range(BLOCK):
         # row r of region R is W[(OFF_R + r) * BLOCK]
         p = OFF_P * BLOCK + j
@@ -85,11 +90,12 @@ def eval_block(W):
         # slip velocity of the material contact point, world horizontal
         ux = W[y + VX * BLOCK] + r00 * wr0 + r01 * wr1 + r02 * wr2
         uy = W[y + VY * BLOCK] + r10 * wr0 + r11 * wr1 + r12 * wr2
-        slip = W[sw + S_MODE * BLOCK] > 0.5
+        slip = slip_possible and W[sw + S_MODE * BLOCK] > 0.5
         uu = math.sqrt(ux * ux + uy * uy)
+        inv_uu = 1.0 / uu
         if uu > W[p + EPS_U * BLOCK]:
-            uhx = ux / uu
-            uhy = uy / uu
+            uhx = ux * inv_uu
+            uhy = uy * inv_uu
         else:
             uhx = W[sw + S_UHX * BLOCK]
             uhy = W[sw + S_UHY * BLOCK]
@@ -138,21 +144,7 @@ def eval_block(W):
         b1 = f1 - gy1 - cv * w1
         b2 = f2 - gy2 - cv * w2
 
-        # Cramer's rule: inverse = adjugate / det
-        c00 = m11 * m22 - m12 * m21
-        c01 = m12 * m20 - m10 * m22
-        c02 = m10 * m21 - m11 * m20
-        c10 = m02 * m21 - m01 * m22
-        c11 = m00 * m22 - m02 * m20
-        c12 = m01 * m20 - m00 * m21
-        c20 = m01 * m12 - m02 * m11
-        c21 = m02 * m10 - m00 * m12
-        c22 = m00 * m11 - m01 * m10
-        inv_det = 1.0 / (m00 * c00 + m01 * c01 + m02 * c02)
-        a0 = (c00 * b0 + c10 * b1 + c20 * b2) * inv_det
-        a1 = (c01 * b0 + c11 * b1 + c21 * b2) * inv_det
-        a2_ = (c02 * b0 + c12 * b1 + c22 * b2) * inv_det
-
+        a0, a1, a2_ = solve3(m00, m01, m02, m10, m11, m12, m20, m21, m22, b0, b1, b2)
         normal = n_free - m * (l0 * a0 + l1 * a1 + l2 * a2_)
         if slip:
             fx = -mu * normal * uhx
@@ -180,5 +172,6 @@ def eval_block(W):
         W[x + X_N * BLOCK] = normal
         W[x + X_FX * BLOCK] = fx
         W[x + X_FY * BLOCK] = fy
-        W[x + X_UX * BLOCK] = ux
-        W[x + X_UY * BLOCK] = uy
+        if slip_possible:  # stick-only stages need no slip velocity
+            W[x + X_UX * BLOCK] = ux
+            W[x + X_UY * BLOCK] = uy

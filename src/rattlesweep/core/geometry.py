@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from .jit import kernel
+from .jit import inline_kernel, kernel
 from .layout import (
     A2, B2, BLOCK, C2, GRAV, GX, GY, GZ, IXX, IXY, IXZ, IYY, IYZ, IZZ, MASS, OFF_P,
     Q0, Q1, Q2, Q3, VX, VY, W0, W1, W2,
@@ -121,7 +121,7 @@ def energy_terms(W, off, j):
     return e, zg, vz
 
 
-@kernel
+@inline_kernel  # must inline into the lane loops: a call there stops vectorisation
 def solve3(m00, m01, m02, m10, m11, m12, m20, m21, m22, b0, b1, b2):
     """Solve the 3×3 system M x = b by Cramer's rule (adjugate over determinant)."""
     c00 = m11 * m22 - m12 * m21

@@ -106,34 +106,45 @@ def record_lane(W, j, out):
 
 @kernel
 def evaluate_state(W):
-    """Evaluate the right-hand side at the step-start state Y (copied into region T)."""
+    """Evaluate the right-hand side, with every output, at the step-start state Y
+    (copied into region T)."""
     for k in range(N_STATE):
         for j in range(BLOCK):
             W[at(OFF_T, k, j)] = W[at(OFF_Y, k, j)]
-    eval_block(W)
+    eval_block(W, True)
 
 
 @kernel
-def rk4_step(W):
-    """Classic RK4 from region Y (derivative at Y already in D) into region T."""
+def eval_stage(W, slip_possible):
+    """eval_block with the run-time flag turned into the literal its variants need."""
+    if slip_possible:
+        eval_block(W, True)
+    else:
+        eval_block(W, False)
+
+
+@kernel
+def rk4_step(W, slip_possible):
+    """Classic RK4 from region Y (derivative at Y already in D) into region T.
+    ``slip_possible=False`` (every lane sticks) lets the stages skip slip-only work."""
     for k in range(N_STATE):
         for j in range(BLOCK):
             dk = W[at(OFF_D, k, j)]
             W[at(OFF_A, k, j)] = dk
             W[at(OFF_T, k, j)] = W[at(OFF_Y, k, j)] + 0.5 * W[at(OFF_P, DT, j)] * dk
-    eval_block(W)
+    eval_stage(W, slip_possible)
     for k in range(N_STATE):
         for j in range(BLOCK):
             dk = W[at(OFF_D, k, j)]
             W[at(OFF_A, k, j)] += 2.0 * dk
             W[at(OFF_T, k, j)] = W[at(OFF_Y, k, j)] + 0.5 * W[at(OFF_P, DT, j)] * dk
-    eval_block(W)
+    eval_stage(W, slip_possible)
     for k in range(N_STATE):
         for j in range(BLOCK):
             dk = W[at(OFF_D, k, j)]
             W[at(OFF_A, k, j)] += 2.0 * dk
             W[at(OFF_T, k, j)] = W[at(OFF_Y, k, j)] + W[at(OFF_P, DT, j)] * dk
-    eval_block(W)
+    eval_stage(W, slip_possible)
     for k in range(N_STATE):
         for j in range(BLOCK):
             W[at(OFF_T, k, j)] = W[at(OFF_Y, k, j)] + W[at(OFF_P, DT, j)] / 6.0 * (
@@ -320,7 +331,10 @@ def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
             break
 
         if method == RK4:
-            rk4_step(W)
+            any_slip = False
+            for j in range(BLOCK):
+                any_slip = any_slip or W[at(OFF_S, S_MODE, j)] > 0.5
+            rk4_step(W, any_slip)
         else:
             euler_step(W)
 
