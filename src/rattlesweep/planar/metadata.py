@@ -5,6 +5,12 @@ from __future__ import annotations
 
 from ..metadata import STATUS_ATTRS
 
+STATUS_COMMENT = (
+    "ok: ran to t_end; capsized: |angle| reached pi/2, a corner of the flat edge touched "
+    "the floor; lifted_off: the normal force went negative; non_finite: a state or input "
+    "was NaN or inf. A stopped trajectory keeps its last valid state."
+)
+
 VARIABLE_ATTRS = {
     # per-run observables
     "energy_initial": ("J", "mechanical energy at t = 0"),
@@ -50,7 +56,7 @@ VARIABLE_ATTRS = {
 def attrs_for(name: str) -> dict:
     """CF attributes of a planar variable or coordinate."""
     if name == "status":
-        return dict(STATUS_ATTRS)
+        return {**STATUS_ATTRS, "comment": STATUS_COMMENT}
     if name == "body_name":
         return {"long_name": "body name"}
     units, long_name = VARIABLE_ATTRS[name]
