@@ -1,7 +1,6 @@
 """Batch behaviour: statuses, independence from batch layout, threads, recording."""
 
 import math
-import warnings
 
 import numpy as np
 import pytest

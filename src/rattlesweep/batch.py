@@ -157,14 +157,11 @@ def prepare(
     body_rows = np.array([_body_row(b) for b in table])[index]
 
     if "dt" not in flat:
-        pairs = {}
-        dts = np.empty(n)
-        for i in range(n):
-            key = (index[i], flat["g"][i])
-            if key not in pairs:
-                pairs[key] = table[index[i]].default_dt(float(flat["g"][i]))
-            dts[i] = pairs[key]
-        flat["dt"] = dts
+        # one default per distinct (body, g), not per trajectory
+        keys, inverse = np.unique(np.stack([index.astype(float), flat["g"]]), axis=1,
+                                  return_inverse=True)
+        per_key = np.array([table[int(i)].default_dt(float(gv)) for i, gv in keys.T])
+        flat["dt"] = per_key[inverse.reshape(-1)]
     nsteps = np.ceil(flat["t_end"] / flat["dt"] * (1.0 - 1e-12)).astype(np.int64)
     nsteps = np.maximum(nsteps, 1)
 

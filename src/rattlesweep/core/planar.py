@@ -50,7 +50,7 @@ from numba import prange
 
 from .jit import kernel, parallel_kernel
 from .layout import BLOCK, CAPSIZED, LIFTED_OFF, NON_FINITE, OK
-from .stepper import EULER, RK4, at
+from .stepper import EULER, RK4, at, load_lane
 
 __all__ = ["EULER", "RK4", "integrate_parallel", "integrate_serial"]
 
@@ -358,12 +358,8 @@ def advance_block(P, Y, nsteps, method, record_every, O, REC):
     # --- initial state, statuses, mode ----------------------------------------------
     max_steps = 0
     for j in range(BLOCK):
-        for k in range(N_PARAM):
-            W[at(OFF_P, k, j)] = P[k, j]
-        for k in range(N_STATE):
-            W[at(OFF_Y, k, j)] = Y[k, j]
-            if not math.isfinite(Y[k, j]):
-                status[j] = NON_FINITE
+        if not load_lane(W, P, Y, j, OFF_P, OFF_Y):
+            status[j] = NON_FINITE
         stop[j] = nsteps[j]
         max_steps = max(max_steps, nsteps[j])
         W[at(OFF_S, S_MODE, j)] = 1.0  # any mode: u does not depend on it

@@ -26,7 +26,7 @@ from .dynamics import eval_block
 from .geometry import energy_terms, plastic_contact_impulse
 from .jit import kernel, parallel_kernel
 from .layout import (
-    BLOCK, CAPSIZED, DT, EPS_U, FULL, GRAV, LIFTED_OFF, MU_K, MU_S, N_OBS, N_PARAM, N_STATE,
+    BLOCK, CAPSIZED, DT, EPS_U, FULL, GRAV, LIFTED_OFF, MU_K, MU_S, N_STATE,
     N_WORK, NON_FINITE, O_E0, O_E_END, O_FINAL_SPIN, O_FIRST_REV, O_MAX_TILT,
     O_MEAN_FINAL_SPIN, O_N_REV, O_SLIP_FRAC, O_SPIN0, O_STATUS, O_STEPS, O_T_END, OFF_A,
     OFF_D, OFF_P, OFF_S, OFF_T, OFF_X, OFF_Y, OK, PX, PY, Q0, Q1, Q2, Q3, R_ENERGY, R_FX,
@@ -43,6 +43,20 @@ EULER = 1
 def at(region, row, j):
     """Index of lane j of a row of a workspace region."""
     return (region + row) * BLOCK + j
+
+
+@kernel
+def load_lane(W, P, Y, j, off_p, off_y):
+    """Copy lane j's parameters P (n_param, BLOCK) and state Y (n_state, BLOCK) into the
+    workspace regions starting at rows off_p and off_y; True when the state is finite.
+    Shared by every kernel's block set-up (the region offsets differ by layout)."""
+    for k in range(P.shape[0]):
+        W[at(off_p, k, j)] = P[k, j]
+    finite = True
+    for k in range(Y.shape[0]):
+        W[at(off_y, k, j)] = Y[k, j]
+        finite = finite and math.isfinite(Y[k, j])
+    return finite
 
 
 @kernel
@@ -178,11 +192,13 @@ def euler_step(W):
 @kernel
 def start_slip(W, j, fx, fy, ft):
     """Stick → slip from rest, sliding opposite the friction sticking would need."""
+    ux = -fx / ft
+    uy = -fy / ft
     W[at(OFF_S, S_MODE, j)] = 1.0
-    for row, value in ((S_UHX, -fx / ft), (S_UHY, -fy / ft)):
-        W[at(OFF_S, row, j)] = value
-    W[at(OFF_S, S_USX, j)] = -fx / ft
-    W[at(OFF_S, S_USY, j)] = -fy / ft
+    W[at(OFF_S, S_UHX, j)] = ux
+    W[at(OFF_S, S_UHY, j)] = uy
+    W[at(OFF_S, S_USX, j)] = ux  # the slip starts from rest in this direction
+    W[at(OFF_S, S_USY, j)] = uy
     W[at(OFF_S, S_UPREV, j)] = 0.0
 
 
@@ -244,12 +260,8 @@ def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
     # --- initial state: statuses, mode, reference values --------------------------
     max_steps = 0
     for j in range(BLOCK):
-        for k in range(N_PARAM):
-            W[at(OFF_P, k, j)] = P[k, j]
-        for k in range(N_STATE):
-            W[at(OFF_Y, k, j)] = Y[k, j]
-            if not math.isfinite(Y[k, j]):
-                status[j] = NON_FINITE
+        if not load_lane(W, P, Y, j, OFF_P, OFF_Y):
+            status[j] = NON_FINITE
         stop[j] = nsteps[j]
         max_steps = max(max_steps, nsteps[j])
         W[at(OFF_S, S_MODE, j)] = 1.0  # any mode: the slip velocity is mode-independent
@@ -430,10 +442,7 @@ def contact_slip_velocity(P, Y, U):
     W = np.zeros(N_WORK * BLOCK)
     for b in range(P.shape[0]):
         for j in range(BLOCK):
-            for k in range(N_PARAM):
-                W[at(OFF_P, k, j)] = P[b, k, j]
-            for k in range(N_STATE):
-                W[at(OFF_Y, k, j)] = Y[b, k, j]
+            load_lane(W, P[b], Y[b], j, OFF_P, OFF_Y)
         evaluate_state(W)
         for j in range(BLOCK):
             U[b, 0, j] = W[at(OFF_X, X_UX, j)]
