@@ -100,14 +100,18 @@ def test_failed_write_leaves_no_file(kl, tmp_path):
     assert os.listdir(tmp_path) == []
 
 
-def test_cli_demo_writes_netcdf_and_png(tmp_path, capsys):
-    assert main(["demo", "--out", str(tmp_path), "--t-end", "8"]) == 0
+def test_cli_simulate_writes_netcdf_and_png(tmp_path, capsys):
+    # kane_levinson with its air damping: the +5 rad/s launch reverses, -5 rad/s does not
+    base = ["simulate", "--t-end", "8", "--damping", "1e-4"]
+    assert main(base + ["--spin", "5", "--out", str(tmp_path / "p.nc"),
+                        "--png", str(tmp_path / "p.png")]) == 0
     out = capsys.readouterr().out
-    assert "spin +5.0 rad/s: first reversal at" in out
-    assert "spin -5.0 rad/s: first reversal none" in out
-    ds = xr.open_dataset(tmp_path / "kane_levinson.nc")
-    assert ds.sizes["launch"] == 2 and "config" in ds.attrs
-    png = (tmp_path / "kane_levinson_spin.png").read_bytes()
+    assert "reversals: 1;" in out and "first reversal: none" not in out
+    ds = xr.open_dataset(tmp_path / "p.nc")
+    assert ds.n_reversals >= 1 and "config" in ds.attrs
+    assert main(base + ["--spin", "-5"]) == 0
+    assert "first reversal: none" in capsys.readouterr().out
+    png = (tmp_path / "p.png").read_bytes()
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 10_000
 
 

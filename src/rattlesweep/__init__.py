@@ -6,6 +6,9 @@ from .batch import run_batch
 from .simulate import simulate
 from . import planar
 from .planar import PlanarBody, run_planar_batch, simulate_planar
+from . import sweep
+from .sweep import Sweep, resume, run_sweep
 
-__all__ = ["Body", "PRESETS", "PlanarBody", "planar", "run_batch", "run_planar_batch",
+__all__ = ["Body", "PRESETS", "PlanarBody", "Sweep", "planar", "resume", "run_batch",
+           "run_planar_batch", "run_sweep", "sweep",
            "simulate", "simulate_planar", "__version__"]

@@ -1,10 +1,10 @@
-"""The ``rattlesweep`` command line."""
+"""The ``rattlesweep`` command line: sweeps, resuming, maps, file summaries, single runs."""
 
 from __future__ import annotations
 
 import argparse
-import json
 import math
+import shlex
 import sys
 import time
 from pathlib import Path
@@ -12,40 +12,150 @@ from pathlib import Path
 from .body import PRESETS, Body
 
 
-def _demo(args: argparse.Namespace) -> int:
-    from .io import write_netcdf
-    from .plot import spin_history
-    from .simulate import simulate
+def _command(argv: list[str] | None) -> str:
+    return "rattlesweep " + shlex.join(sys.argv[1:] if argv is None else argv)
 
-    import xarray as xr
 
-    out = Path(args.out)
-    body = Body.preset("kane_levinson")
-    tilt = math.radians(0.5)
-    t0 = time.perf_counter()
-    runs = [simulate(body, spin=s, roll=tilt, t_end=args.t_end, damping=1e-4)
-            for s in (5.0, -5.0)]
-    elapsed = time.perf_counter() - t0
-    both = xr.concat(runs, dim="launch", combine_attrs="drop_conflicts")
-    # per-launch inputs differ, so keep each run's full configuration explicitly
-    both.attrs["config"] = json.dumps([json.loads(r.attrs["config"]) for r in runs])
-    both = both.assign_coords(launch=("launch", [5.0, -5.0],
-                                      {"units": "rad s-1", "long_name": "launch spin"}))
-    nc = write_netcdf(both, out / "kane_levinson.nc")
-    fig = spin_history(runs, ["spin +5 rad/s", "spin -5 rad/s"],
-                       title="kane_levinson, 0.5 deg roll, rolling, damping 1e-4 N m s")
-    png = out / "kane_levinson_spin.png"
+def _save_map(ds, png: Path, var: str = "outcome") -> Path:
+    from .plot import reversal_map
+
+    dims = [d for d in ds.attrs.get("sweep_dims", list(ds.dims)) if d in ds[var].dims]
+    if len(dims) < 2:
+        raise ValueError(f"a map needs two sweep dimensions; this sweep has {dims}")
+    facet = dims[2] if len(dims) > 2 else None
+    select = {d: ds[d].values[0] for d in dims[3:]}
+    fig = reversal_map(ds, x=dims[0], y=dims[1], var=var, facet=facet, select=select or None)
     fig.savefig(png, dpi=120)
-    for s, ds in zip((5.0, -5.0), runs):
-        t_rev = float(ds.first_reversal_time)
-        print(f"spin {s:+.1f} rad/s: first reversal "
-              f"{'none' if t_rev != t_rev else f'at {t_rev:.3f} s'}, "
-              f"final spin {float(ds.final_spin):+.3f} rad/s")
-    print(f"simulated in {elapsed:.2f} s; wrote {nc} and {png}")
+    return png
+
+
+def _summary(ds) -> str:
+    import numpy as np
+
+    from .sweep.outcomes import OUTCOME_NAMES
+
+    counts = np.bincount(ds.outcome.values.ravel().astype(int), minlength=len(OUTCOME_NAMES))
+    return ", ".join(f"{n.replace('_', ' ')} {c}" for n, c in zip(OUTCOME_NAMES, counts) if c)
+
+
+def _sweep_args(args: argparse.Namespace) -> dict:
+    if args.scheduler and args.workers:
+        raise ValueError("--workers sets local threads; with --scheduler the cluster's size "
+                         "is set where it was started")
+    return {"scheduler": args.scheduler, "workers": args.workers,
+            "progress": not args.quiet}
+
+
+def _run(sweep, out: Path, args, argv) -> int:
+    from .sweep.run import RESULT_NAME, run_sweep
+
+    try:
+        ds = run_sweep(sweep, out, command=_command(argv), **_sweep_args(args))
+    except KeyboardInterrupt:
+        return 130
+    print(f"wrote {out / RESULT_NAME}: {sweep.size} launches; {_summary(ds)}")
     return 0
 
 
-def _simulate(args: argparse.Namespace) -> int:
+def _cmd_sweep(args, argv) -> int:
+    from .sweep import Sweep
+
+    return _run(Sweep.from_toml(Path(args.config)), Path(args.out), args, argv)
+
+
+def _cmd_resume(args, argv) -> int:
+    from .sweep import Sweep
+    from .sweep.run import CONFIG_NAME
+
+    config = Path(args.dir) / CONFIG_NAME
+    if not config.exists():
+        raise ValueError(f"{args.dir} holds no sweep ({config} not found)")
+    return _run(Sweep.from_toml(config), Path(args.dir), args, argv)
+
+
+def _cmd_demo(args, argv) -> int:
+    from .sweep import Sweep
+    from .sweep.demo import DEMO_TOML
+    from .sweep.run import RESULT_NAME, run_sweep
+
+    if args.print_config:
+        print(DEMO_TOML, end="")
+        return 0
+    out = Path(args.out)
+    t0 = time.perf_counter()
+    try:
+        ds = run_sweep(Sweep.from_toml(DEMO_TOML), out, command=_command(argv),
+                       **_sweep_args(args))
+    except KeyboardInterrupt:
+        return 130
+    png = _save_map(ds, out / "reversal_map.png")
+    print(f"{ds.attrs['sweep_name']}: {int(ds.outcome.size)} launches in "
+          f"{time.perf_counter() - t0:.1f} s; {_summary(ds)}")
+    print(f"wrote {out / RESULT_NAME} and {png}")
+    return 0
+
+
+def _cmd_plot(args, argv) -> int:
+    import xarray as xr
+
+    from .plot import reversal_map
+
+    select = {}
+    for item in args.select or []:
+        key, _, value = item.partition("=")
+        if not _:
+            raise ValueError(f"--select takes DIM=VALUE, got {item!r}")
+        try:
+            select[key] = float(value)
+        except ValueError:
+            select[key] = value
+    for path in args.files:
+        with xr.open_dataset(path) as ds:
+            dims = [d for d in ds.attrs.get("sweep_dims", list(ds.dims))]
+            x = args.x or dims[0]
+            y = args.y or next((d for d in dims if d != x), None)
+            if y is None:
+                raise ValueError(f"{path}: a map needs two dimensions, found {dims}")
+            fig = reversal_map(ds, x=x, y=y, var=args.var, facet=args.facet,
+                               select=select or None, reduce=args.reduce)
+            png = Path(args.out) if args.out and len(args.files) == 1 else \
+                Path(path).with_name(f"{Path(path).stem}_{args.var}.png")
+            fig.savefig(png, dpi=args.dpi)
+            print(f"wrote {png}")
+    return 0
+
+
+def _cmd_info(args, argv) -> int:
+    import xarray as xr
+
+    for path in args.files:
+        with xr.open_dataset(path) as ds:
+            print(f"{path}")
+            print(f"  title: {ds.attrs.get('title', '')}")
+            print("  dimensions: " + ", ".join(f"{d} ({n})" for d, n in ds.sizes.items()))
+            for name in ds.dims:
+                if name in ds.coords:
+                    c = ds[name]
+                    units = c.attrs.get("units", "")
+                    vals = c.values
+                    span = (f"{vals[0]} .. {vals[-1]}" if vals.dtype.kind in "fiu"
+                            else ", ".join(map(str, vals)))
+                    print(f"    {name}: {span} {units}  ({c.attrs.get('long_name', '')})")
+            scalars = [f"{c}={ds[c].values.item()}" for c in ds.coords if ds[c].ndim == 0]
+            if scalars:
+                print("  fixed: " + ", ".join(scalars))
+            print("  variables: " + ", ".join(ds.data_vars))
+            if "outcome" in ds:
+                print(f"  outcomes: {_summary(ds)}")
+            for key in ("rattlesweep_version", "history"):
+                if key in ds.attrs:
+                    print(f"  {key}: {ds.attrs[key]}")
+            if args.config and "sweep_config" in ds.attrs:
+                print(ds.attrs["sweep_config"])
+    return 0
+
+
+def _cmd_simulate(args, argv) -> int:
     from .io import write_netcdf
     from .simulate import simulate
 
@@ -56,6 +166,12 @@ def _simulate(args: argparse.Namespace) -> int:
     if args.out:
         write_netcdf(ds, args.out)
         print(f"wrote {args.out}")
+    if args.png:
+        from .plot import spin_history
+
+        spin_history([ds], [f"spin {args.spin:+g} rad/s"],
+                     title=f"{args.preset}, mu={args.mu:g}").savefig(args.png, dpi=120)
+        print(f"wrote {args.png}")
     t_rev = float(ds.first_reversal_time)
     print(f"first reversal: {'none' if t_rev != t_rev else f'{t_rev:.4f} s'}; "
           f"reversals: {int(ds.n_reversals)}; final spin {float(ds.final_spin):+.4f} rad/s; "
@@ -63,34 +179,80 @@ def _simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _add_run_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="address of a running dask.distributed scheduler (default: local "
+                   "threads)")
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="local threads (default: all usable cores)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="rattlesweep", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
-    demo = sub.add_parser("demo", help="simulate the kane_levinson rattleback both ways; "
-                          "write a netCDF file and a PNG of spin against time")
-    demo.add_argument("--out", default="rattlesweep-output", help="output directory")
-    demo.add_argument("--t-end", type=float, default=20.0, help="end time (s)")
-    demo.set_defaults(func=_demo)
 
-    sim = sub.add_parser("simulate", help="simulate one launch of a preset body")
-    sim.add_argument("--preset", default="kane_levinson", choices=sorted(PRESETS))
-    sim.add_argument("--spin", type=float, default=5.0, help="rad/s about the vertical")
-    sim.add_argument("--roll-deg", type=float, default=0.5, help="initial roll (degrees)")
-    sim.add_argument("--pitch-deg", type=float, default=0.0, help="initial pitch (degrees)")
-    sim.add_argument("--mu", type=float, default=math.inf, help="friction (inf: rolling)")
-    sim.add_argument("--damping", type=float, default=0.0, help="viscous torque (N m s)")
-    sim.add_argument("--t-end", type=float, default=10.0, help="end time (s)")
-    sim.add_argument("--dt", type=float, default=None, help="time step (s)")
-    sim.add_argument("--out", default=None, help="netCDF file to write")
-    sim.set_defaults(func=_simulate)
+    p = sub.add_parser("sweep", help="run a sweep from a TOML file into a directory")
+    p.add_argument("config", help="sweep configuration (TOML)")
+    p.add_argument("--out", required=True, help="output directory (resumable)")
+    _add_run_options(p)
+    p.set_defaults(func=_cmd_sweep)
+
+    p = sub.add_parser("resume", help="finish an interrupted sweep in DIR")
+    p.add_argument("dir")
+    _add_run_options(p)
+    p.set_defaults(func=_cmd_resume)
+
+    p = sub.add_parser("demo", help="run the default sweep (toy rattleback, spin x "
+                       "misalignment x friction); write the netCDF file and a map PNG")
+    p.add_argument("--out", default="rattlesweep-demo", help="output directory")
+    p.add_argument("--print-config", action="store_true",
+                   help="print the demo's TOML configuration and exit")
+    _add_run_options(p)
+    p.set_defaults(func=_cmd_demo)
+
+    p = sub.add_parser("plot", help="draw a map of a sweep result to PNG")
+    p.add_argument("files", nargs="+", help="sweep result netCDF file(s)")
+    p.add_argument("--var", default="outcome", help="variable (default: outcome)")
+    p.add_argument("--x", default=None, help="dimension across (default: the first)")
+    p.add_argument("--y", default=None, help="dimension up (default: the second)")
+    p.add_argument("--facet", default=None, help="dimension to draw one panel per value")
+    p.add_argument("--select", action="append", metavar="DIM=VALUE",
+                   help="fix another dimension (nearest value); repeatable")
+    p.add_argument("--reduce", choices=["mean"], default=None,
+                   help="average a continuous variable over the remaining dimensions")
+    p.add_argument("--out", default=None, help="PNG path (default: next to the file)")
+    p.add_argument("--dpi", type=int, default=120)
+    p.set_defaults(func=_cmd_plot)
+
+    p = sub.add_parser("info", help="summarise result files")
+    p.add_argument("files", nargs="+")
+    p.add_argument("--config", action="store_true", help="also print the sweep TOML")
+    p.set_defaults(func=_cmd_info)
+
+    p = sub.add_parser("simulate", help="simulate one launch of a preset body")
+    p.add_argument("--preset", default="kane_levinson", choices=sorted(PRESETS))
+    p.add_argument("--spin", type=float, default=5.0, help="rad/s about the vertical")
+    p.add_argument("--roll-deg", type=float, default=0.5, help="initial roll (degrees)")
+    p.add_argument("--pitch-deg", type=float, default=0.0, help="initial pitch (degrees)")
+    p.add_argument("--mu", type=float, default=math.inf, help="friction (inf: rolling)")
+    p.add_argument("--damping", type=float, default=0.0, help="viscous torque (N m s)")
+    p.add_argument("--t-end", type=float, default=10.0, help="end time (s)")
+    p.add_argument("--dt", type=float, default=None, help="time step (s)")
+    p.add_argument("--out", default=None, help="netCDF file to write")
+    p.add_argument("--png", default=None, help="PNG of spin against time to write")
+    p.set_defaults(func=_cmd_simulate)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        return args.func(args)
+        return args.func(args, argv)
     except ValueError as exc:
+        print(f"rattlesweep: error: {exc}", file=sys.stderr)
+        return 2
+    except FileNotFoundError as exc:
         print(f"rattlesweep: error: {exc}", file=sys.stderr)
         return 2
 

@@ -4,9 +4,14 @@ from __future__ import annotations
 
 import os
 import tempfile
+import threading
 from pathlib import Path
 
 import xarray as xr
+
+NETCDF_LOCK = threading.RLock()
+"""Serialises netCDF/HDF5 calls made by rattlesweep: the HDF5 library is not thread-safe,
+and sweep tiles finish on several threads at once (measured: concurrent writes crash)."""
 
 
 def write_netcdf(ds: xr.Dataset, path: str | os.PathLike) -> Path:
@@ -21,8 +26,12 @@ def write_netcdf(ds: xr.Dataset, path: str | os.PathLike) -> Path:
                 if ds[name].dtype.kind in "fiub"}
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     os.close(fd)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file normal permissions
     try:
-        ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)
+        with NETCDF_LOCK:
+            ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):

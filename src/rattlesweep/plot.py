@@ -34,3 +34,151 @@ def spin_history(runs: Sequence[xr.Dataset], labels: Sequence[str] | None = None
     if title:
         ax.set_title(title)
     return fig
+
+
+OUTCOME_COLOURS = {
+    "no_reversal": "#d9d9d9", "reversed": "#1f77b4", "several_reversals": "#17becf",
+    "stopped": "#f2b701", "capsized": "#d62728", "lifted_off": "#9467bd",
+    "numerical_failure": "#000000",
+}
+"""Fixed colours of outcome classes, so maps from different sweeps read alike."""
+
+
+def _axis_values(da: xr.DataArray, dim: str):
+    """Plot positions and tick labels (None for numeric axes) of a dimension."""
+    import numpy as np
+
+    values = da[dim].values
+    if values.dtype.kind in "OUS":
+        return np.arange(len(values)), [str(v) for v in values]
+    return values, None
+
+
+def _fmt_coord(ds: xr.DataArray, dim: str, value) -> str:
+    units = ds[dim].attrs.get("units", "")
+    text = f"{value:g}" if isinstance(value, float) else str(value)
+    return f"{dim} = {text}" + (f" {units}" if units and units != "1" else "")
+
+
+def reversal_map(ds: xr.Dataset, x: str, y: str, var: str = "outcome", *,
+                 facet: str | None = None, select: dict | None = None,
+                 reduce: str | None = None, title: str | None = None,
+                 ncols: int = 3, cmap: str = "viridis") -> Figure:
+    """Map of a sweep result over two of its axes.
+
+    Parameters
+    ----------
+    ds : a sweep result (:func:`rattlesweep.sweep.run_sweep`, or the netCDF file opened
+        with ``xarray.open_dataset``).
+    x, y : dimension names for the horizontal and vertical axes.
+    var : result variable. Variables with CF ``flag_values``/``flag_meanings`` (``outcome``,
+        ``status``) are drawn as categories with a legend; others with a colour bar
+        labelled with their long name and units. NaN (e.g. ``first_reversal_time`` of a
+        launch that never reversed) is drawn grey.
+    facet : a third dimension; one panel per value.
+    select : values of any other dimensions, e.g. ``{"mu": 0.3}`` (nearest match).
+    reduce : ``"mean"`` averages a continuous variable over the dimensions left over
+        (e.g. ``repeat``); categorical maps need every other dimension selected.
+
+    Returns a matplotlib Figure.
+    """
+    import numpy as np
+    from matplotlib.colors import BoundaryNorm, ListedColormap, Normalize
+    from matplotlib.patches import Patch
+
+    if var not in ds.data_vars:
+        raise ValueError(f"var {var!r} is not in the dataset; it has {sorted(ds.data_vars)}")
+    da = ds[var]
+    for role, dim in (("x", x), ("y", y), ("facet", facet)):
+        if dim is not None and dim not in da.dims:
+            raise ValueError(f"{role} {dim!r} is not a dimension of {var!r}; its dimensions "
+                             f"are {list(da.dims)}")
+    if len({x, y, facet} - {None}) != len([d for d in (x, y, facet) if d is not None]):
+        raise ValueError(f"x, y and facet must be different dimensions, got {x!r}, {y!r}, "
+                         f"{facet!r}")
+    if select:
+        for dim in select:
+            if dim not in da.dims:
+                raise ValueError(f"select: {dim!r} is not a dimension of {var!r} "
+                                 f"({list(da.dims)})")
+        numeric = {k: v for k, v in select.items() if da[k].dtype.kind in "fiu"}
+        other = {k: v for k, v in select.items() if k not in numeric}
+        da = da.sel(numeric, method="nearest") if numeric else da
+        da = da.sel(other) if other else da
+    categorical = "flag_values" in da.attrs
+    extra = [d for d in da.dims if d not in (x, y, facet)]
+    if extra:
+        if reduce == "mean" and not categorical:
+            da = da.mean(extra, keep_attrs=True)
+        else:
+            hint = "" if categorical else ", or reduce='mean'"
+            raise ValueError(f"{var!r} also varies along {extra}; pick values with "
+                             f"select={{{extra[0]!r}: ...}}, or facet={extra[0]!r}{hint}")
+    elif reduce not in (None, "mean"):
+        raise ValueError(f"reduce must be None or 'mean', got {reduce!r}")
+
+    panels = [(None, da)] if facet is None else [
+        (v, da.sel({facet: v})) for v in da[facet].values]
+    ncols = max(1, min(ncols, len(panels)))
+    nrows = -(-len(panels) // ncols)
+    fig = Figure(figsize=(4.0 * ncols + 2.2, 3.4 * nrows + 0.6), layout="constrained")
+    axes = fig.subplots(nrows, ncols, squeeze=False, sharex=True, sharey=True)
+
+    if categorical:
+        meanings = da.attrs["flag_meanings"].split()
+        flags = list(da.attrs["flag_values"])
+        colours = [OUTCOME_COLOURS.get(m, f"C{i}") for i, m in enumerate(meanings)]
+        cm = ListedColormap(colours)
+        norm = BoundaryNorm(np.arange(len(flags) + 1) - 0.5, len(flags))
+    else:
+        cm = mpl_cmap(cmap)
+        finite = da.values[np.isfinite(da.values)]
+        norm = Normalize(*(finite.min(), finite.max()) if finite.size else (0, 1))
+    xs, xlabels = _axis_values(da, x)
+    ys, ylabels = _axis_values(da, y)
+    mesh = None
+    any_nan = False
+    for k, (value, panel) in enumerate(panels):
+        ax = axes[k // ncols][k % ncols]
+        z = panel.transpose(y, x).values.astype(float)
+        if categorical:
+            z = np.vectorize({f: i for i, f in enumerate(flags)}.get, otypes=[float])(z)
+        any_nan |= bool(np.isnan(z).any())
+        mesh = ax.pcolormesh(xs, ys, z, cmap=cm, norm=norm, shading="nearest")
+        if value is not None:
+            ax.set_title(_fmt_coord(da, facet, value), fontsize="medium")
+        if xlabels:
+            ax.set_xticks(xs, xlabels)
+        if ylabels:
+            ax.set_yticks(ys, ylabels)
+        if k // ncols == nrows - 1:
+            ax.set_xlabel(_label(da[x], x))
+        if k % ncols == 0:
+            ax.set_ylabel(_label(da[y], y))
+    for k in range(len(panels), nrows * ncols):
+        axes[k // ncols][k % ncols].set_visible(False)
+
+    handles = []
+    if categorical:
+        present = set(np.unique(da.values[~np.isnan(da.values.astype(float))]).tolist())
+        handles = [Patch(color=c, label=m.replace("_", " "))
+                   for f, m, c in zip(flags, meanings, colours) if f in present]
+    else:
+        fig.colorbar(mesh, ax=axes.ravel().tolist(), label=_label(da, var))
+    if any_nan:
+        handles.append(Patch(color=cm.get_bad() if not categorical else "white",
+                             label="no value (NaN)"))
+    if handles:
+        fig.legend(handles=handles, loc="outside right upper", title=da.attrs.get(
+            "long_name", var) if categorical else None)
+    fixed = [_fmt_coord(ds, c, ds[c].values.item()) for c in ds.coords
+             if ds[c].ndim == 0 and c in ds.coords and ds[c].dtype.kind in "fiu"]
+    fig.suptitle(title or ", ".join(fixed[:6]), fontsize="small")
+    return fig
+
+
+def mpl_cmap(name: str):
+    """A colormap by name, NaN drawn light grey."""
+    import matplotlib
+
+    return matplotlib.colormaps[name].with_extremes(bad="0.8")

@@ -1,0 +1,18 @@
+"""The default sweep behind ``rattlesweep demo`` (the README's main job)."""
+
+DEMO_TOML = """\
+# rattlesweep demo: where does the toy rattleback reverse?
+# Spin x misalignment for Coulomb friction (mu = 0.3) and pure rolling (mu = inf),
+# launched from a 0.5 degree roll, 5 s of motion each.
+name = "demo: toy rattleback, spin x misalignment"
+tile_size = 512
+
+[axes]
+spin = { start = -30, stop = 30, num = 41 }
+delta_deg = { start = -8, stop = 8, num = 33 }
+mu = [0.3, inf]
+
+[fixed]
+t_end = 5.0
+roll_deg = 0.5
+"""

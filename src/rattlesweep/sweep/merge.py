@@ -1,0 +1,84 @@
+"""Merging tile files into one labelled dataset over the sweep axes."""
+
+from __future__ import annotations
+
+import datetime
+import platform
+import sys
+from pathlib import Path
+
+import dask
+import netCDF4
+import numba
+import numpy as np
+import xarray as xr
+
+from .. import __version__
+from ..batch import run_attrs
+from .params import resolve
+from .spec import Sweep
+from .tiles import RESULT_VARS, extra_vars, read_tile, tile_path, variable_attrs
+
+
+def versions() -> dict[str, str]:
+    """Versions of rattlesweep and the libraries that shape its results."""
+    return {
+        "rattlesweep_version": __version__, "numba_version": numba.__version__,
+        "numpy_version": np.__version__, "xarray_version": xr.__version__,
+        "dask_version": dask.__version__, "netCDF4_version": netCDF4.__version__,
+        "netcdf_library_version": netCDF4.__netcdf4libversion__,
+        "python_version": platform.python_version(),
+    }
+
+
+def merge_tiles(sweep: Sweep, tiles_dir: Path, *, command: str | None = None) -> xr.Dataset:
+    """Read every tile of ``sweep`` from ``tiles_dir`` into a Dataset over the sweep's
+    dimensions, with CF attributes, the configuration and versions as global attributes.
+
+    Memory: one array per variable over the whole grid (about 120 bytes per point).
+    """
+    names = (*RESULT_VARS, "outcome", *extra_vars(sweep))
+    flat: dict[str, np.ndarray] = {}
+    for tile in range(sweep.n_tiles):
+        start, stop = sweep.tile_range(tile)
+        arrays = read_tile(tile_path(tiles_dir, tile), names)
+        for name, values in arrays.items():
+            if name not in flat:
+                flat[name] = np.empty(sweep.size, dtype=values.dtype)
+            flat[name][start:stop] = values
+    dims = sweep.dims
+    data = {name: (dims, flat[name].reshape(sweep.shape), variable_attrs(sweep, name))
+            for name in names}
+    coords: dict = {}
+    for ax in sweep.grid_axes:
+        attrs = {"long_name": ax.long_name}
+        if ax.param != "body":
+            attrs["units"] = ax.units
+        coords[ax.key] = (ax.key, ax.values, attrs)
+    if sweep.random:
+        coords["repeat"] = ("repeat", np.arange(sweep.repeats),
+                            {"long_name": "repeat of the grid cell (random draws)"})
+    for key, value in sweep.fixed.items():
+        if key == "body":
+            name = value if isinstance(value, str) else value.get("body_name", "custom")
+            coords["body"] = ((), name, {"long_name": "body (preset name or label); full "
+                                         "description in sweep_config"})
+            continue
+        number, units = (value["value"], value.get("units")) if isinstance(value, dict) \
+            else (value, None)
+        param, _, cf = resolve(key, units, f"fixed.{key}")
+        coords[key] = ((), number, {"units": cf, "long_name": param.long_name})
+    ds = xr.Dataset(data, coords=coords)
+    ds.attrs.update(run_attrs(sweep.method, None, sweep.reversal_band))
+    ds.attrs.update(versions())
+    ds.attrs.update({
+        "title": f"rattlesweep parameter sweep: {sweep.name}",
+        "sweep_name": sweep.name,
+        "sweep_config": sweep.to_toml(),
+        "sweep_config_hash": sweep.config_hash(),
+        "sweep_dims": list(dims),
+        "history": f"{datetime.datetime.now(datetime.timezone.utc).isoformat(timespec='seconds')}"
+                   f" {command or ' '.join(sys.argv)}",
+    })
+    del ds.attrs["record_every"]
+    return ds

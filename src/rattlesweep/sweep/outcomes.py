@@ -1,0 +1,40 @@
+"""Outcome classes of a launch, from its per-run observables."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core import layout as L
+
+OUTCOME_NAMES = ("no_reversal", "reversed", "several_reversals", "stopped", "capsized",
+                 "lifted_off", "numerical_failure")
+NO_REVERSAL, REVERSED, SEVERAL, STOPPED, CAPSIZED, LIFTED_OFF, FAILED = range(7)
+
+OUTCOME_ATTRS = {
+    "long_name": "outcome of the launch",
+    "flag_values": list(range(len(OUTCOME_NAMES))),
+    "flag_meanings": " ".join(OUTCOME_NAMES),
+    "comment": "capsized, lifted_off, numerical_failure: the trajectory stopped with that "
+    "status (whatever it did before); otherwise reversed: exactly one spin reversal, "
+    "several_reversals: two or more; stopped: no reversal and the mean spin over the last "
+    "10% of the run is within the reversal band of zero; no_reversal: none of these.",
+}
+
+
+def classify(status: np.ndarray, n_reversals: np.ndarray, mean_final_spin: np.ndarray,
+             initial_spin: np.ndarray, band: float) -> np.ndarray:
+    """Outcome codes (int8, see :data:`OUTCOME_NAMES`) from kernel observables.
+
+    ``band`` is the reversal band, a fraction of |initial spin|: a run without reversal
+    whose final mean spin is inside it has stopped spinning.
+    """
+    out = np.full(np.shape(status), NO_REVERSAL, dtype=np.int8)
+    with np.errstate(invalid="ignore"):
+        stopped = np.abs(mean_final_spin) <= band * np.abs(initial_spin)
+    out[(n_reversals == 0) & stopped & (initial_spin != 0)] = STOPPED
+    out[n_reversals == 1] = REVERSED
+    out[n_reversals >= 2] = SEVERAL
+    out[status == L.CAPSIZED] = CAPSIZED
+    out[status == L.LIFTED_OFF] = LIFTED_OFF
+    out[status == L.NON_FINITE] = FAILED
+    return out

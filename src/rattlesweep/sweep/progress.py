@@ -1,0 +1,75 @@
+"""A plain-text progress bar for tiles: tiles done, trajectories per second, ETA."""
+
+from __future__ import annotations
+
+import sys
+import time
+from typing import TextIO
+
+
+class Progress:
+    """Report finished tiles to ``stream``: redrawn in place on a terminal, otherwise a line
+    every ``every`` seconds (and at the end)."""
+
+    def __init__(self, total_tiles: int, total_points: int, done_tiles: int,
+                 done_points: int, *, stream: TextIO | None = None, enabled: bool = True,
+                 every: float = 10.0) -> None:
+        self.total_tiles, self.total_points = total_tiles, total_points
+        self.done_tiles, self.done_points = done_tiles, done_points
+        self.reused = done_tiles
+        self.new_points = 0
+        self.new_steps = 0
+        self.stream = stream or sys.stderr
+        self.enabled = enabled
+        self.every = every
+        self.t0 = time.perf_counter()
+        self._last = -1e9
+        self._tty = hasattr(self.stream, "isatty") and self.stream.isatty()
+        if enabled and done_tiles:
+            self._write(f"resuming: {done_tiles} of {total_tiles} tiles already done\n")
+
+    @property
+    def rate(self) -> float:
+        """Trajectories per second computed in this run."""
+        elapsed = time.perf_counter() - self.t0
+        return self.new_points / elapsed if elapsed > 0 else 0.0
+
+    def update(self, summary: dict) -> None:
+        if summary.get("skipped"):
+            return
+        self.done_tiles += 1
+        self.done_points += summary["n"]
+        self.new_points += summary["n"]
+        self.new_steps += summary.get("steps", 0)
+        now = time.perf_counter()
+        if self.enabled and (self._tty or now - self._last >= self.every
+                             or self.done_tiles == self.total_tiles):
+            self._last = now
+            self._write(self.line() + ("\r" if self._tty else "\n"))
+
+    def line(self) -> str:
+        frac = self.done_tiles / self.total_tiles if self.total_tiles else 1.0
+        bar = "#" * int(frac * 24)
+        rate = self.rate
+        left = self.total_points - self.done_points
+        eta = _clock(left / rate) if rate > 0 else "?"
+        return (f"[{bar:<24}] {self.done_tiles}/{self.total_tiles} tiles  "
+                f"{rate:,.0f} traj/s  ETA {eta}")
+
+    def close(self, message: str = "") -> None:
+        if not self.enabled:
+            return
+        elapsed = time.perf_counter() - self.t0
+        end = "\n" if self._tty and self.done_tiles > self.reused else ""
+        self._write(f"{end}{message or 'done'}: {self.done_tiles - self.reused} tiles "
+                    f"computed, {self.reused} reused, {self.new_points:,} trajectories "
+                    f"in {elapsed:.1f} s ({self.rate:,.0f} traj/s)\n")
+
+    def _write(self, text: str) -> None:
+        self.stream.write(text)
+        self.stream.flush()
+
+
+def _clock(seconds: float) -> str:
+    s = int(round(seconds))
+    return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}"
