@@ -67,8 +67,24 @@ def test_toml_maps_one_to_one_onto_sweep():
     """)
     from_text = Sweep.from_toml(text)
     assert from_text.axes == s.axes and from_text.random == s.random
-    assert from_text.differences(s) == ["name: 't' -> 'sweep'", "tile_size: 2048 -> 5",
+    assert from_text.differences(s) == ["name: 't' -> 'sweep'",
+                                        f"tile_size: {from_text.tile_size} -> 5",
                                         "repeats: 1 -> 2", "seed: 0 -> 7"]
+    # a 32-point grid gets the smallest automatic tile
+    assert from_text.tile_size == 256 and from_text.n_tiles == 1
+
+
+def test_automatic_tile_size():
+    big = Sweep(axes={"spin": {"start": -30, "stop": 30, "num": 224},
+                      "delta_deg": {"start": -8, "stop": 8, "num": 224}, "mu": [0.3, math.inf]},
+                fixed={"t_end": 2.0})
+    steps = math.ceil(2.0 / TOY.default_dt())
+    assert big.tile_size % 32 == 0
+    assert big.n_tiles >= 16  # enough tasks to balance the workers
+    assert big.tile_size * steps <= 2e7 + 32 * steps  # about 2 s of kernel time per tile
+    long = Sweep(axes=big.axes, fixed={"t_end": 60.0})
+    assert long.tile_size * math.ceil(60.0 / TOY.default_dt()) <= 2e7 + 32 * 60.0 / TOY.default_dt()
+    assert long.n_tiles > big.n_tiles
 
 
 def test_units_and_degree_names_convert_to_the_same_si_values():

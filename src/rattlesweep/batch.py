@@ -145,15 +145,12 @@ def prepare(
                 for k, v in vectors.items()}
     flat_bodies = np.broadcast_to(bodies, shape).reshape(n)
 
-    # bodies: parameters per distinct body object
-    uniq: dict[int, int] = {}
-    index = np.empty(n, dtype=np.int64)
-    table: list[Body] = []
-    for i, b in enumerate(flat_bodies):
-        k = uniq.setdefault(id(b), len(table))
-        if k == len(table):
-            table.append(b)
-        index[i] = k
+    # bodies: parameters per distinct body object (ids in first-seen order)
+    ids = np.fromiter(map(id, flat_bodies), dtype=np.int64, count=n)
+    _, first, index = np.unique(ids, return_index=True, return_inverse=True)
+    order = np.argsort(first)
+    table: list[Body] = [flat_bodies[i] for i in first[order]]
+    index = np.argsort(order)[index.reshape(-1)]
     body_rows = np.array([_body_row(b) for b in table])[index]
 
     if "dt" not in flat:
@@ -245,7 +242,7 @@ def prepare(
     for k, col in zip(_BODY_COORDS, (0, 1, 2, 3, _FULL_COL, 7, 8, 9, 10, 11, 12)):
         coords[k] = (dim, body_rows[:, col])
     coords["com"] = ((dim, "body_axis"), body_rows[:, 4:7])
-    coords["body_name"] = (dim, np.array([table[i].name for i in index]))
+    coords["body_name"] = (dim, np.array([b.name for b in table])[index])
     return Prepared(P, Y, steps.reshape(n_blocks, L.BLOCK), n, tuple(shape), coords)
 
 

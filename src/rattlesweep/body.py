@@ -234,11 +234,18 @@ class Body:
         """Default time step (s): 1/64 of the shortest small-oscillation period over the
         rolling and frictionless limits (MODEL.md section 5). A body with no restoring
         stiffness (a sphere with G at its centre) uses the period 2π√(c/g) instead."""
+        # memoised per body and g (sweeps ask for it once per tile); the body is immutable,
+        # so the cache lives in the instance dict like functools.cached_property's
+        cache = self.__dict__.setdefault("_default_dt_cache", {})
+        g = float(g)
+        if g in cache:
+            return cache[g]
         w = max(*self.small_oscillation_frequencies(g, rolling=True),
                 *self.small_oscillation_frequencies(g, rolling=False))
         if w == 0.0:
             w = math.sqrt(g / self.c)
-        return 2.0 * math.pi / w / 64.0
+        cache[g] = 2.0 * math.pi / w / 64.0
+        return cache[g]
 
     def describe(self) -> dict:
         """Plain-number description for result attributes."""

@@ -5,7 +5,6 @@ DEMO_TOML = """\
 # Spin x misalignment for Coulomb friction (mu = 0.3) and pure rolling (mu = inf),
 # launched from a 0.5 degree roll, 5 s of motion each.
 name = "demo: toy rattleback, spin x misalignment"
-tile_size = 512
 
 [axes]
 spin = { start = -30, stop = 30, num = 41 }

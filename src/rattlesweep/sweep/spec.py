@@ -50,6 +50,8 @@ from .params import BODY_PARAMS, DEFAULTS, PARAMS, check_values, resolve
 
 _TOP_KEYS = ("name", "axes", "fixed", "random", "repeats", "seed", "method",
              "reversal_band", "tile_size")
+TILE_STEPS = 2e7
+"""Trajectory-steps per tile aimed at by the automatic tile size."""
 _RANGE_KEYS = {"start", "stop", "num", "units", "scale"}
 _VALUES_KEYS = {"values", "units"}
 
@@ -238,7 +240,10 @@ class Sweep:
     seed : int >= 0, seed of the random draws.
     method : "rk4" or "euler".
     reversal_band : hysteresis of the reversal detector, a fraction of |initial spin|.
-    tile_size : points per tile (one dask task, one file).
+    tile_size : points per tile (one dask task, one file). Default: chosen from the
+        configuration so that a tile is about ``TILE_STEPS`` trajectory-steps (about 2 s on
+        one core) and the grid has at least 16 tiles, in multiples of 32 from 256 to
+        65536; the chosen number is part of the stored configuration.
     name : a label stored with the results.
 
     Every value is checked when the sweep is made, including every combination of the
@@ -253,7 +258,7 @@ class Sweep:
     seed: int = 0
     method: str = "rk4"
     reversal_band: float = 0.05
-    tile_size: int = 2048
+    tile_size: int | None = None
     name: str = "sweep"
 
     def __post_init__(self) -> None:
@@ -292,9 +297,10 @@ class Sweep:
             ("seed", self.seed, isinstance(self.seed, (int, np.integer))
              and not isinstance(self.seed, bool) and 0 <= self.seed < 2**63,
              "an integer >= 0"),
-            ("tile_size", self.tile_size, isinstance(self.tile_size, (int, np.integer))
-             and not isinstance(self.tile_size, bool) and self.tile_size >= 1,
-             "an integer >= 1"),
+            ("tile_size", self.tile_size, self.tile_size is None or (
+                isinstance(self.tile_size, (int, np.integer))
+                and not isinstance(self.tile_size, bool) and self.tile_size >= 1),
+             "an integer >= 1 (or None: automatic)"),
             ("method", self.method, self.method in METHODS, f"one of {sorted(METHODS)}"),
             ("name", self.name, isinstance(self.name, str), "a string"),
         ):
@@ -311,9 +317,15 @@ class Sweep:
                              f"results")
         for name, value in (("axes", axes), ("fixed", fixed), ("random", random),
                             ("repeats", int(self.repeats)), ("seed", int(self.seed)),
-                            ("tile_size", int(self.tile_size)), ("reversal_band", band)):
+                            ("reversal_band", band)):
             object.__setattr__(self, name, value)
-        self._check_combinations()
+        max_steps = self._check_combinations()
+        if self.tile_size is None:
+            tile = min(TILE_STEPS / max_steps, self.size / 16)
+            tile = int(min(max(32 * math.ceil(tile / 32), 256), 65536))
+        else:
+            tile = int(self.tile_size)
+        object.__setattr__(self, "tile_size", tile)
 
     # --- structure --------------------------------------------------------------------
     @property
@@ -398,8 +410,9 @@ class Sweep:
         return batch_inputs(columns, body_column, self.fixed_body())
 
     # --- checks -------------------------------------------------------------------------
-    def _check_combinations(self) -> None:
-        """Check every combination of the extremes of the varying parameters."""
+    def _check_combinations(self) -> int:
+        """Check every combination of the extremes of the varying parameters; return the
+        largest number of steps any point takes (the extremes bound it too)."""
         varying: list[tuple[str, str, list]] = []
         for ax in self.grid_axes:
             if ax.param == "body":
@@ -425,14 +438,14 @@ class Sweep:
             return ", ".join(f"{key}={_show(combos[i][j], param, key)}"
                              for j, (key, param, _) in enumerate(varying))
 
-        def check(sel: slice) -> None:
+        def check(sel: slice) -> int:
             bodies, kwargs = batch_inputs({k: v[sel] for k, v in columns.items()},
                                           None if body_column is None else body_column[sel],
                                           self.fixed_body())
-            prepare(bodies, **kwargs)
+            return int(prepare(bodies, **kwargs).nsteps.max())
 
         try:
-            check(slice(None))
+            return check(slice(None))
         except ValueError:
             # find the first offending corner to name it
             for i in range(len(combos)):
