@@ -108,7 +108,9 @@ def record_lane(W, j, out):
     out[R_VY] = W[at(OFF_Y, VY, j)]
     out[R_VZ] = vz
     out[R_SPIN] = spin_of(W, OFF_Y, j)
-    out[R_TILT] = math.acos(min(1.0, max(-1.0, up_vector(W, OFF_Y, j)[2])))
+    n0, n1, n2 = up_vector(W, OFF_Y, j)
+    # atan2 keeps full precision at tiny tilts, where 1 - cos(tilt) underflows float64
+    out[R_TILT] = math.atan2(math.sqrt(n0 * n0 + n1 * n1), n2)
     out[R_ENERGY] = e
     out[R_N] = W[at(OFF_X, X_N, j)]
     out[R_FX] = W[at(OFF_X, X_FX, j)]
@@ -447,3 +449,18 @@ def contact_slip_velocity(P, Y, U):
         for j in range(BLOCK):
             U[b, 0, j] = W[at(OFF_X, X_UX, j)]
             U[b, 1, j] = W[at(OFF_X, X_UY, j)]
+
+
+@kernel
+def rolling_derivative(P, Y, D):
+    """Time derivative D (n_blocks, N_STATE, BLOCK) of every lane's state Y in rolling
+    contact (every lane sticking), from the kernel's own right-hand side. For checks
+    such as the linear-stability Jacobian; the launch velocity must satisfy rolling."""
+    W = np.zeros(N_WORK * BLOCK)  # switching state zero: every lane sticks
+    for b in range(P.shape[0]):
+        for j in range(BLOCK):
+            load_lane(W, P[b], Y[b], j, OFF_P, OFF_T)
+        eval_block(W, False)
+        for k in range(N_STATE):
+            for j in range(BLOCK):
+                D[b, k, j] = W[at(OFF_D, k, j)]

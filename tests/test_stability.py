@@ -1,0 +1,176 @@
+"""Linear stability of steady spin: against the kernel, closed forms, symmetries and the
+nonlinear simulation."""
+
+import math
+
+import numpy as np
+import pytest
+
+import rattlesweep as rs
+from rattlesweep import stability as st
+from rattlesweep.batch import prepare
+from rattlesweep.core import layout as L
+from rattlesweep.core.stepper import rolling_derivative
+from rattlesweep.launch import quaternion_from_angles
+
+KL = rs.Body.preset("kane_levinson")
+TOY = rs.Body.preset("toy")
+GOLDEN = rs.Body.preset("golden")
+
+
+def kernel_jacobian(body, spin, damping=0.0, h=1e-6):
+    """Central-difference Jacobian of the kernel's rolling right-hand side in the tilt
+    coordinates (γx, γy, ωx, ωy), ωz held at ``spin``."""
+    # γ = (−sin p, sin r cos p, cos r cos p): γx = −pitch, γy = roll to first order
+    rows = []
+    for k in range(4):
+        for sign in (1.0, -1.0):
+            x = np.zeros(4)
+            x[k] = sign * h
+            rows.append(x)
+    x = np.array(rows)
+    q = quaternion_from_angles(x[:, 1], -x[:, 0], np.zeros(len(x)))
+    omega = np.stack([x[:, 2], x[:, 3], np.full(len(x), spin)], axis=1)
+    prep = prepare(body, orientation=q, omega=omega, damping=damping, t_end=1.0)
+    D = np.zeros_like(prep.Y)
+    rolling_derivative(prep.P, prep.Y, D)
+    Y = prep.Y.transpose(1, 0, 2).reshape(L.N_STATE, -1)[:, :len(x)]
+    Dn = D.transpose(1, 0, 2).reshape(L.N_STATE, -1)[:, :len(x)]
+    q, qd = Y[L.Q0:L.Q0 + 4], Dn[L.Q0:L.Q0 + 4]
+    # γ̇ from the kernel's quaternion rate: γx = 2(q1 q3 − q0 q2), γy = 2(q2 q3 + q0 q1)
+    gx_dot = 2 * (qd[1] * q[3] + q[1] * qd[3] - qd[0] * q[2] - q[0] * qd[2])
+    gy_dot = 2 * (qd[2] * q[3] + q[2] * qd[3] + qd[0] * q[1] + q[0] * qd[1])
+    f = np.stack([gx_dot, gy_dot, Dn[L.W0], Dn[L.W1]])  # (4, 8)
+    return (f[:, 0::2] - f[:, 1::2]) / (2 * h)
+
+
+@pytest.mark.parametrize("body", [KL, TOY, GOLDEN], ids=["kane_levinson", "toy", "golden"])
+@pytest.mark.parametrize("spin", [-7.0, 0.0, 3.0, 20.0])
+@pytest.mark.parametrize("damping", [0.0, 1e-4])
+def test_linearisation_is_the_jacobian_of_the_kernel(body, spin, damping):
+    A = st.linearisation(body, spin, damping=damping)
+    J = kernel_jacobian(body, spin, damping)
+    np.testing.assert_allclose(A, J, rtol=0, atol=1e-7 * np.abs(A).max())
+
+
+def test_zero_spin_frequencies_equal_the_closed_forms():
+    body = rs.Body.semi_ellipsoid(0.06, 0.02, 0.015, 0.05, 0.0)  # I_xy = 0
+    m, g, ell = body.mass, 9.81, body.com_height
+    a, b, c = body.a, body.b, body.c
+    wp = math.sqrt(m * g * (a * a / c - ell) / (body.inertia[1, 1] + m * ell * ell))
+    wr = math.sqrt(m * g * (b * b / c - ell) / (body.inertia[0, 0] + m * ell * ell))
+    pitch, roll = st.zero_spin_frequencies(body, g=g)
+    assert pitch == pytest.approx(wp, rel=1e-12) and roll == pytest.approx(wr, rel=1e-12)
+    lam = st.eigen(body, 0.0)["eigenvalues"]
+    np.testing.assert_allclose(np.sort(np.abs(lam.imag)), [wr, wr, wp, wp], rtol=1e-12)
+    np.testing.assert_allclose(lam.real, 0.0, atol=1e-12 * wp)
+    # coupled modes (I_xy != 0) agree with the body's own generalised eigenproblem
+    for preset in (KL, TOY, GOLDEN):
+        np.testing.assert_allclose(st.zero_spin_frequencies(preset),
+                                   preset.small_oscillation_frequencies(), rtol=1e-10)
+
+
+def test_zero_misalignment_gives_zero_growth():
+    body = rs.Body.semi_ellipsoid(0.0475, 0.0095, 0.011, 0.011, 0.0)
+    spins = np.linspace(-40, 40, 81)
+    e = st.eigen(body, spins)
+    scale = np.abs(e["eigenvalues"]).max(axis=-1)
+    assert np.all(np.abs(e["growth_rate"]) <= 1e-10 * scale)
+    assert np.all(e["mode"] == st.NEUTRAL)
+
+
+def test_mirror_symmetry_spin_and_misalignment():
+    spins = np.linspace(-25, 25, 51)
+    for delta in (0.02, 0.1):
+        plus = rs.Body.semi_ellipsoid(0.0475, 0.0095, 0.011, 0.011, delta)
+        minus = rs.Body.semi_ellipsoid(0.0475, 0.0095, 0.011, 0.011, -delta)
+        a = st.eigen(plus, spins)["eigenvalues"]
+        b = st.eigen(minus, -spins)["eigenvalues"]
+        key = lambda z: np.sort_complex(np.round(z, 9))
+        np.testing.assert_allclose(key(a), key(b), atol=1e-9)
+        assert not np.allclose(key(a), key(st.eigen(plus, -spins)["eigenvalues"]))
+
+
+def test_trace_identity():
+    spins = np.linspace(-30, 30, 61)
+    for body in (KL, TOY, GOLDEN):
+        for damping in (0.0, 3e-5):
+            lam = st.eigen(body, spins, damping=damping)["eigenvalues"]
+            expected = st.trace_identity(body, spins, damping=damping)
+            np.testing.assert_allclose(lam.real.sum(axis=-1), expected, rtol=1e-9,
+                                       atol=1e-12 * np.abs(lam).max())
+        # without damping the trace is a fixed multiple of I_xy n l (a^2 - b^2)
+        ratio = st.trace_identity(body, spins[spins != 0]) / (
+            body.inertia[0, 1] * spins[spins != 0] * body.com_height
+            * (body.a**2 - body.b**2))
+        np.testing.assert_allclose(ratio, ratio[0], rtol=1e-12)
+        assert ratio[0] > 0
+
+
+def test_small_spin_closed_form_converges_to_the_eigenvalues():
+    for body in (KL, TOY):
+        errors = []
+        for n in (0.4, 0.2, 0.1):
+            exact = st.eigen(body, n)
+            p, r = st.small_spin_growth_rates(body, n)
+            errors.append(abs(p - exact["pitch_growth_rate"]) / abs(exact["pitch_growth_rate"]))
+            assert r == pytest.approx(float(exact["roll_growth_rate"]), rel=0.01)
+        assert errors[-1] < 1e-3
+        # the expansion is first order in n and the real part has no n^2 term, so the
+        # relative error falls as n^2: halving n quarters it
+        assert errors[1] / errors[0] == pytest.approx(0.25, abs=0.03)
+        assert errors[2] / errors[1] == pytest.approx(0.25, abs=0.03)
+
+
+def measured_growth(body, spin, t_end, amplitude=1e-7):
+    """Growth rate of the tilt of a nonlinear rolling run launched along the fastest
+    growing eigenvector, from a fit to the maxima of the tilt before it saturates."""
+    A = st.linearisation(body, spin)
+    lam, vec = np.linalg.eig(A)
+    k = int(np.argmax(lam.real))
+    v = vec[:, k].real if abs(vec[:, k].real).max() > 1e-3 else vec[:, k].imag
+    v = amplitude * v / np.hypot(v[0], v[1])
+    q = quaternion_from_angles(np.array([v[1]]), np.array([-v[0]]), np.zeros(1))[0]
+    run = rs.simulate(body, orientation=q, omega=(v[2], v[3], spin), t_end=t_end,
+                      record_every=1)
+    tilt, t = run.tilt.values, run.time.values
+    peak = (tilt[1:-1] > tilt[:-2]) & (tilt[1:-1] >= tilt[2:])
+    tp, yp = t[1:-1][peak], tilt[1:-1][peak]
+    keep = yp < 1e3 * amplitude  # linear regime: tilt below 1e-4 rad
+    slope = np.polyfit(tp[keep], np.log(yp[keep]), 1)[0]
+    return slope, lam.real.max()
+
+
+@pytest.mark.parametrize("spin", [4.0, -4.0])
+def test_nonlinear_growth_matches_the_linear_prediction(spin):
+    # kane_levinson: +4 rad/s pitch-driven (fast), -4 rad/s roll-driven (slow)
+    predicted = st.eigen(KL, spin)["growth_rate"]
+    t_end = 7.0 / predicted  # seven e-folds: tilt 1e-7 -> 1e-4 rad
+    measured, lam = measured_growth(KL, spin, t_end)
+    assert predicted > 0
+    assert measured == pytest.approx(predicted, rel=0.01)
+
+
+def test_asymptotically_stable_sense_decays_in_simulation():
+    # golden at +2 rad/s: every eigenvalue has a negative real part without any damping
+    e = st.eigen(GOLDEN, 2.0)
+    assert e["mode"] == st.STABLE
+    measured, lam = measured_growth(GOLDEN, 2.0, t_end=-3.0 / float(e["growth_rate"]))
+    assert measured == pytest.approx(float(e["growth_rate"]), rel=0.01)
+
+
+def test_bad_inputs_are_refused():
+    off_axis = rs.Body(0.05, 0.01, 0.01, 0.01, (0.001, 0.0, -0.003),
+                       np.diag([1e-6, 8e-6, 8.5e-6]))
+    with pytest.raises(ValueError, match="com x = y = 0"):
+        st.eigen(off_axis, 1.0)
+    tilted = rs.Body(0.05, 0.01, 0.01, 0.01, (0.0, 0.0, -0.003),
+                     [[1e-6, 0, 1e-7], [0, 8e-6, 0], [1e-7, 0, 8.5e-6]])
+    with pytest.raises(ValueError, match="I_xz = I_yz = 0"):
+        st.linearisation(tilted, 1.0)
+    with pytest.raises(ValueError, match="spin must be finite"):
+        st.eigen(KL, [1.0, math.nan])
+    with pytest.raises(ValueError, match="g must be finite and > 0"):
+        st.eigen(KL, 1.0, g=-9.81)
+    with pytest.raises(ValueError, match="body must be a Body"):
+        st.eigen("kane_levinson", 1.0)
