@@ -174,3 +174,60 @@ def test_bad_inputs_are_refused():
         st.eigen(KL, 1.0, g=-9.81)
     with pytest.raises(ValueError, match="body must be a Body"):
         st.eigen("kane_levinson", 1.0)
+
+
+def test_stability_dataset_on_a_sweep_grid_and_cli(tmp_path, capsys):
+    from rattlesweep.cli import main
+    from rattlesweep.plot import reversal_vs_growth, stability_map
+    from rattlesweep.sweep import Sweep, run_sweep
+
+    toml = tmp_path / "grid.toml"
+    toml.write_text(
+        "[axes]\nspin = { start = -20, stop = 20, num = 9 }\n"
+        "delta_deg = { start = -6, stop = 6, num = 5 }\n"
+        "[fixed]\nt_end = 3.0\nroll_deg = 0.5\n")
+    sweep = Sweep.from_toml(toml)
+    ds = st.stability_dataset(sweep)
+    assert ds.growth_rate.dims == ("spin", "delta_deg")
+    assert ds.delta_deg.attrs["units"] == "degree" and ds.growth_rate.attrs["units"] == "s-1"
+    # one point against a direct evaluation
+    body = rs.Body.semi_ellipsoid(TOY.a, TOY.b, TOY.c, TOY.mass, math.radians(-3.0))
+    direct = st.eigen(body, 15.0)
+    point = ds.sel(spin=15.0, delta_deg=-3.0)
+    assert float(point.growth_rate) == pytest.approx(float(direct["growth_rate"]), rel=1e-12)
+    assert int(point["mode"]) == int(direct["mode"])
+    assert np.all(ds.sel(delta_deg=0.0).growth_rate == pytest.approx(0.0, abs=1e-9))
+    # a stability-only configuration needs no t_end
+    no_t = Sweep(axes={"spin": [1.0, 2.0]}, fixed={"body": "kane_levinson"})
+    assert st.stability_dataset(no_t).growth_rate.shape == (2,)
+
+    # maps with the simulated boundary, predicted vs simulated, and the CLI
+    sim = run_sweep(sweep, tmp_path / "sim", progress=False)
+    fig = stability_map(ds, "spin", "delta_deg", overlay=sim)
+    labels = {t.get_text() for t in fig.legends[0].get_texts()}
+    assert "simulated reversal boundary" in labels
+    assert any(ax.collections and len(ax.collections) > 1 for ax in fig.axes)
+    fig = reversal_vs_growth(ds, sim)
+    ax = fig.axes[0]
+    assert ax.get_xlabel().endswith("[s]") and ax.get_ylabel().endswith("[s]")
+    # faster growth, earlier reversal: the two times are positively correlated
+    both = xr_points(ds, sim)
+    assert np.corrcoef(np.log(both[0]), np.log(both[1]))[0, 1] > 0.5
+
+    out = tmp_path / "stab.nc"
+    assert main(["stability", str(toml), "--out", str(out)]) == 0
+    assert "unstable" in capsys.readouterr().out
+    assert main(["plot", str(out), "--overlay", str(tmp_path / "sim" / "sweep.nc"),
+                 "--out", str(tmp_path / "m.png")]) == 0
+    assert main(["plot", str(out), "--versus", str(tmp_path / "sim" / "sweep.nc"),
+                 "--out", str(tmp_path / "v.png")]) == 0
+    assert (tmp_path / "m.png").stat().st_size > 10_000
+    assert (tmp_path / "v.png").stat().st_size > 10_000
+
+
+def xr_points(stab, sim):
+    import xarray as xr
+
+    a, b = xr.align(stab.e_folding_time, sim.first_reversal_time, join="inner")
+    ok = np.isfinite(a.values) & np.isfinite(b.values)
+    return a.values[ok], b.values[ok]

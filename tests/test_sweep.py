@@ -125,7 +125,6 @@ def test_ranges_are_inclusive_linear_or_log():
      r"mu_static must be >= mu.*sweep corner mu=0\.5"),
     (dict(axes={"roll_deg": [0.0, 95.0]}), r"tilt.*rim.*sweep corner roll_deg=95"),
     (dict(axes={"c": [0.011, 0.05]}), r"(radius|curvature).*sweep corner c=0\.05"),
-    (dict(axes={"spin": [1.0]}, fixed={}), r"t_end.*required"),
     (dict(axes={"delta_deg": [1.0], "delta": [0.1]}), r"'delta' is already given"),
     (dict(axes={"delta_deg": [1.0]}, fixed={"t_end": 1.0, "body": "golden"}),
      r"either a body or the semi-ellipsoid"),
@@ -365,6 +364,9 @@ def test_run_sweep_argument_errors(tmp_path):
         run_sweep(s, tmp_path, client=object(), scheduler="tcp://x:1")
     with pytest.raises(ValueError, match="holds no sweep"):
         resume(tmp_path / "nothing")
+    with pytest.raises(ValueError, match=r"fixed\.t_end: the end time \(s\) is required"):
+        run_sweep(Sweep(axes={"spin": [1.0]}), tmp_path / "no_t_end")
+    assert not (tmp_path / "no_t_end").exists()
 
 
 # --- maps and CLI ----------------------------------------------------------------------

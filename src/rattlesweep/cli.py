@@ -95,10 +95,25 @@ def _cmd_demo(args, argv) -> int:
     return 0
 
 
+def _cmd_stability(args, argv) -> int:
+    from .io import write_netcdf
+    from .stability import stability_dataset
+    from .sweep import Sweep
+
+    t0 = time.perf_counter()
+    ds = stability_dataset(Sweep.from_toml(Path(args.config)), command=_command(argv))
+    path = write_netcdf(ds, args.out)
+    unstable = float((ds.growth_rate > 0).mean())
+    print(f"wrote {path}: {int(ds.growth_rate.size)} grid points in "
+          f"{time.perf_counter() - t0:.2f} s; {unstable:.0%} unstable, largest growth rate "
+          f"{float(ds.growth_rate.max()):.4g} s-1")
+    return 0
+
+
 def _cmd_plot(args, argv) -> int:
     import xarray as xr
 
-    from .plot import reversal_map
+    from .plot import reversal_map, reversal_vs_growth
 
     select = {}
     for item in args.select or []:
@@ -109,19 +124,30 @@ def _cmd_plot(args, argv) -> int:
             select[key] = float(value)
         except ValueError:
             select[key] = value
+    overlay = xr.open_dataset(args.overlay) if args.overlay else None
     for path in args.files:
         with xr.open_dataset(path) as ds:
-            dims = [d for d in ds.attrs.get("sweep_dims", list(ds.dims))]
-            x = args.x or dims[0]
-            y = args.y or next((d for d in dims if d != x), None)
-            if y is None:
-                raise ValueError(f"{path}: a map needs two dimensions, found {dims}")
-            fig = reversal_map(ds, x=x, y=y, var=args.var, facet=args.facet,
-                               select=select or None, reduce=args.reduce)
+            if args.versus:
+                with xr.open_dataset(args.versus) as sweep:
+                    fig = reversal_vs_growth(ds, sweep, color_by=args.facet)
+                name = "reversal_vs_growth"
+            else:
+                var = args.var or ("outcome" if "outcome" in ds else "growth_rate")
+                dims = [d for d in ds.attrs.get("sweep_dims", list(ds.dims))]
+                x = args.x or dims[0]
+                y = args.y or next((d for d in dims if d != x), None)
+                if y is None:
+                    raise ValueError(f"{path}: a map needs two dimensions, found {dims}")
+                fig = reversal_map(ds, x=x, y=y, var=var, facet=args.facet,
+                                   select=select or None, reduce=args.reduce,
+                                   overlay=overlay)
+                name = var
             png = Path(args.out) if args.out and len(args.files) == 1 else \
-                Path(path).with_name(f"{Path(path).stem}_{args.var}.png")
+                Path(path).with_name(f"{Path(path).stem}_{name}.png")
             fig.savefig(png, dpi=args.dpi)
             print(f"wrote {png}")
+    if overlay is not None:
+        overlay.close()
     return 0
 
 
@@ -213,7 +239,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("plot", help="draw a map of a sweep result to PNG")
     p.add_argument("files", nargs="+", help="sweep result netCDF file(s)")
-    p.add_argument("--var", default="outcome", help="variable (default: outcome)")
+    p.add_argument("--var", default=None,
+                   help="variable (default: outcome, or growth_rate for stability files)")
     p.add_argument("--x", default=None, help="dimension across (default: the first)")
     p.add_argument("--y", default=None, help="dimension up (default: the second)")
     p.add_argument("--facet", default=None, help="dimension to draw one panel per value")
@@ -221,9 +248,20 @@ def build_parser() -> argparse.ArgumentParser:
                    help="fix another dimension (nearest value); repeatable")
     p.add_argument("--reduce", choices=["mean"], default=None,
                    help="average a continuous variable over the remaining dimensions")
+    p.add_argument("--overlay", default=None, metavar="SWEEP.nc",
+                   help="draw this sweep's simulated reversal boundary on the map")
+    p.add_argument("--versus", default=None, metavar="SWEEP.nc",
+                   help="instead of a map: first reversal time in SWEEP.nc against the "
+                   "stability file's 1/growth rate (coloured by --facet)")
     p.add_argument("--out", default=None, help="PNG path (default: next to the file)")
     p.add_argument("--dpi", type=int, default=120)
     p.set_defaults(func=_cmd_plot)
+
+    p = sub.add_parser("stability", help="linear stability of steady spin over a "
+                       "sweep's grid (t_end not needed); write a netCDF file")
+    p.add_argument("config", help="sweep configuration (TOML)")
+    p.add_argument("--out", required=True, help="netCDF file to write")
+    p.set_defaults(func=_cmd_stability)
 
     p = sub.add_parser("info", help="summarise result files")
     p.add_argument("files", nargs="+")

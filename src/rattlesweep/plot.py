@@ -44,6 +44,18 @@ OUTCOME_COLOURS = {
 """Fixed colours of outcome classes, so maps from different sweeps read alike."""
 
 
+def _select(da: xr.DataArray, select: dict) -> xr.DataArray:
+    """Select exact matches as they are and other numeric values by the nearest
+    coordinate (exact first, so that inf selects inf)."""
+    for dim, value in select.items():
+        values = da[dim].values
+        if value in values or values.dtype.kind not in "fiu":
+            da = da.sel({dim: value})
+        else:
+            da = da.sel({dim: value}, method="nearest")
+    return da
+
+
 def _axis_values(da: xr.DataArray, dim: str):
     """Plot positions and tick labels (None for numeric axes) of a dimension."""
     import numpy as np
@@ -63,7 +75,8 @@ def _fmt_coord(ds: xr.DataArray, dim: str, value) -> str:
 def reversal_map(ds: xr.Dataset, x: str, y: str, var: str = "outcome", *,
                  facet: str | None = None, select: dict | None = None,
                  reduce: str | None = None, title: str | None = None,
-                 ncols: int = 3, cmap: str = "viridis") -> Figure:
+                 ncols: int = 3, cmap: str = "viridis",
+                 overlay: xr.Dataset | None = None) -> Figure:
     """Map of a sweep result over two of its axes.
 
     Parameters
@@ -79,6 +92,9 @@ def reversal_map(ds: xr.Dataset, x: str, y: str, var: str = "outcome", *,
     select : values of any other dimensions, e.g. ``{"mu": 0.3}`` (nearest match).
     reduce : ``"mean"`` averages a continuous variable over the dimensions left over
         (e.g. ``repeat``); categorical maps need every other dimension selected.
+    overlay : a sweep result on the same axes: its simulated reversal boundary (where
+        the fraction of launches that reversed at least once crosses 1/2) is drawn on
+        every panel as a black line, e.g. over a stability map.
 
     Returns a matplotlib Figure.
     """
@@ -101,10 +117,7 @@ def reversal_map(ds: xr.Dataset, x: str, y: str, var: str = "outcome", *,
             if dim not in da.dims:
                 raise ValueError(f"select: {dim!r} is not a dimension of {var!r} "
                                  f"({list(da.dims)})")
-        numeric = {k: v for k, v in select.items() if da[k].dtype.kind in "fiu"}
-        other = {k: v for k, v in select.items() if k not in numeric}
-        da = da.sel(numeric, method="nearest") if numeric else da
-        da = da.sel(other) if other else da
+        da = _select(da, select)
     categorical = "flag_values" in da.attrs
     extra = [d for d in da.dims if d not in (x, y, facet)]
     if extra:
@@ -145,6 +158,9 @@ def reversal_map(ds: xr.Dataset, x: str, y: str, var: str = "outcome", *,
             z = np.vectorize({f: i for i, f in enumerate(flags)}.get, otypes=[float])(z)
         any_nan |= bool(np.isnan(z).any())
         mesh = ax.pcolormesh(xs, ys, z, cmap=cm, norm=norm, shading="nearest")
+        if overlay is not None:
+            _draw_boundary(ax, overlay, x, y, {**(select or {}),
+                                               **({facet: value} if facet else {})})
         if value is not None:
             ax.set_title(_fmt_coord(da, facet, value), fontsize="medium")
         if xlabels:
@@ -165,12 +181,18 @@ def reversal_map(ds: xr.Dataset, x: str, y: str, var: str = "outcome", *,
                    for f, m, c in zip(flags, meanings, colours) if f in present]
     else:
         fig.colorbar(mesh, ax=axes.ravel().tolist(), label=_label(da, var))
+    if overlay is not None:
+        from matplotlib.lines import Line2D
+
+        handles.append(Line2D([], [], color="black", lw=1.5,
+                              label="simulated reversal boundary"))
     if any_nan:
         handles.append(Patch(color=cm.get_bad() if not categorical else "white",
                              label="no value (NaN)"))
     if handles:
-        fig.legend(handles=handles, loc="outside right upper", title=da.attrs.get(
-            "long_name", var) if categorical else None)
+        fig.legend(handles=handles, loc="outside right upper" if categorical
+                   else "outside lower center", title=da.attrs.get(
+                       "long_name", var) if categorical else None)
     fixed = [_fmt_coord(ds, c, ds[c].values.item()) for c in ds.coords
              if ds[c].ndim == 0 and c in ds.coords and ds[c].dtype.kind in "fiu"]
     fig.suptitle(title or ", ".join(fixed[:6]), fontsize="small")
@@ -182,3 +204,80 @@ def mpl_cmap(name: str):
     import matplotlib
 
     return matplotlib.colormaps[name].with_extremes(bad="0.8")
+
+
+def reversed_fraction(sweep: xr.Dataset) -> xr.DataArray:
+    """Fraction (0 or 1 per launch; averaged by callers) of launches that reversed at
+    least once, from a sweep's ``outcome``."""
+    from .sweep.outcomes import REVERSED, SEVERAL
+
+    return sweep.outcome.isin([REVERSED, SEVERAL]).astype(float)
+
+
+def _draw_boundary(ax, sweep: xr.Dataset, x: str, y: str, select: dict) -> None:
+    import numpy as np
+
+    frac = reversed_fraction(sweep)
+    for dim in (x, y):
+        if dim not in frac.dims:
+            raise ValueError(f"overlay: the sweep has no dimension {dim!r} "
+                             f"({list(frac.dims)})")
+    frac = _select(frac, {k: v for k, v in select.items() if k in frac.dims})
+    extra = [d for d in frac.dims if d not in (x, y)]
+    if extra:
+        frac = frac.mean(extra)
+    z = frac.transpose(y, x).values
+    if np.nanmin(z) < 0.5 < np.nanmax(z):
+        ax.contour(frac[x].values, frac[y].values, z, levels=[0.5], colors="black",
+                   linewidths=1.5)
+
+
+def stability_map(ds: xr.Dataset, x: str, y: str, var: str = "growth_rate", *,
+                  overlay: xr.Dataset | None = None, **kwargs) -> Figure:
+    """Map of a linear-stability result (:func:`rattlesweep.stability.stability_dataset`)
+    over two axes: ``growth_rate`` (1/s) by default, or ``mode`` (stable / neutral /
+    pitch- or roll-unstable) as categories, any other variable of the file alike.
+    ``overlay`` (a sweep result on the same axes) adds the simulated reversal boundary.
+    Other keyword arguments as for :func:`reversal_map`."""
+    return reversal_map(ds, x, y, var, overlay=overlay, **kwargs)
+
+
+def reversal_vs_growth(stability: xr.Dataset, sweep: xr.Dataset, *,
+                       color_by: str | None = None, title: str | None = None) -> Figure:
+    """Predicted against simulated: first reversal time (s) of each launch that reversed
+    against the linear e-folding time 1/growth_rate (s) at the same grid point, log-log,
+    coloured by ``color_by`` (a dimension) when given."""
+    import numpy as np
+
+    t_rev = sweep.first_reversal_time
+    efold = stability.e_folding_time
+    shared = [d for d in efold.dims if d in t_rev.dims]
+    if not shared:
+        raise ValueError(f"the files share no dimension: stability {list(efold.dims)}, "
+                         f"sweep {list(t_rev.dims)}")
+    efold, t_rev = xr.align(efold, t_rev, join="inner")
+    efold, t_rev = xr.broadcast(efold, t_rev)
+    ok = np.isfinite(t_rev.values) & np.isfinite(efold.values) & (efold.values > 0)
+    if not ok.any():
+        raise ValueError("no grid point both reversed in the sweep and is unstable")
+    fig = Figure(figsize=(6.0, 4.8), layout="constrained")
+    ax = fig.add_subplot()
+    if color_by is not None:
+        if color_by not in t_rev.dims:
+            raise ValueError(f"color_by {color_by!r} is not a dimension ({list(t_rev.dims)})")
+        c = np.broadcast_to(t_rev[color_by].values.reshape(
+            [-1 if d == color_by else 1 for d in t_rev.dims]), t_rev.shape)
+        values = np.unique(c[ok])
+        for i, v in enumerate(values):
+            sel = ok & (c == v)
+            ax.scatter(efold.values[sel], t_rev.values[sel], s=8, color=f"C{i}",
+                       label=_fmt_coord(t_rev, color_by, v.item()))
+        ax.legend(fontsize="small")
+    else:
+        ax.scatter(efold.values[ok], t_rev.values[ok], s=8)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel(_label(stability.e_folding_time, "e-folding time"))
+    ax.set_ylabel(_label(sweep.first_reversal_time, "first reversal time"))
+    ax.set_title(title or f"{int(ok.sum())} launches that reversed", fontsize="medium")
+    return fig

@@ -266,8 +266,8 @@ def stability_dataset(sweep, *, command: str | None = None) -> xr.Dataset:
 
     lam = e["eigenvalues"].reshape(shape + (4,))
     data = {
-        "growth_rate": var(e["growth_rate"], "s-1", "largest real part of the tilt "
-                           "eigenvalues (growth rate of rattling)"),
+        "growth_rate": var(e["growth_rate"], "s-1", "growth rate of rattling",
+                           {"comment": "largest real part of the four tilt eigenvalues"}),
         "pitch_growth_rate": var(e["pitch_growth_rate"], "s-1",
                                  "growth rate of the pitch-like mode"),
         "roll_growth_rate": var(e["roll_growth_rate"], "s-1",

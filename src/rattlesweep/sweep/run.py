@@ -136,6 +136,9 @@ def run_sweep(sweep: Sweep, out_dir: str | os.PathLike, *, client: Any = None,
     """
     if not isinstance(sweep, Sweep):
         raise ValueError(f"sweep must be a rattlesweep.Sweep, got {type(sweep).__name__}")
+    if not sweep.simulates:
+        raise ValueError("fixed.t_end: the end time (s) is required to simulate a sweep "
+                         "(fixed or as an axis)")
     if client is not None and scheduler is not None:
         raise ValueError("give either client or scheduler, not both")
     if workers is not None and not (isinstance(workers, int) and workers >= 1):

@@ -232,7 +232,8 @@ class Sweep:
     fixed : mapping of parameter name to a number or ``{"value", "units"}``; ``body`` to
         a preset name, a :class:`~rattlesweep.Body` or a body table. Launch, friction and
         numerics parameters left out take the :func:`rattlesweep.run_batch` defaults;
-        ``t_end`` (s) is required (here or as an axis).
+        ``t_end`` (s) is required to simulate (here or as an axis); without it the
+        sweep serves :func:`rattlesweep.stability.stability_dataset` only.
     random : mapping of parameter name to ``{"uniform": [low, high]}`` or
         ``{"normal": [mean, std]}`` (truncated at 4 std), optionally with ``units``: drawn
         independently for every repeat of every grid cell, reproducibly from ``seed``.
@@ -283,8 +284,6 @@ class Sweep:
         if shape_keys and "body" in seen:
             raise ValueError(f"{seen['body']}: give either a body or the semi-ellipsoid "
                              f"parameters {shape_keys}, not both")
-        if "t_end" not in seen:
-            raise ValueError("fixed.t_end: the end time (s) is required, fixed or as an axis")
         if not shape_keys and "body" not in seen:
             fixed["body"] = "toy"
         for k, v in DEFAULTS.items():
@@ -369,6 +368,12 @@ class Sweep:
         return _body_from_dict(v, "fixed.body") if isinstance(v, Mapping) else v
 
     @property
+    def simulates(self) -> bool:
+        """True when the configuration has the end time a simulation needs (a
+        configuration without ``t_end`` serves linear stability maps only)."""
+        return any(k == "t_end" for k in (*self.axes, *self.fixed, *self.random))
+
+    @property
     def dims(self) -> tuple[str, ...]:
         return tuple(self.axes) + (("repeat",) if self.random else ())
 
@@ -425,6 +430,8 @@ class Sweep:
             varying.append((rp.key, rp.param, [lo * rp.factor, hi * rp.factor]))
         combos = list(itertools.product(*[v[2] for v in varying]))
         fixed = self.fixed_si()
+        if not self.simulates:
+            fixed["t_end"] = 1.0  # a stability-only configuration: size tiles for 1 s
         columns = {k: np.full(len(combos), v) for k, v in fixed.items()}
         body_column = None
         for j, (_, param, _) in enumerate(varying):
