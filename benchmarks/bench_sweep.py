@@ -36,7 +36,6 @@ import tempfile
 import textwrap
 import time
 
-import numpy as np
 
 from rattlesweep.batch import execute, prepare
 from rattlesweep.sweep import Sweep, run_sweep

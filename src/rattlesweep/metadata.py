@@ -4,14 +4,17 @@ from __future__ import annotations
 
 from .core.layout import STATUS_NAMES
 
-STATUS_ATTRS = {
-    "long_name": "trajectory status",
-    "flag_values": list(range(len(STATUS_NAMES))),
-    "flag_meanings": " ".join(STATUS_NAMES),
-    "comment": "ok: ran to t_end; capsized: the rim reached the floor; lifted_off: the "
-    "normal force went negative; non_finite: a state or input was NaN or inf. A stopped "
-    "trajectory keeps its last valid state.",
-}
+def flag_attrs(long_name: str, names, comment: str) -> dict:
+    """CF attributes of a categorical variable whose values 0, 1, ... mean ``names``."""
+    return {"long_name": long_name, "flag_values": list(range(len(names))),
+            "flag_meanings": " ".join(names), "comment": comment}
+
+
+STATUS_ATTRS = flag_attrs(
+    "trajectory status", STATUS_NAMES,
+    "ok: ran to t_end; capsized: the rim reached the floor; lifted_off: the normal force "
+    "went negative; non_finite: a state or input was NaN or inf. A stopped trajectory "
+    "keeps its last valid state.")
 
 VARIABLE_ATTRS = {
     # per-run observables

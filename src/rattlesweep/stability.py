@@ -33,23 +33,18 @@ All functions are vectorised: parameters broadcast together.
 
 from __future__ import annotations
 
-import math
-from typing import Any
-
 import numpy as np
 import xarray as xr
 
 from .body import Body
+from .metadata import flag_attrs
 
 MODE_NAMES = ("stable", "neutral", "pitch_unstable", "roll_unstable")
-MODE_ATTRS = {
-    "long_name": "linear stability of steady upright spin",
-    "flag_values": list(range(len(MODE_NAMES))),
-    "flag_meanings": " ".join(MODE_NAMES),
-    "comment": "stable: every eigenvalue decays; neutral: the largest real part is zero "
-    "(to 1e-9 of the largest |eigenvalue|); pitch_unstable / roll_unstable: the fastest "
-    "growing mode is the pitch-like / roll-like one.",
-}
+MODE_ATTRS = flag_attrs(
+    "linear stability of steady upright spin", MODE_NAMES,
+    "stable: every eigenvalue decays; neutral: the largest real part is zero (to 1e-9 of "
+    "the largest |eigenvalue|); pitch_unstable / roll_unstable: the fastest growing mode "
+    "is the pitch-like / roll-like one.")
 STABLE, NEUTRAL, PITCH_UNSTABLE, ROLL_UNSTABLE = range(4)
 _NEUTRAL_TOL = 1e-9
 
@@ -250,8 +245,7 @@ def stability_dataset(sweep, *, command: str | None = None) -> xr.Dataset:
     import sys
 
     from .sweep import Sweep
-    from .sweep.merge import versions
-    from .sweep.params import resolve
+    from .sweep.merge import grid_coords, versions
 
     if not isinstance(sweep, Sweep):
         sweep = Sweep.from_toml(sweep)
@@ -291,29 +285,11 @@ def stability_dataset(sweep, *, command: str | None = None) -> xr.Dataset:
     with np.errstate(divide="ignore"):
         efold = np.where(e["growth_rate"] > 0, 1.0 / e["growth_rate"], np.inf)
     data["e_folding_time"] = var(efold, "s", "1 / growth_rate (inf when not growing)")
-    coords: dict[str, Any] = {}
-    for ax in sweep.grid_axes:
-        attrs = {"long_name": ax.long_name}
-        if ax.param != "body":
-            attrs["units"] = ax.units
-        coords[ax.key] = (ax.key, ax.values, attrs)
-    if sweep.random:
-        coords["repeat"] = ("repeat", np.arange(sweep.repeats))
     for rp in sweep.random_params:
         index = np.arange(sweep.size)
         data[rp.key] = var(rp.draw(sweep.seed, index), rp.units,
                            f"{rp.long_name} (random draw)")
-    ds = xr.Dataset(data, coords=coords)
-    for key, value in sweep.fixed.items():
-        if key == "body":
-            name = value if isinstance(value, str) else value.get("body_name", "custom")
-            ds = ds.assign_coords(body=((), name, {"long_name": "body"}))
-            continue
-        number = value["value"] if isinstance(value, dict) else value
-        param, _, cf = resolve(key, value.get("units") if isinstance(value, dict) else None,
-                               f"fixed.{key}")
-        ds = ds.assign_coords({key: ((), number, {"units": cf,
-                                                  "long_name": param.long_name})})
+    ds = xr.Dataset(data, coords=grid_coords(sweep))
     ds.attrs.update(versions())
     ds.attrs.update({
         "title": f"rattlesweep linear stability of steady spin: {sweep.name}",

@@ -31,24 +31,9 @@ def versions() -> dict[str, str]:
     }
 
 
-def merge_tiles(sweep: Sweep, tiles_dir: Path, *, command: str | None = None) -> xr.Dataset:
-    """Read every tile of ``sweep`` from ``tiles_dir`` into a Dataset over the sweep's
-    dimensions, with CF attributes, the configuration and versions as global attributes.
-
-    Memory: one array per variable over the whole grid (about 120 bytes per point).
-    """
-    names = (*RESULT_VARS, "outcome", *extra_vars(sweep))
-    flat: dict[str, np.ndarray] = {}
-    for tile in range(sweep.n_tiles):
-        start, stop = sweep.tile_range(tile)
-        arrays = read_tile(tile_path(tiles_dir, tile), names)
-        for name, values in arrays.items():
-            if name not in flat:
-                flat[name] = np.empty(sweep.size, dtype=values.dtype)
-            flat[name][start:stop] = values
-    dims = sweep.dims
-    data = {name: (dims, flat[name].reshape(sweep.shape), variable_attrs(sweep, name))
-            for name in names}
+def grid_coords(sweep: Sweep) -> dict:
+    """Coordinates of a result on the sweep's grid: the axes (in the user's units), the
+    ``repeat`` index when there are random draws, and the fixed values as scalars."""
     coords: dict = {}
     for ax in sweep.grid_axes:
         attrs = {"long_name": ax.long_name}
@@ -68,6 +53,28 @@ def merge_tiles(sweep: Sweep, tiles_dir: Path, *, command: str | None = None) ->
             else (value, None)
         param, _, cf = resolve(key, units, f"fixed.{key}")
         coords[key] = ((), number, {"units": cf, "long_name": param.long_name})
+    return coords
+
+
+def merge_tiles(sweep: Sweep, tiles_dir: Path, *, command: str | None = None) -> xr.Dataset:
+    """Read every tile of ``sweep`` from ``tiles_dir`` into a Dataset over the sweep's
+    dimensions, with CF attributes, the configuration and versions as global attributes.
+
+    Memory: one array per variable over the whole grid (about 120 bytes per point).
+    """
+    names = (*RESULT_VARS, "outcome", *extra_vars(sweep))
+    flat: dict[str, np.ndarray] = {}
+    for tile in range(sweep.n_tiles):
+        start, stop = sweep.tile_range(tile)
+        arrays = read_tile(tile_path(tiles_dir, tile), names)
+        for name, values in arrays.items():
+            if name not in flat:
+                flat[name] = np.empty(sweep.size, dtype=values.dtype)
+            flat[name][start:stop] = values
+    dims = sweep.dims
+    data = {name: (dims, flat[name].reshape(sweep.shape), variable_attrs(sweep, name))
+            for name in names}
+    coords = grid_coords(sweep)
     ds = xr.Dataset(data, coords=coords)
     ds.attrs.update(run_attrs(sweep.method, None, sweep.reversal_band))
     ds.attrs.update(versions())

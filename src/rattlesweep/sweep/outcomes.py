@@ -5,20 +5,18 @@ from __future__ import annotations
 import numpy as np
 
 from ..core import layout as L
+from ..metadata import flag_attrs
 
 OUTCOME_NAMES = ("no_reversal", "reversed", "several_reversals", "stopped", "capsized",
                  "lifted_off", "numerical_failure")
 NO_REVERSAL, REVERSED, SEVERAL, STOPPED, CAPSIZED, LIFTED_OFF, FAILED = range(7)
 
-OUTCOME_ATTRS = {
-    "long_name": "outcome of the launch",
-    "flag_values": list(range(len(OUTCOME_NAMES))),
-    "flag_meanings": " ".join(OUTCOME_NAMES),
-    "comment": "capsized, lifted_off, numerical_failure: the trajectory stopped with that "
-    "status (whatever it did before); otherwise reversed: exactly one spin reversal, "
+OUTCOME_ATTRS = flag_attrs(
+    "outcome of the launch", OUTCOME_NAMES,
+    "capsized, lifted_off, numerical_failure: the trajectory stopped with that status "
+    "(whatever it did before); otherwise reversed: exactly one spin reversal, "
     "several_reversals: two or more; stopped: no reversal and the mean spin over the last "
-    "10% of the run is within the reversal band of zero; no_reversal: none of these.",
-}
+    "10% of the run is within the reversal band of zero; no_reversal: none of these.")
 
 
 def classify(status: np.ndarray, n_reversals: np.ndarray, mean_final_spin: np.ndarray,
