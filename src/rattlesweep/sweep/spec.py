@@ -6,7 +6,7 @@ values for the other parameters, and optional parameters drawn at random for eac
 ``repeats`` repeats of every grid cell. The TOML file maps one-to-one onto the class::
 
     name = "toy spin x misalignment"
-    tile_size = 2048          # points per dask task
+    tile_size = 2048          # points per dask task (optional: automatic by default)
     method = "rk4"
     reversal_band = 0.05
 
