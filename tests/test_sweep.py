@@ -321,9 +321,12 @@ def test_ctrl_c_stops_cleanly_and_resume_finishes(tmp_path):
     config = tmp_path / "kill.toml"
     config.write_text(KILL_TOML)
     out = tmp_path / "out"
+    # as from a terminal: a parent that ignores SIGINT (a background job of a
+    # non-interactive shell, as CI may be) would pass SIG_IGN on, and Python keeps it
     proc = subprocess.Popen([sys.executable, "-m", "rattlesweep.cli", "sweep", str(config),
                              "--out", str(out), "--workers", "1"],
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     tiles = out / "tiles"
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and not list(tiles.glob("tile-*.nc")):
