@@ -17,7 +17,7 @@ import numpy as np
 import xarray as xr
 
 from . import __version__
-from .body import Body
+from .body import Body, distinct_bodies
 from .core import layout as L
 from .core.stepper import (
     EULER, RK4, contact_slip_velocity, integrate_parallel, integrate_serial,
@@ -145,12 +145,8 @@ def prepare(
                 for k, v in vectors.items()}
     flat_bodies = np.broadcast_to(bodies, shape).reshape(n)
 
-    # bodies: parameters per distinct body object (ids in first-seen order)
-    ids = np.fromiter(map(id, flat_bodies), dtype=np.int64, count=n)
-    _, first, index = np.unique(ids, return_index=True, return_inverse=True)
-    order = np.argsort(first)
-    table: list[Body] = [flat_bodies[i] for i in first[order]]
-    index = np.argsort(order)[index.reshape(-1)]
+    # bodies: parameters per distinct body object
+    table, index = distinct_bodies(flat_bodies)
     body_rows = np.array([_body_row(b) for b in table])[index]
 
     if "dt" not in flat:

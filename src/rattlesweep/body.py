@@ -262,6 +262,17 @@ class Body:
                 f"inertia={self.inertia.tolist()}, full_ellipsoid={self.full_ellipsoid})")
 
 
+def distinct_bodies(bodies) -> tuple[list[Body], np.ndarray]:
+    """The distinct Body objects of a flat sequence, in first-seen order, and each
+    item's index into them (bodies are told apart by identity: a batch or grid reuses
+    the same objects, and comparing arrays field by field would cost more)."""
+    ids = np.fromiter(map(id, bodies), dtype=np.int64, count=len(bodies))
+    _, first, index = np.unique(ids, return_index=True, return_inverse=True)
+    order = np.argsort(first)
+    table = [bodies[i] for i in first[order]]
+    return table, np.argsort(order)[index.reshape(-1)]
+
+
 def _kane_levinson() -> Body:
     inertia = np.array([[2.0, 0.2, 0.0], [0.2, 16.0, 0.0], [0.0, 0.0, 17.0]]) * 1e-4
     return Body(0.20, 0.03, 0.02, 1.0, (0.0, 0.0, -0.01), inertia, full_ellipsoid=True,

@@ -64,13 +64,9 @@ def _cmd_sweep(args, argv) -> int:
 
 
 def _cmd_resume(args, argv) -> int:
-    from .sweep import Sweep
-    from .sweep.run import CONFIG_NAME
+    from .sweep.run import stored_sweep
 
-    config = Path(args.dir) / CONFIG_NAME
-    if not config.exists():
-        raise ValueError(f"{args.dir} holds no sweep ({config} not found)")
-    return _run(Sweep.from_toml(config), Path(args.dir), args, argv)
+    return _run(stored_sweep(args.dir), Path(args.dir), args, argv)
 
 
 def _cmd_demo(args, argv) -> int:

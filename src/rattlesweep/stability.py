@@ -36,7 +36,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from .body import Body
+from .body import Body, distinct_bodies
 from .metadata import flag_attrs
 
 MODE_NAMES = ("stable", "neutral", "pitch_unstable", "roll_unstable")
@@ -68,9 +68,7 @@ def body_arrays(body) -> dict[str, np.ndarray]:
     if not bodies or not all(isinstance(b, Body) for b in bodies):
         raise ValueError(f"body must be a Body or an array of Body objects, got {body!r}")
     shape = () if arr is None else arr.shape
-    ids = np.fromiter(map(id, bodies), dtype=np.int64, count=len(bodies))
-    _, first, inverse = np.unique(ids, return_index=True, return_inverse=True)
-    table = [bodies[i] for i in first]
+    table, inverse = distinct_bodies(bodies)
     com = np.array([b.com for b in table])
     inertia = np.array([b.inertia for b in table])
     _check_upright(com, inertia)
@@ -80,7 +78,7 @@ def body_arrays(body) -> dict[str, np.ndarray]:
         "ixx": inertia[:, 0, 0], "iyy": inertia[:, 1, 1], "izz": inertia[:, 2, 2],
         "ixy": inertia[:, 0, 1],
     }
-    return {k: np.asarray(v, dtype=float)[inverse.reshape(-1)].reshape(shape)
+    return {k: np.asarray(v, dtype=float)[inverse].reshape(shape)
             for k, v in cols.items()}
 
 
@@ -241,11 +239,8 @@ def stability_dataset(sweep, *, command: str | None = None) -> xr.Dataset:
     not enter the linearisation (they are kept as coordinates). Random draws of body
     parameters, spin, g or damping are honoured per repeat.
     """
-    import datetime
-    import sys
-
     from .sweep import Sweep
-    from .sweep.merge import grid_coords, versions
+    from .sweep.merge import grid_coords, sweep_attrs
 
     if not isinstance(sweep, Sweep):
         sweep = Sweep.from_toml(sweep)
@@ -290,16 +285,11 @@ def stability_dataset(sweep, *, command: str | None = None) -> xr.Dataset:
         data[rp.key] = var(rp.draw(sweep.seed, index), rp.units,
                            f"{rp.long_name} (random draw)")
     ds = xr.Dataset(data, coords=grid_coords(sweep))
-    ds.attrs.update(versions())
+    ds.attrs.update(sweep_attrs(
+        sweep, f"rattlesweep linear stability of steady spin: {sweep.name}", command))
     ds.attrs.update({
-        "title": f"rattlesweep linear stability of steady spin: {sweep.name}",
         "Conventions": "CF-1.8",
-        "sweep_name": sweep.name,
-        "sweep_config": sweep.to_toml(),
-        "sweep_dims": list(dims),
         "model": "rolling contact linearised about steady upright spin (MODEL.md section 7)",
-        "history": f"{datetime.datetime.now(datetime.timezone.utc).isoformat(timespec='seconds')}"
-                   f" {command or ' '.join(sys.argv)}",
         "references": "S. Jones and H. E. M. Hunt, Am. J. Phys. 87, 699 (2019)",
     })
     return ds

@@ -31,6 +31,17 @@ def versions() -> dict[str, str]:
     }
 
 
+def sweep_attrs(sweep: Sweep, title: str, command: str | None) -> dict:
+    """Global attributes of a result on a sweep's grid: title, the configuration and its
+    hash, the dimensions, versions, and ``history`` (UTC date and ``command``, by default
+    the process's command line)."""
+    now = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+    return {**versions(), "title": title, "sweep_name": sweep.name,
+            "sweep_config": sweep.to_toml(), "sweep_config_hash": sweep.config_hash(),
+            "sweep_dims": list(sweep.dims),
+            "history": f"{now} {command or ' '.join(sys.argv)}"}
+
+
 def grid_coords(sweep: Sweep) -> dict:
     """Coordinates of a result on the sweep's grid: the axes (in the user's units), the
     ``repeat`` index when there are random draws, and the fixed values as scalars."""
@@ -77,15 +88,6 @@ def merge_tiles(sweep: Sweep, tiles_dir: Path, *, command: str | None = None) ->
     coords = grid_coords(sweep)
     ds = xr.Dataset(data, coords=coords)
     ds.attrs.update(run_attrs(sweep.method, None, sweep.reversal_band))
-    ds.attrs.update(versions())
-    ds.attrs.update({
-        "title": f"rattlesweep parameter sweep: {sweep.name}",
-        "sweep_name": sweep.name,
-        "sweep_config": sweep.to_toml(),
-        "sweep_config_hash": sweep.config_hash(),
-        "sweep_dims": list(dims),
-        "history": f"{datetime.datetime.now(datetime.timezone.utc).isoformat(timespec='seconds')}"
-                   f" {command or ' '.join(sys.argv)}",
-    })
+    ds.attrs.update(sweep_attrs(sweep, f"rattlesweep parameter sweep: {sweep.name}", command))
     del ds.attrs["record_every"]
     return ds

@@ -185,10 +185,15 @@ def run_sweep(sweep: Sweep, out_dir: str | os.PathLike, *, client: Any = None,
     return ds
 
 
-def resume(out_dir: str | os.PathLike, **kwargs) -> xr.Dataset:
-    """Finish the sweep stored in ``out_dir`` (its ``sweep.toml``); keyword arguments as
-    for :func:`run_sweep`."""
+def stored_sweep(out_dir: str | os.PathLike) -> Sweep:
+    """The sweep whose results ``out_dir`` holds (its ``sweep.toml``)."""
     config = Path(out_dir) / CONFIG_NAME
     if not config.exists():
         raise ValueError(f"{out_dir} holds no sweep ({config} not found)")
-    return run_sweep(Sweep.from_toml(config), out_dir, **kwargs)
+    return Sweep.from_toml(config)
+
+
+def resume(out_dir: str | os.PathLike, **kwargs) -> xr.Dataset:
+    """Finish the sweep stored in ``out_dir`` (its ``sweep.toml``); keyword arguments as
+    for :func:`run_sweep`."""
+    return run_sweep(stored_sweep(out_dir), out_dir, **kwargs)

@@ -32,6 +32,7 @@ preset's.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import itertools
 import json
@@ -327,7 +328,9 @@ class Sweep:
         object.__setattr__(self, "tile_size", tile)
 
     # --- structure --------------------------------------------------------------------
-    @property
+    # cached: size, shape and tile_range are asked for per tile and would rebuild the
+    # axis arrays each time (cached_property writes the instance dict, frozen or not)
+    @functools.cached_property
     def grid_axes(self) -> tuple[Axis, ...]:
         """The axes as :class:`~rattlesweep.sweep.grid.Axis` objects, in order."""
         out = []
@@ -341,7 +344,7 @@ class Sweep:
                             param.long_name))
         return tuple(out)
 
-    @property
+    @functools.cached_property
     def random_params(self) -> tuple[RandomParam, ...]:
         out = []
         for key, spec in self.random.items():
