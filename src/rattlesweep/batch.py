@@ -337,6 +337,8 @@ def series_dataset(rec: np.ndarray, dims: tuple[str, ...]) -> dict[str, xr.DataA
         "slip_speed": var("slip_speed", np.hypot(u[..., 0], u[..., 1])),
         "slip_velocity": var("slip_velocity", u, ("horizontal",)),
         "friction_force": var("friction_force", rec[..., [L.R_FX, L.R_FY]], ("horizontal",)),
+        "friction_impulse": var("friction_impulse", rec[..., [L.R_JX, L.R_JY]],
+                                ("horizontal",)),
         "quaternion": var("quaternion", rec[..., L.R_Q0:L.R_Q0 + 4], ("quaternion_component",)),
         "omega": var("omega", rec[..., L.R_W0:L.R_W0 + 3], ("body_axis",)),
         "position": var("position", rec[..., L.R_PX:L.R_PX + 3], ("axis",)),

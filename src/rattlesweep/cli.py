@@ -1,4 +1,5 @@
-"""The ``rattlesweep`` command line: sweeps, resuming, maps, file summaries, single runs."""
+"""The ``rattlesweep`` command line: sweeps, resuming, maps, file summaries, single runs
+and their animations."""
 
 from __future__ import annotations
 
@@ -177,14 +178,19 @@ def _cmd_info(args, argv) -> int:
     return 0
 
 
-def _cmd_simulate(args, argv) -> int:
-    from .io import write_netcdf
+def _simulate_from_args(args, record_every: int | None = None):
     from .simulate import simulate
 
-    body = Body.preset(args.preset)
-    ds = simulate(body, spin=args.spin, roll=math.radians(args.roll_deg),
-                  pitch=math.radians(args.pitch_deg), mu=args.mu, damping=args.damping,
-                  t_end=args.t_end, dt=args.dt)
+    return simulate(Body.preset(args.preset), spin=args.spin,
+                    roll=math.radians(args.roll_deg), pitch=math.radians(args.pitch_deg),
+                    mu=args.mu, damping=args.damping, t_end=args.t_end, dt=args.dt,
+                    record_every=record_every)
+
+
+def _cmd_simulate(args, argv) -> int:
+    from .io import write_netcdf
+
+    ds = _simulate_from_args(args)
     if args.out:
         write_netcdf(ds, args.out)
         print(f"wrote {args.out}")
@@ -199,6 +205,37 @@ def _cmd_simulate(args, argv) -> int:
           f"reversals: {int(ds.n_reversals)}; final spin {float(ds.final_spin):+.4f} rad/s; "
           f"status: {ds.status.attrs['flag_meanings'].split()[int(ds.status)]}")
     return 0
+
+
+def _cmd_animate(args, argv) -> int:
+    import xarray as xr
+
+    from .plot import animate
+
+    if args.run is not None:
+        with xr.open_dataset(args.run) as ds:
+            run = ds.load()
+        if "quaternion" not in run:
+            raise ValueError(f"--run {args.run}: not a simulate() result (no quaternion)")
+    else:
+        run = _simulate_from_args(args)
+    t0 = time.perf_counter()
+    animate(run, args.out, frames=args.frames, fps=args.fps, dpi=args.dpi,
+            z_stretch=args.z_stretch)
+    print(f"wrote {args.out}: {args.frames} frames at {args.fps:g} fps "
+          f"({time.perf_counter() - t0:.1f} s)")
+    return 0
+
+
+def _add_launch_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--preset", default="kane_levinson", choices=sorted(PRESETS))
+    p.add_argument("--spin", type=float, default=5.0, help="rad/s about the vertical")
+    p.add_argument("--roll-deg", type=float, default=0.5, help="initial roll (degrees)")
+    p.add_argument("--pitch-deg", type=float, default=0.0, help="initial pitch (degrees)")
+    p.add_argument("--mu", type=float, default=math.inf, help="friction (inf: rolling)")
+    p.add_argument("--damping", type=float, default=0.0, help="viscous torque (N m s)")
+    p.add_argument("--t-end", type=float, default=10.0, help="end time (s)")
+    p.add_argument("--dt", type=float, default=None, help="time step (s)")
 
 
 def _add_run_options(p: argparse.ArgumentParser) -> None:
@@ -265,17 +302,23 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_info)
 
     p = sub.add_parser("simulate", help="simulate one launch of a preset body")
-    p.add_argument("--preset", default="kane_levinson", choices=sorted(PRESETS))
-    p.add_argument("--spin", type=float, default=5.0, help="rad/s about the vertical")
-    p.add_argument("--roll-deg", type=float, default=0.5, help="initial roll (degrees)")
-    p.add_argument("--pitch-deg", type=float, default=0.0, help="initial pitch (degrees)")
-    p.add_argument("--mu", type=float, default=math.inf, help="friction (inf: rolling)")
-    p.add_argument("--damping", type=float, default=0.0, help="viscous torque (N m s)")
-    p.add_argument("--t-end", type=float, default=10.0, help="end time (s)")
-    p.add_argument("--dt", type=float, default=None, help="time step (s)")
+    _add_launch_options(p)
     p.add_argument("--out", default=None, help="netCDF file to write")
     p.add_argument("--png", default=None, help="PNG of spin against time to write")
     p.set_defaults(func=_cmd_simulate)
+
+    p = sub.add_parser("animate", help="3-D animation (GIF, or MP4 with ffmpeg) of one "
+                       "launch, simulated from the options or read with --run")
+    _add_launch_options(p)
+    p.add_argument("--run", default=None, metavar="FILE.nc",
+                   help="animate this saved simulate result instead of simulating")
+    p.add_argument("--out", required=True, help="animation file (.gif or .mp4)")
+    p.add_argument("--frames", type=int, default=100, help="number of frames")
+    p.add_argument("--fps", type=float, default=20.0, help="frames per second")
+    p.add_argument("--dpi", type=int, default=80)
+    p.add_argument("--z-stretch", type=float, default=None,
+                   help="draw heights this many times larger (default: automatic)")
+    p.set_defaults(func=_cmd_animate)
     return parser
 
 

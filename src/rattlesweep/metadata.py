@@ -37,6 +37,8 @@ VARIABLE_ATTRS = {
     "slipping": ("1", "1 while the contact slips, 0 while it sticks"),
     "normal_force": ("N", "normal contact force"),
     "friction_force": ("N", "horizontal friction force on the body, world frame"),
+    "friction_impulse": ("N s", "horizontal friction impulse of re-sticking since the "
+                         "previous sample, world frame"),
     "slip_velocity": ("m s-1", "horizontal velocity of the material contact point, world frame"),
     "slip_speed": ("m s-1", "speed of the material contact point"),
     "quaternion": ("1", "orientation quaternion (w, x, y, z), body to world"),

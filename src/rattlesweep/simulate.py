@@ -38,7 +38,9 @@ def simulate(
     Returns
     -------
     xarray.Dataset over ``time`` (s) with ``spin`` (rad/s), ``energy`` (J), ``tilt`` (rad),
-    ``slipping``, ``normal_force`` (N), ``friction_force`` (N), ``slip_velocity`` and
+    ``slipping``, ``normal_force`` (N), ``friction_force`` (N), ``friction_impulse`` (N s,
+    the plastic impulses that bring a slipping contact to rest, summed since the previous
+    sample), ``slip_velocity`` and
     ``slip_speed`` (m/s), ``quaternion``, ``omega`` (rad/s), ``position`` (m) and
     ``velocity`` (m/s) of G; the per-run observables of :func:`run_batch` as scalar
     variables; every input as an attribute (units in ``<name>_units``). A status other

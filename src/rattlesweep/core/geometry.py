@@ -151,6 +151,8 @@ def plastic_contact_impulse(W, off, j, ux, uy):
     still holds, and the energy change −½ uᵀ K⁻¹ u is never positive. (Zeroing u through
     G's velocity alone, as MODEL.md section 4 words it, is not an impulse and can add
     energy; both agree as dt → 0.)
+
+    Returns the world-horizontal components of R J (N s).
     """
     p = OFF_P * BLOCK + j
     y = off * BLOCK + j
@@ -191,5 +193,8 @@ def plastic_contact_impulse(W, off, j, ux, uy):
     W[y + W0 * BLOCK] += dw0
     W[y + W1 * BLOCK] += dw1
     W[y + W2 * BLOCK] += dw2
-    W[y + VX * BLOCK] += (r00 * j0 + r01 * j1 + r02 * j2) * inv_m
-    W[y + VY * BLOCK] += (r10 * j0 + r11 * j1 + r12 * j2) * inv_m
+    jx = r00 * j0 + r01 * j1 + r02 * j2
+    jy = r10 * j0 + r11 * j1 + r12 * j2
+    W[y + VX * BLOCK] += jx * inv_m
+    W[y + VY * BLOCK] += jy * inv_m
+    return jx, jy

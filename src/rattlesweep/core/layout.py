@@ -43,7 +43,8 @@ S_MODE = 0  # 0.0 stick, 1.0 slip
 S_UHX, S_UHY = 1, 2  # last known slip direction (unit, world)
 S_USX, S_USY = 3, 4  # slip velocity at the start of the current step
 S_UPREV = 5  # |u| at the end of the previous step
-N_SWITCH = 6
+S_JX, S_JY = 6, 7  # re-stick friction impulses since the last recorded sample, world, N s
+N_SWITCH = 8
 
 # --- the per-block workspace ---------------------------------------------------------
 # Inside the time loop a block's arrays live in one flat float64 workspace W of
@@ -94,4 +95,5 @@ R_N = 16
 R_FX, R_FY = 17, 18
 R_UX, R_UY = 19, 20
 R_SLIP = 21
-N_REC = 22
+R_JX, R_JY = 22, 23  # re-stick friction impulse since the previous sample, N s
+N_REC = 24

@@ -30,9 +30,9 @@ from .layout import (
     N_WORK, NON_FINITE, O_E0, O_E_END, O_FINAL_SPIN, O_FIRST_REV, O_MAX_TILT,
     O_MEAN_FINAL_SPIN, O_N_REV, O_SLIP_FRAC, O_SPIN0, O_STATUS, O_STEPS, O_T_END, OFF_A,
     OFF_D, OFF_P, OFF_S, OFF_T, OFF_X, OFF_Y, OK, PX, PY, Q0, Q1, Q2, Q3, R_ENERGY, R_FX,
-    R_FY, R_N, R_PX, R_PY, R_PZ, R_Q0, R_SLIP, R_SPIN, R_TILT, R_UX, R_UY, R_VX, R_VY, R_VZ,
-    R_W0, S_MODE, S_UHX, S_UHY, S_UPREV, S_USX, S_USY, VX, VY, W0, W1, W2, X_FX, X_FY, X_N,
-    X_UX, X_UY,
+    R_FY, R_JX, R_JY, R_N, R_PX, R_PY, R_PZ, R_Q0, R_SLIP, R_SPIN, R_TILT, R_UX, R_UY, R_VX,
+    R_VY, R_VZ, R_W0, S_JX, S_JY, S_MODE, S_UHX, S_UHY, S_UPREV, S_USX, S_USY, VX, VY, W0, W1,
+    W2, X_FX, X_FY, X_N, X_UX, X_UY,
 )
 
 RK4 = 0
@@ -95,7 +95,8 @@ def param(W, row, j):
 
 @kernel
 def record_lane(W, j, out):
-    """Write the recorded quantities of lane j (state region Y) into out (N_REC,)."""
+    """Write the recorded quantities of lane j (state region Y) into out (N_REC,), and
+    restart lane j's impulse tally."""
     for k in range(4):
         out[R_Q0 + k] = W[at(OFF_Y, Q0 + k, j)]
     for k in range(3):
@@ -118,6 +119,10 @@ def record_lane(W, j, out):
     out[R_UX] = W[at(OFF_X, X_UX, j)]
     out[R_UY] = W[at(OFF_X, X_UY, j)]
     out[R_SLIP] = W[at(OFF_S, S_MODE, j)]
+    out[R_JX] = W[at(OFF_S, S_JX, j)]
+    out[R_JY] = W[at(OFF_S, S_JY, j)]
+    W[at(OFF_S, S_JX, j)] = 0.0  # the next sample gets the impulses after this one
+    W[at(OFF_S, S_JY, j)] = 0.0
 
 
 @kernel
@@ -231,7 +236,11 @@ def roll_now(W, j):
 def stick_now(W, j):
     """Slip → stick: a plastic contact impulse brings the contact point to rest."""
     W[at(OFF_S, S_MODE, j)] = 0.0
-    plastic_contact_impulse(W, OFF_Y, j, W[at(OFF_X, X_UX, j)], W[at(OFF_X, X_UY, j)])
+    jx, jy = plastic_contact_impulse(W, OFF_Y, j, W[at(OFF_X, X_UX, j)],
+                                     W[at(OFF_X, X_UY, j)])
+    # kept for the record: the impulse is friction too, and belongs in momentum balances
+    W[at(OFF_S, S_JX, j)] += jx
+    W[at(OFF_S, S_JY, j)] += jy
 
 
 @kernel

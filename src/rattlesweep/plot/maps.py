@@ -1,39 +1,12 @@
-"""Matplotlib pictures of results. Functions return a ``matplotlib.figure.Figure`` and
-never touch pyplot's global state, so they work headless and inside libraries."""
+"""Maps of sweep and stability results over two of their axes, and the comparison of
+simulated reversal times with linear growth rates."""
 
 from __future__ import annotations
-
-from typing import Sequence
 
 import xarray as xr
 from matplotlib.figure import Figure
 
-
-def _label(da: xr.DataArray, fallback: str) -> str:
-    name = da.attrs.get("long_name", fallback)
-    units = da.attrs.get("units")
-    return f"{name} [{units}]" if units and units != "1" else name
-
-
-def spin_history(runs: Sequence[xr.Dataset], labels: Sequence[str] | None = None,
-                 *, title: str | None = None) -> Figure:
-    """Spin (rad/s) against time (s) for one or more :func:`rattlesweep.simulate` results,
-    with each run's first reversal marked."""
-    fig = Figure(figsize=(7.0, 4.0), layout="constrained")
-    ax = fig.add_subplot()
-    labels = labels or [f"run {i}" for i in range(len(runs))]
-    for ds, label in zip(runs, labels):
-        (line,) = ax.plot(ds.time, ds.spin, label=label)
-        t_rev = float(ds.first_reversal_time)
-        if t_rev == t_rev:  # not NaN
-            ax.axvline(t_rev, color=line.get_color(), ls=":", lw=1)
-    ax.axhline(0.0, color="0.6", lw=0.8)
-    ax.set_xlabel(_label(runs[0].time, "time"))
-    ax.set_ylabel(_label(runs[0].spin, "spin"))
-    ax.legend()
-    if title:
-        ax.set_title(title)
-    return fig
+from .labels import axis_label as _label
 
 
 OUTCOME_COLOURS = {
@@ -209,7 +182,7 @@ def mpl_cmap(name: str):
 def reversed_fraction(sweep: xr.Dataset) -> xr.DataArray:
     """Fraction (0 or 1 per launch; averaged by callers) of launches that reversed at
     least once, from a sweep's ``outcome``."""
-    from .sweep.outcomes import REVERSED, SEVERAL
+    from ..sweep.outcomes import REVERSED, SEVERAL
 
     return sweep.outcome.isin([REVERSED, SEVERAL]).astype(float)
 
@@ -246,7 +219,8 @@ def reversal_vs_growth(stability: xr.Dataset, sweep: xr.Dataset, *,
                        color_by: str | None = None, title: str | None = None) -> Figure:
     """Predicted against simulated: first reversal time (s) of each launch that reversed
     against the linear e-folding time 1/growth_rate (s) at the same grid point, log-log,
-    coloured by ``color_by`` (a dimension) when given."""
+    coloured by ``color_by`` (a dimension) when given: a legend when the dimension has up to 8
+    values, a colour bar when it has more."""
     import numpy as np
 
     t_rev = sweep.first_reversal_time
@@ -268,11 +242,16 @@ def reversal_vs_growth(stability: xr.Dataset, sweep: xr.Dataset, *,
         c = np.broadcast_to(t_rev[color_by].values.reshape(
             [-1 if d == color_by else 1 for d in t_rev.dims]), t_rev.shape)
         values = np.unique(c[ok])
-        for i, v in enumerate(values):
-            sel = ok & (c == v)
-            ax.scatter(efold.values[sel], t_rev.values[sel], s=8, color=f"C{i}",
-                       label=_fmt_coord(t_rev, color_by, v.item()))
-        ax.legend(fontsize="small")
+        if t_rev.sizes[color_by] <= 8 or c.dtype.kind not in "fiu":
+            for i, v in enumerate(values):
+                sel = ok & (c == v)
+                ax.scatter(efold.values[sel], t_rev.values[sel], s=8, color=f"C{i % 10}",
+                           label=_fmt_coord(t_rev, color_by, v.item()))
+            ax.legend(fontsize="small")
+        else:  # too many values for a legend: a colour bar
+            points = ax.scatter(efold.values[ok], t_rev.values[ok], s=8, c=c[ok],
+                                cmap="viridis")
+            fig.colorbar(points, ax=ax, label=_label(t_rev[color_by], color_by))
     else:
         ax.scatter(efold.values[ok], t_rev.values[ok], s=8)
     ax.set_xscale("log")

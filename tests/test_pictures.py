@@ -1,0 +1,166 @@
+"""Contact kinematics of a run, the friction impulses the kernel records, the run
+pictures (time-series panels, contact paths) and the animation."""
+
+import math
+
+import numpy as np
+import pytest
+from matplotlib.collections import PolyCollection
+
+import rattlesweep as rs
+from rattlesweep.cli import main
+from rattlesweep.contact import contact_dataset
+from rattlesweep.planar import PlanarBody, simulate_planar
+from rattlesweep.plot import animate, contact_path, time_series
+
+from conftest import HALF_DEGREE
+
+
+@pytest.fixture(scope="module")
+def slipping_run(kl):
+    """The fast sense of kane_levinson at mu = 0.3: it slips, re-sticks and reverses."""
+    return rs.simulate(kl, spin=5.0, roll=HALF_DEGREE, mu=0.3, t_end=6.0)
+
+
+def _momentum_balance_error(body, dt, mu, t_end=5.0):
+    """max |∫ friction couple dt + Σ impulse couples − ΔL_z| over a fully recorded run,
+    relative to max |ΔL_z|."""
+    run = rs.simulate(body, spin=5.0, roll=HALF_DEGREE, mu=mu, t_end=t_end, dt=dt,
+                      record_every=1)
+    c = contact_dataset(run)
+    f = c.friction_couple.values
+    t = c.time.values
+    moment = np.concatenate([[0.0], np.cumsum(0.5 * (f[1:] + f[:-1]) * np.diff(t))])
+    moment += np.cumsum(c.impulse_couple.values)
+    change = c.angular_momentum_z.values - c.angular_momentum_z.values[0]
+    return np.abs(moment - change).max() / np.abs(change).max()
+
+
+def test_contact_point_is_on_the_surface_and_on_the_floor(slipping_run):
+    c = contact_dataset(slipping_run)
+    a, b, cc = (slipping_run.attrs[k] for k in ("a", "b", "c"))
+    x, y, z = c.contact_body.transpose("body_axis", "time").values
+    np.testing.assert_allclose(x**2 / a**2 + y**2 / b**2 + z**2 / cc**2, 1.0, atol=1e-12)
+    assert (z < 0).all()
+    # G's recorded height plus the lever's vertical part puts the point on Z = 0
+    height = slipping_run.position.sel(axis="Z").values + c.lever.sel(axis="Z").values
+    assert np.abs(height).max() < 1e-12
+    # it wanders over the body (up to ~50 mm along x for this pitching launch)
+    assert np.ptp(x) > 0.02
+
+
+def test_friction_moment_accounts_for_the_vertical_angular_momentum(kl):
+    """Without damping friction is the only vertical moment about G. Rolling: the
+    trapezoid sum of the couple converges to ΔL_z at second order. Slipping: the
+    switching is first order in dt, and the recorded re-stick impulses are part of the
+    balance (leaving them out doubles the error)."""
+    dt = kl.default_dt(9.81)
+    rolling = [_momentum_balance_error(kl, dt / k, math.inf) for k in (1, 2)]
+    assert rolling[0] < 2e-3
+    assert 3.0 < rolling[0] / rolling[1] < 5.0
+    slipping = [_momentum_balance_error(kl, dt / k, 0.3) for k in (2, 4)]
+    assert slipping[1] < 0.03
+    assert 1.5 < slipping[0] / slipping[1] < 2.6
+
+
+def test_friction_impulses_are_recorded_whatever_the_stride(kl):
+    runs = [rs.simulate(kl, spin=5.0, roll=HALF_DEGREE, mu=0.3, t_end=4.0, record_every=k)
+            for k in (1, 7)]
+    fine, coarse = (r.friction_impulse.values for r in runs)
+    assert np.abs(fine).sum() > 0.01  # this launch does re-stick
+    # sums over each coarse sample's window of fine steps ((k-1)*7, k*7]
+    n = coarse.shape[0]
+    windows = np.add.reduceat(fine[1:7 * (n - 1) + 1], np.arange(0, 7 * (n - 1), 7))
+    np.testing.assert_allclose(coarse[1:], windows, rtol=1e-12, atol=1e-15)
+    rolling = rs.simulate(kl, spin=5.0, roll=HALF_DEGREE, t_end=2.0)
+    assert (rolling.friction_impulse.values == 0).all()
+
+
+def test_time_series_panels_have_units_and_shade_slipping(slipping_run):
+    fig = time_series(slipping_run)
+    axes = fig.axes
+    assert len(axes) == 5
+    for ax, units in zip(axes, ["[rad s-1]", "[rad]", "[J]", "[m s-1]", "[N]"]):
+        assert units in ax.get_ylabel().replace("\n", " ")
+        assert any(isinstance(a, PolyCollection) for a in ax.collections)  # shading
+    assert axes[-1].get_xlabel() == "time [s]"
+    assert [t.get_text() for t in fig.legends[0].get_texts()] == ["slipping", "sticking"]
+
+
+def test_time_series_of_a_rolling_run_has_no_shading_and_picks_variables(kl):
+    run = rs.simulate(kl, spin=-5.0, roll=HALF_DEGREE, t_end=1.0)
+    fig = time_series(run.merge(contact_dataset(run)),
+                      ["spin", "friction_force", "friction_couple"])
+    assert not any(ax.collections for ax in fig.axes)
+    assert "[N m]" in fig.axes[2].get_ylabel().replace("\n", " ")
+    assert [t.get_text() for t in fig.axes[1].get_legend().get_texts()] == ["X", "Y"]
+    with pytest.raises(ValueError, match="'nope' is not a series"):
+        time_series(run, ["spin", "nope"])
+    with pytest.raises(ValueError, match="an xarray.Dataset over 'time'"):
+        time_series(run.spin)
+
+
+def test_time_series_of_the_planar_model():
+    run = simulate_planar(PlanarBody(0.10, 0.05, 1.0), theta=0.6, mu=0.2, t_end=2.0)
+    fig = time_series(run)
+    labels = [ax.get_ylabel().replace("\n", " ") for ax in fig.axes]
+    assert len(labels) == 5
+    assert "[rad]" in labels[0] and "[rad s-1]" in labels[1] and "[N]" in labels[4]
+
+
+def test_contact_path_panels(kl, slipping_run):
+    other = rs.simulate(kl, spin=-5.0, roll=HALF_DEGREE, mu=0.3, t_end=6.0)
+    fig = contact_path([slipping_run, other], ["+5 rad/s", "-5 rad/s"])
+    panels = [ax for ax in fig.axes if ax.get_label() != "<colorbar>"]
+    assert [ax.get_title() for ax in panels] == ["+5 rad/s", "-5 rad/s"]
+    assert panels[0].get_xlabel() == "contact point, body x [mm]"
+    assert panels[0].get_ylabel() == "contact point, body y [mm]"
+    assert fig.axes[-1].get_ylabel() == "time [s]"  # the colour bar
+    floor = contact_path(slipping_run, frame="floor")
+    assert floor.axes[0].get_xlabel() == "contact point, floor X [mm]"
+    with pytest.raises(ValueError, match="frame must be 'body' or 'floor'"):
+        contact_path(slipping_run, frame="world")
+    with pytest.raises(ValueError, match="labels has 1 entries for 2 runs"):
+        contact_path([slipping_run, other], ["one"])
+
+
+def test_animation_has_the_requested_frames(tmp_path, slipping_run):
+    from PIL import Image
+
+    out = animate(slipping_run, tmp_path / "run.gif", frames=7, fps=5)
+    with Image.open(out) as gif:
+        assert gif.n_frames == 7
+        assert gif.info["duration"] == 200  # ms per frame at 5 fps
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.gif"]  # no temp file left
+
+
+def test_animation_refuses_bad_requests(tmp_path, slipping_run):
+    n = slipping_run.sizes["time"]
+    with pytest.raises(ValueError, match=f"frames must be an integer from 1 to the run's {n}"):
+        animate(slipping_run, tmp_path / "a.gif", frames=n + 1)
+    with pytest.raises(ValueError, match="suffix must be one of"):
+        animate(slipping_run, tmp_path / "a.avi")
+    with pytest.raises(ValueError, match="fps must be > 0"):
+        animate(slipping_run, tmp_path / "a.gif", fps=0)
+    with pytest.raises(ValueError, match="z_stretch must be"):
+        animate(slipping_run, tmp_path / "a.gif", z_stretch=0.5)
+    with pytest.raises(ValueError, match="does not exist"):
+        animate(slipping_run, tmp_path / "missing" / "a.gif")
+    assert not any(tmp_path.iterdir())
+
+
+def test_cli_animate_from_options_and_from_a_file(tmp_path, capsys):
+    from PIL import Image
+
+    gif = tmp_path / "spin.gif"
+    assert main(["animate", "--spin", "-3", "--t-end", "1", "--frames", "4",
+                 "--out", str(gif)]) == 0
+    with Image.open(gif) as im:
+        assert im.n_frames == 4
+    nc = tmp_path / "run.nc"
+    assert main(["simulate", "--t-end", "0.5", "--out", str(nc)]) == 0
+    assert main(["animate", "--run", str(nc), "--frames", "3", "--out",
+                 str(tmp_path / "file.gif")]) == 0
+    assert "3 frames" in capsys.readouterr().out
+    assert main(["animate", "--run", str(nc), "--out", str(tmp_path / "x.webm")]) == 2
+    assert "suffix must be one of" in capsys.readouterr().err
