@@ -178,13 +178,12 @@ def _cmd_info(args, argv) -> int:
     return 0
 
 
-def _simulate_from_args(args, record_every: int | None = None):
+def _simulate_from_args(args):
     from .simulate import simulate
 
     return simulate(Body.preset(args.preset), spin=args.spin,
                     roll=math.radians(args.roll_deg), pitch=math.radians(args.pitch_deg),
-                    mu=args.mu, damping=args.damping, t_end=args.t_end, dt=args.dt,
-                    record_every=record_every)
+                    mu=args.mu, damping=args.damping, t_end=args.t_end, dt=args.dt)
 
 
 def _cmd_simulate(args, argv) -> int:

@@ -29,8 +29,9 @@ def animate(run: xr.Dataset, path: str | os.PathLike, *, frames: int = 100,
     The file has exactly ``frames`` frames, evenly spaced over the recorded samples, and
     plays at ``fps`` frames per second. The suffix picks the format: ``.gif`` (Pillow) or
     ``.mp4`` (ffmpeg, when installed). Drawn: the body (its curved surface, and the flat
-    face's rim with a mark at the +x end), the floor, the contact point (red) and an
-    arrow along the vertical through G whose length and direction follow the spin.
+    face's rim with a mark at the +x end), the floor with the contact point's trace, the
+    contact point (red) and, above the body on the vertical through G, an arrow whose
+    length and direction follow the spin.
     Axes are world X, Y, Z in metres. ``z_stretch`` draws Z that many times larger than
     X and Y, which makes small tilts visible (the tick labels stay true); by default 1,
     or enough to make the height at least a third of the width for flat bodies, and the
