@@ -146,6 +146,8 @@ def test_animation_refuses_bad_requests(tmp_path, slipping_run):
         animate(slipping_run, tmp_path / "a.gif", z_stretch=0.5)
     with pytest.raises(ValueError, match="does not exist"):
         animate(slipping_run, tmp_path / "missing" / "a.gif")
+    with pytest.raises(ValueError, match="run has no variable 'quaternion'"):
+        animate(slipping_run.drop_vars("quaternion"), tmp_path / "a.gif")
     assert not any(tmp_path.iterdir())
 
 

@@ -67,17 +67,20 @@ def _as_float(name: str, value) -> np.ndarray:
         raise ValueError(f"{name} must be a number or an array of numbers, got {value!r}") from None
 
 
-def _as_bodies(body) -> np.ndarray:
-    if isinstance(body, Body):
+def as_bodies(body, cls: type = Body) -> np.ndarray:
+    """``body`` as an object array of ``cls`` instances (0-d for a single body)."""
+    name = cls.__name__
+    if isinstance(body, cls):
         arr = np.empty((), dtype=object)
         arr[()] = body
         return arr
     arr = np.asarray(body, dtype=object)
     if arr.size == 0:
-        raise ValueError("body must be a Body or a non-empty array of Body objects")
+        raise ValueError(f"body must be a {name} or a non-empty array of {name} objects")
     for item in arr.flat:
-        if not isinstance(item, Body):
-            raise ValueError(f"body must be a Body or an array of Body objects, got {item!r}")
+        if not isinstance(item, cls):
+            raise ValueError(f"body must be a {name} or an array of {name} objects, "
+                             f"got {item!r}")
     return arr
 
 
@@ -99,7 +102,7 @@ def prepare(
     if t_end is None:
         raise ValueError("t_end (s) is required")
 
-    bodies = _as_bodies(body)
+    bodies = as_bodies(body)
     scalars = {
         "roll": roll, "pitch": pitch, "yaw": yaw, "mu": mu,
         "mu_static": mu if mu_static is None else mu_static,

@@ -214,8 +214,6 @@ def _cmd_animate(args, argv) -> int:
     if args.run is not None:
         with xr.open_dataset(args.run) as ds:
             run = ds.load()
-        if "quaternion" not in run:
-            raise ValueError(f"--run {args.run}: not a simulate() result (no quaternion)")
     else:
         run = _simulate_from_args(args)
     t0 = time.perf_counter()

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
+from .launch import rotation_matrices
 from .metadata import attrs_for
 
 CONTACT_ATTRS = {
@@ -28,14 +29,19 @@ CONTACT_ATTRS = {
 }
 
 
-def rotation_matrices(q: np.ndarray) -> np.ndarray:
-    """Rotation matrices (..., 3, 3), body to world, of quaternions (..., 4) = (w, x, y, z)."""
-    w, x, y, z = np.moveaxis(q / np.linalg.norm(q, axis=-1, keepdims=True), -1, 0)
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
-    ], -2)
+RUN_SERIES = ("quaternion", "position", "friction_force", "friction_impulse", "omega")
+
+
+def check_run(run) -> None:
+    """Raise ValueError unless ``run`` is a recorded :func:`rattlesweep.simulate` result
+    (or its file): a Dataset over ``time`` with the series contact kinematics needs."""
+    if not isinstance(run, xr.Dataset) or "time" not in run.dims:
+        raise ValueError("run must be an xarray.Dataset over 'time' (a rattlesweep.simulate "
+                         f"result or its netCDF file), got {type(run).__name__}")
+    for name in RUN_SERIES:
+        if name not in run:
+            raise ValueError(f"run has no variable {name!r}; contact kinematics need a "
+                             "rattlesweep.simulate result (or its netCDF file)")
 
 
 def _run_attr(run: xr.Dataset, name: str):
@@ -72,10 +78,7 @@ def contact_dataset(run: xr.Dataset) -> xr.Dataset:
     couples equals the change of ``angular_momentum_z``: that is how friction turns the
     spin round.
     """
-    for name in ("quaternion", "position", "friction_force", "friction_impulse", "omega"):
-        if name not in run:
-            raise ValueError(f"run has no variable {name!r}; contact_dataset needs a "
-                             "rattlesweep.simulate result (or its netCDF file)")
+    check_run(run)
     axes, com, inertia = body_geometry(run)
     rot = rotation_matrices(run.quaternion.transpose("time", "quaternion_component").values)
     up = rot[:, 2, :]                                   # world Z in body axes

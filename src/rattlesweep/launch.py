@@ -37,14 +37,21 @@ def quaternion_from_angles(roll, pitch, yaw) -> np.ndarray:
     ], axis=-1)
 
 
-def up_vector(q: np.ndarray) -> np.ndarray:
-    """World up-vector in body components, Rᵀ Ẑ, for unit quaternions (..., 4)."""
+def rotation_matrices(q: np.ndarray) -> np.ndarray:
+    """Rotation matrices R (..., 3, 3), body to world, of unit quaternions (..., 4) =
+    (w, x, y, z)."""
     w, x, y, z = np.moveaxis(q, -1, 0)
     return np.stack([
-        2 * (x * z - w * y),
-        2 * (y * z + w * x),
-        1 - 2 * (x * x + y * y),
-    ], axis=-1)
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
+    ], -2)
+
+
+def up_vector(q: np.ndarray) -> np.ndarray:
+    """World up-vector in body components, Rᵀ Ẑ (the last row of R), for unit quaternions
+    (..., 4)."""
+    return rotation_matrices(q)[..., 2, :]
 
 
 def check_unit_quaternion(q: np.ndarray) -> None:

@@ -14,7 +14,9 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from ..batch import _as_float, _fail, _numba_threads, check_method, check_record_every, run_attrs
+from ..batch import (
+    _as_float, _fail, _numba_threads, as_bodies, check_method, check_record_every, run_attrs,
+)
 from ..core import planar as K
 from ..core.layout import BLOCK
 from .body import PlanarBody
@@ -35,18 +37,6 @@ class PlanarPrepared:
     coords: dict[str, np.ndarray]  # name -> flat values over the trajectories
 
 
-def _as_bodies(body) -> np.ndarray:
-    if isinstance(body, PlanarBody):
-        arr = np.empty((), dtype=object)
-        arr[()] = body
-        return arr
-    arr = np.asarray(body, dtype=object)
-    if arr.size == 0 or not all(isinstance(b, PlanarBody) for b in arr.flat):
-        raise ValueError(f"body must be a PlanarBody or a non-empty array of PlanarBody "
-                         f"objects, got {body!r}")
-    return arr
-
-
 def prepare_planar(body, *, theta, rate=0.0, velocity=None, mu=math.inf, mu_static=None,
                    g=9.81, dt=None, t_end) -> PlanarPrepared:
     """Validate and broadcast planar launch inputs and pack them for the kernel.
@@ -59,7 +49,7 @@ def prepare_planar(body, *, theta, rate=0.0, velocity=None, mu=math.inf, mu_stat
         raise ValueError("theta (rad) is required")
     if t_end is None:
         raise ValueError("t_end (s) is required")
-    bodies = _as_bodies(body)
+    bodies = as_bodies(body, PlanarBody)
     inputs = {"theta": theta, "rate": rate, "mu": mu,
               "mu_static": mu if mu_static is None else mu_static, "g": g, "t_end": t_end}
     if velocity is not None:

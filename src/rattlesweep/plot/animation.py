@@ -40,8 +40,10 @@ def animate(run: xr.Dataset, path: str | os.PathLike, *, frames: int = 100,
     """
     from matplotlib import animation
 
-    from ..contact import body_geometry, contact_dataset, rotation_matrices
+    from ..contact import body_geometry, check_run, contact_dataset
+    from ..launch import rotation_matrices
 
+    check_run(run)
     path = Path(path)
     writer = WRITERS.get(path.suffix.lower())
     if writer is None:
@@ -49,7 +51,7 @@ def animate(run: xr.Dataset, path: str | os.PathLike, *, frames: int = 100,
     if not animation.writers.is_available(writer):
         raise ValueError(f"path {str(path)!r}: writing {path.suffix} needs {writer!r}, which "
                          "is not available here; use a .gif path")
-    n_samples = run.sizes.get("time", 0)
+    n_samples = run.sizes["time"]
     if not isinstance(frames, (int, np.integer)) or not 1 <= frames <= n_samples:
         raise ValueError(f"frames must be an integer from 1 to the run's {n_samples} "
                          f"recorded samples, got {frames!r} (record more with "
@@ -80,8 +82,8 @@ def animate(run: xr.Dataset, path: str | os.PathLike, *, frames: int = 100,
     y_lo, y_hi = pos[:, 1].min() - reach, pos[:, 1].max() + reach
     # the spin arrow stands above the body's highest point, up for + and down for -
     arrow = 1.5 * max(c, 0.5 * b)
-    top = np.array([(np.einsum("ij,jab->iab", rot[k], mesh)[2] + pos[k, 2]).max()
-                    for k in range(frames)])
+    world = np.einsum("kij,jab->kiab", rot, mesh) + pos[:, :, None, None]  # every frame
+    top = world[:, 2].max(axis=(1, 2))
     z_hi = float(top.max()) + 1.25 * arrow
     width = max(x_hi - x_lo, y_hi - y_lo)
     if z_stretch is None:
@@ -114,8 +116,7 @@ def animate(run: xr.Dataset, path: str | os.PathLike, *, frames: int = 100,
         for artist in drawn:
             artist.remove()
         drawn.clear()
-        world = np.einsum("ij,jab->iab", rot[k], mesh) + pos[k][:, None, None]
-        drawn.append(ax.plot_surface(*world, color="#c8a165", edgecolor="#8a6a3a",
+        drawn.append(ax.plot_surface(*world[k], color="#c8a165", edgecolor="#8a6a3a",
                                      lw=0.15, alpha=0.85))
         r = rot[k] @ rim + pos[k][:, None]
         drawn.extend(ax.plot(*r, color="#5a3d1a", lw=1.2))
