@@ -23,15 +23,18 @@ from .layout import (
 
 
 @kernel
-def eval_block(W, slip_possible):
+def eval_block(W, slip_possible, outputs):
     """Time derivative of every lane of a block, plus its contact forces.
 
     W is the block workspace (see :mod:`.layout`). Reads the parameters (region P), the
     stage input state (region T) and, from the switching state (region S), each lane's
-    contact mode and stored slip direction; writes the derivative (region D) and the
-    normal force, friction force and slip velocity (region X). ``slip_possible`` must be
-    a literal: False promises that every lane sticks, and compiles a variant without the
-    slip-only work (the slip velocity in X is then not written).
+    contact mode and stored slip direction; writes the derivative (region D) and, when
+    ``outputs``, the normal force, friction force and slip velocity (region X). Both
+    flags must be literals, so each combination compiles to its own variant:
+    ``slip_possible=False`` promises that every lane sticks and drops the slip-only work;
+    ``outputs=False`` (the inner RK stages, whose forces nobody reads) drops the work
+    that only feeds region X. A lane's derivative is computed by the same operations in
+    every variant, so it does not depend on which one ran.
 
     Stick (material contact point at rest):
         (I + m(|ρ|²𝟙 − ρρᵀ)) ω̇ = −ω × Iω − c_v ω + m ρ × (g n̂ − w)
@@ -40,6 +43,7 @@ def eval_block(W, slip_possible):
     with w = ω × (ω × ρ + ṡ_P), N₀ = m(g − n̂·w) and, in both modes, N = N₀ − m l·ω̇.
     """
     numba.literally(slip_possible)
+    numba.literally(outputs)
     for j in range(BLOCK):
         # row r of region R is W[(OFF_R + r) * BLOCK]
         p = OFF_P * BLOCK + j
@@ -169,9 +173,9 @@ def eval_block(W, slip_possible):
         W[d + PY * BLOCK] = W[y + VY * BLOCK]
         W[d + VX * BLOCK] = fx / m
         W[d + VY * BLOCK] = fy / m
-        W[x + X_N * BLOCK] = normal
-        W[x + X_FX * BLOCK] = fx
-        W[x + X_FY * BLOCK] = fy
-        if slip_possible:  # stick-only stages need no slip velocity
+        if outputs:
+            W[x + X_N * BLOCK] = normal
+            W[x + X_FX * BLOCK] = fx
+            W[x + X_FY * BLOCK] = fy
             W[x + X_UX * BLOCK] = ux
             W[x + X_UY * BLOCK] = uy

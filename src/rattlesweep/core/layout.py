@@ -46,6 +46,27 @@ S_UPREV = 5  # |u| at the end of the previous step
 S_JX, S_JY = 6, 7  # re-stick friction impulses since the last recorded sample, world, N s
 N_SWITCH = 8
 
+# --- per-lane bookkeeping of the time loop, rows of region K -------------------------
+# Kept as float rows of the workspace, not as separate arrays, so the once-per-step
+# passes over them vectorise like the right-hand side.
+K_RUN = 0  # 1.0 while the lane is stepped (status ok and its last step not reached)
+K_OPEN = 1  # 1.0 until the lane's final state and observables are written out
+K_STOP = 2  # last step index with a valid state
+K_WIN0 = 3  # first step index whose new state counts in the final-spin window
+K_BAND = 4  # reversal band as a spin, rad/s: band * |spin(0)|
+K_SIDE = 5  # sign of the spin's current side (0: no reversal tracking)
+K_T_CROSS = 6  # s, last zero crossing of the spin
+K_T_CAND = 7  # s, scratch: the crossing instant if the spin crossed zero in this step
+K_SPIN_PREV = 8  # rad/s, spin after the previous step
+K_N_REV = 9
+K_FIRST_REV = 10  # s, NaN when none
+K_WIN_SUM = 11  # rad/s
+K_WIN_CNT = 12
+K_MIN_UP = 13  # smallest vertical component of the body's up-axis so far
+K_SLIP_STEPS = 14
+K_FLAG = 15  # scratch: non-zero where a lane needs scalar work after a vector pass
+N_BOOK = 16
+
 # --- the per-block workspace ---------------------------------------------------------
 # Inside the time loop a block's arrays live in one flat float64 workspace W of
 # N_WORK * BLOCK elements; row r of region OFF_x starts at (OFF_x + r) * BLOCK. With one
@@ -59,7 +80,8 @@ OFF_D = OFF_T + N_STATE  # derivative at the stage input
 OFF_A = OFF_D + N_STATE  # RK4 accumulator
 OFF_X = OFF_A + N_STATE  # auxiliary outputs (N_AUX rows)
 OFF_S = OFF_X + N_AUX  # switching state (N_SWITCH rows)
-N_WORK = OFF_S + N_SWITCH
+OFF_K = OFF_S + N_SWITCH  # time-loop bookkeeping (N_BOOK rows)
+N_WORK = OFF_K + N_BOOK
 
 # --- status codes --------------------------------------------------------------------
 OK = 0

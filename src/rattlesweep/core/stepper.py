@@ -26,13 +26,14 @@ from .dynamics import eval_block
 from .geometry import energy_terms, plastic_contact_impulse
 from .jit import kernel, parallel_kernel
 from .layout import (
-    BLOCK, CAPSIZED, DT, EPS_U, FULL, GRAV, LIFTED_OFF, MU_K, MU_S, N_STATE,
-    N_WORK, NON_FINITE, O_E0, O_E_END, O_FINAL_SPIN, O_FIRST_REV, O_MAX_TILT,
-    O_MEAN_FINAL_SPIN, O_N_REV, O_SLIP_FRAC, O_SPIN0, O_STATUS, O_STEPS, O_T_END, OFF_A,
-    OFF_D, OFF_P, OFF_S, OFF_T, OFF_X, OFF_Y, OK, PX, PY, Q0, Q1, Q2, Q3, R_ENERGY, R_FX,
-    R_FY, R_JX, R_JY, R_N, R_PX, R_PY, R_PZ, R_Q0, R_SLIP, R_SPIN, R_TILT, R_UX, R_UY, R_VX,
-    R_VY, R_VZ, R_W0, S_JX, S_JY, S_MODE, S_UHX, S_UHY, S_UPREV, S_USX, S_USY, VX, VY, W0, W1,
-    W2, X_FX, X_FY, X_N, X_UX, X_UY,
+    BLOCK, CAPSIZED, DT, EPS_U, FULL, GRAV, K_BAND, K_FIRST_REV, K_FLAG, K_MIN_UP, K_N_REV, K_OPEN,
+    K_RUN, K_SIDE, K_SLIP_STEPS, K_SPIN_PREV, K_STOP, K_T_CAND, K_T_CROSS, K_WIN0, K_WIN_CNT,
+    K_WIN_SUM, LIFTED_OFF, MU_K, MU_S, NON_FINITE, N_STATE, N_WORK, OFF_A, OFF_D, OFF_K, OFF_P,
+    OFF_S, OFF_T, OFF_X, OFF_Y, OK, O_E0, O_E_END, O_FINAL_SPIN, O_FIRST_REV, O_MAX_TILT,
+    O_MEAN_FINAL_SPIN, O_N_REV, O_SLIP_FRAC, O_SPIN0, O_STATUS, O_STEPS, O_T_END, PX, PY, Q0, Q1,
+    Q2, Q3, R_ENERGY, R_FX, R_FY, R_JX, R_JY, R_N, R_PX, R_PY, R_PZ, R_Q0, R_SLIP, R_SPIN, R_TILT,
+    R_UX, R_UY, R_VX, R_VY, R_VZ, R_W0, S_JX, S_JY, S_MODE, S_UHX, S_UHY, S_UPREV, S_USX, S_USY, VX,
+    VY, W0, W1, W2, X_FX, X_FY, X_N, X_UX, X_UY,
 )
 
 RK4 = 0
@@ -126,22 +127,26 @@ def record_lane(W, j, out):
 
 
 @kernel
-def evaluate_state(W):
+def evaluate_state(W, slip_possible):
     """Evaluate the right-hand side, with every output, at the step-start state Y
-    (copied into region T)."""
+    (copied into region T). ``slip_possible`` as in :func:`.eval_block`, at run time:
+    False only when no lane that is still stepping slips."""
     for k in range(N_STATE):
         for j in range(BLOCK):
             W[at(OFF_T, k, j)] = W[at(OFF_Y, k, j)]
-    eval_block(W, True)
+    if slip_possible:
+        eval_block(W, True, True)
+    else:
+        eval_block(W, False, True)
 
 
 @kernel
 def eval_stage(W, slip_possible):
-    """eval_block with the run-time flag turned into the literal its variants need."""
+    """Derivative only (no forces) at an inner RK stage, in the variant the flag picks."""
     if slip_possible:
-        eval_block(W, True)
+        eval_block(W, True, False)
     else:
-        eval_block(W, False)
+        eval_block(W, False, False)
 
 
 @kernel
@@ -243,6 +248,207 @@ def stick_now(W, j):
     W[at(OFF_S, S_JY, j)] += jy
 
 
+# --- once-per-step passes over a block ------------------------------------------------
+# Each is one straight loop over the lanes that writes every lane (no stores on only
+# some lanes), so it vectorises like the right-hand side. Lanes that need scalar work (a
+# mode switch, a status change, a spin reversal) are flagged in row K_FLAG and handled
+# afterwards, only when :func:`count_flags` finds any. A lane whose run has ended is
+# written out at once by :func:`finish_lane` and then frozen (:func:`freeze_lane`): its
+# time step is set to zero and its state to a harmless one, so the passes may go on
+# updating it without masks; nothing reads it again.
+
+
+@kernel
+def count_flags(W):
+    """How many lanes have a non-zero K_FLAG."""
+    n = 0
+    for j in range(BLOCK):
+        n += W[at(OFF_K, K_FLAG, j)] != 0.0
+    return n
+
+
+@kernel
+def any_slipping(W):
+    """True when some lane still being stepped is in slip mode."""
+    for j in range(BLOCK):
+        if W[at(OFF_K, K_RUN, j)] > 0.5 and W[at(OFF_S, S_MODE, j)] > 0.5:
+            return True
+    return False
+
+
+@kernel
+def flag_restick(W):
+    """Flag the slipping lanes that stick again (MODEL.md section 4): their slip velocity
+    reversed over the last step, or a decaying slip would die within the next one
+    (|u| < μ_k g dt and smaller than a step earlier)."""
+    for j in range(BLOCK):
+        ux = W[at(OFF_X, X_UX, j)]
+        uy = W[at(OFF_X, X_UY, j)]
+        uu = math.sqrt(ux * ux + uy * uy)
+        reversed_ = ux * W[at(OFF_S, S_USX, j)] + uy * W[at(OFF_S, S_USY, j)] < 0.0
+        dying = ((uu < param(W, MU_K, j) * param(W, GRAV, j) * param(W, DT, j))
+                 & (uu < W[at(OFF_S, S_UPREV, j)]))
+        flag = ((W[at(OFF_K, K_RUN, j)] > 0.5) & (W[at(OFF_S, S_MODE, j)] > 0.5)
+                & (param(W, MU_S, j) > 0.0) & (reversed_ | dying))
+        W[at(OFF_K, K_FLAG, j)] = 1.0 if flag else 0.0
+
+
+@kernel
+def flag_slip_start(W):
+    """Flag the sticking lanes whose friction leaves the cone, |F_t| > μ_s N (μ_s
+    finite, N ≥ 0); in the same pass the slipping lanes remember this step's slip
+    velocity (as :func:`note_slip`)."""
+    for j in range(BLOCK):
+        run = W[at(OFF_K, K_RUN, j)] > 0.5
+        slipping = W[at(OFF_S, S_MODE, j)] > 0.5
+        normal = W[at(OFF_X, X_N, j)]
+        fx = W[at(OFF_X, X_FX, j)]
+        fy = W[at(OFF_X, X_FY, j)]
+        mu_s = param(W, MU_S, j)
+        flag = (run & (not slipping) & (mu_s < math.inf) & (normal >= 0.0)
+                & (math.sqrt(fx * fx + fy * fy) > mu_s * normal))
+        W[at(OFF_K, K_FLAG, j)] = 1.0 if flag else 0.0
+
+        note = run & slipping
+        ux = W[at(OFF_X, X_UX, j)]
+        uy = W[at(OFF_X, X_UY, j)]
+        uu = math.sqrt(ux * ux + uy * uy)
+        W[at(OFF_S, S_USX, j)] = ux if note else W[at(OFF_S, S_USX, j)]
+        W[at(OFF_S, S_USY, j)] = uy if note else W[at(OFF_S, S_USY, j)]
+        W[at(OFF_S, S_UPREV, j)] = uu if note else W[at(OFF_S, S_UPREV, j)]
+        turn = note & (uu > param(W, EPS_U, j))
+        W[at(OFF_S, S_UHX, j)] = ux / uu if turn else W[at(OFF_S, S_UHX, j)]
+        W[at(OFF_S, S_UHY, j)] = uy / uu if turn else W[at(OFF_S, S_UHY, j)]
+
+
+@kernel
+def flag_end(W, step):
+    """Flag the lanes whose run ends at this step: 1.0 for a stepped lane whose normal
+    force is negative (lift-off), 2.0 for a lane at its last step."""
+    for j in range(BLOCK):
+        lift = (W[at(OFF_K, K_RUN, j)] > 0.5) & (W[at(OFF_X, X_N, j)] < 0.0)
+        last = (W[at(OFF_K, K_OPEN, j)] > 0.5) & (step >= W[at(OFF_K, K_STOP, j)])
+        W[at(OFF_K, K_FLAG, j)] = 1.0 if lift else (2.0 if last else 0.0)
+
+
+@kernel
+def flag_bad_step(W):
+    """Renormalise the quaternion of the new state (region T) of every lane and flag the
+    stepped lanes whose new state is not finite (1.0) or past the rim (2.0)."""
+    for j in range(BLOCK):
+        nan_or_inf = 0.0
+        for k in range(N_STATE):
+            x = W[at(OFF_T, k, j)]
+            nan_or_inf += x - x  # NaN for a non-finite x, 0 otherwise
+        q0 = W[at(OFF_T, Q0, j)]
+        q1 = W[at(OFF_T, Q1, j)]
+        q2 = W[at(OFF_T, Q2, j)]
+        q3 = W[at(OFF_T, Q3, j)]
+        qn = 1.0 / math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+        q1 *= qn
+        q2 *= qn
+        W[at(OFF_T, Q0, j)] = q0 * qn
+        W[at(OFF_T, Q1, j)] = q1
+        W[at(OFF_T, Q2, j)] = q2
+        W[at(OFF_T, Q3, j)] = q3 * qn
+        up_z = 1.0 - 2.0 * (q1 * q1 + q2 * q2)
+        run = W[at(OFF_K, K_RUN, j)] > 0.5
+        bad_value = run & (nan_or_inf != 0.0)
+        capsized = run & (param(W, FULL, j) < 0.5) & (up_z <= 0.0)
+        W[at(OFF_K, K_FLAG, j)] = 1.0 if bad_value else (2.0 if capsized else 0.0)
+
+
+@kernel
+def accept_step(W):
+    """Region T becomes the state Y of every lane (failed lanes were restored first)."""
+    for k in range(N_STATE):
+        for j in range(BLOCK):
+            W[at(OFF_Y, k, j)] = W[at(OFF_T, k, j)]
+
+
+@kernel
+def observe(W, step):
+    """Update the run observables from the new state Y, and flag the lanes whose spin
+    crossed zero (bit 1) or went beyond the reversal band on the other side (bit 2).
+    Frozen lanes are updated too: harmless, nothing reads them."""
+    for j in range(BLOCK):
+        q0 = W[at(OFF_Y, Q0, j)]
+        q1 = W[at(OFF_Y, Q1, j)]
+        q2 = W[at(OFF_Y, Q2, j)]
+        q3 = W[at(OFF_Y, Q3, j)]
+        up_z = 1.0 - 2.0 * (q1 * q1 + q2 * q2)
+        spin = (W[at(OFF_Y, W0, j)] * (2.0 * (q1 * q3 - q0 * q2))
+                + W[at(OFF_Y, W1, j)] * (2.0 * (q2 * q3 + q0 * q1))
+                + W[at(OFF_Y, W2, j)] * up_z)
+        W[at(OFF_K, K_SLIP_STEPS, j)] += W[at(OFF_S, S_MODE, j)]
+        W[at(OFF_K, K_MIN_UP, j)] = min(W[at(OFF_K, K_MIN_UP, j)], up_z)
+        window = 1.0 if step >= W[at(OFF_K, K_WIN0, j)] else 0.0
+        W[at(OFF_K, K_WIN_SUM, j)] += window * spin
+        W[at(OFF_K, K_WIN_CNT, j)] += window
+        # a reversal: the spin crossed zero and went beyond the band on the other side;
+        # it is reported at the (linearly interpolated) crossing instant
+        dt = param(W, DT, j)
+        side = W[at(OFF_K, K_SIDE, j)]
+        spin_prev = W[at(OFF_K, K_SPIN_PREV, j)]
+        W[at(OFF_K, K_T_CAND, j)] = (step + 1) * dt - dt * spin / (spin - spin_prev)
+        crossed = (side * spin_prev > 0.0) & (side * spin <= 0.0)
+        beyond = side * spin < -W[at(OFF_K, K_BAND, j)]
+        W[at(OFF_K, K_FLAG, j)] = (1.0 if crossed else 0.0) + (2.0 if beyond else 0.0)
+        W[at(OFF_K, K_SPIN_PREV, j)] = spin
+
+
+@kernel
+def note_reversal(W, j):
+    """Lane j's spin crossed zero and/or went beyond the band (flags from observe)."""
+    flag = W[at(OFF_K, K_FLAG, j)]
+    if flag == 1.0 or flag == 3.0:
+        W[at(OFF_K, K_T_CROSS, j)] = W[at(OFF_K, K_T_CAND, j)]
+    if flag >= 2.0:
+        W[at(OFF_K, K_N_REV, j)] += 1.0
+        if W[at(OFF_K, K_N_REV, j)] == 1.0:
+            W[at(OFF_K, K_FIRST_REV, j)] = W[at(OFF_K, K_T_CROSS, j)]
+        W[at(OFF_K, K_SIDE, j)] = -W[at(OFF_K, K_SIDE, j)]
+
+
+@kernel
+def finish_lane(W, j, P, status, Y, O):
+    """Write out lane j's final state Y and observables O: its run has ended."""
+    for k in range(N_STATE):
+        Y[k, j] = W[at(OFF_Y, k, j)]
+    stop = W[at(OFF_K, K_STOP, j)]
+    O[O_FIRST_REV, j] = W[at(OFF_K, K_FIRST_REV, j)]
+    O[O_N_REV, j] = W[at(OFF_K, K_N_REV, j)]
+    O[O_STATUS, j] = status
+    O[O_STEPS, j] = stop
+    O[O_T_END, j] = stop * P[DT, j]
+    O[O_SLIP_FRAC, j] = W[at(OFF_K, K_SLIP_STEPS, j)] / stop if stop > 0 else np.nan
+    win_cnt = W[at(OFF_K, K_WIN_CNT, j)]
+    O[O_MEAN_FINAL_SPIN, j] = W[at(OFF_K, K_WIN_SUM, j)] / win_cnt if win_cnt > 0 else np.nan
+    if status == NON_FINITE and stop == 0:
+        O[O_FINAL_SPIN, j] = np.nan
+        O[O_MAX_TILT, j] = np.nan
+        O[O_E_END, j] = np.nan
+    else:
+        O[O_FINAL_SPIN, j] = spin_of(W, OFF_Y, j)
+        O[O_MAX_TILT, j] = math.acos(min(1.0, max(-1.0, W[at(OFF_K, K_MIN_UP, j)])))
+        O[O_E_END, j] = energy_terms(W, OFF_Y, j)[0]
+
+
+@kernel
+def freeze_lane(W, j):
+    """Stop stepping lane j: zero time step, upright at rest, sticking. The passes keep
+    running over it (RK4 with dt = 0 leaves it where it is) but nothing reads it."""
+    W[at(OFF_K, K_RUN, j)] = 0.0
+    W[at(OFF_K, K_OPEN, j)] = 0.0
+    W[at(OFF_P, DT, j)] = 0.0
+    for k in range(N_STATE):
+        W[at(OFF_Y, k, j)] = 0.0
+        W[at(OFF_T, k, j)] = 0.0
+    W[at(OFF_Y, Q0, j)] = 1.0
+    W[at(OFF_T, Q0, j)] = 1.0
+    W[at(OFF_S, S_MODE, j)] = 0.0
+
+
 @kernel
 def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
     """Integrate one block from t = 0 for nsteps[j] steps of P[DT, j] per lane.
@@ -255,16 +461,6 @@ def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
     """
     W = np.zeros(N_WORK * BLOCK)
     status = np.zeros(BLOCK, dtype=np.int64)
-    stop = np.empty(BLOCK, dtype=np.int64)  # last step index with a valid state
-    side = np.zeros(BLOCK)  # sign of the spin's current side (0: no reversal tracking)
-    t_cross = np.full(BLOCK, np.nan)
-    spin_prev = np.empty(BLOCK)
-    n_rev = np.zeros(BLOCK)
-    first_rev = np.full(BLOCK, np.nan)
-    win_sum = np.zeros(BLOCK)
-    win_cnt = np.zeros(BLOCK)
-    min_up = np.empty(BLOCK)
-    slip_steps = np.zeros(BLOCK)
     rec = np.empty(REC.shape[1])
     n_rec = REC.shape[0]
 
@@ -273,7 +469,6 @@ def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
     for j in range(BLOCK):
         if not load_lane(W, P, Y, j, OFF_P, OFF_Y):
             status[j] = NON_FINITE
-        stop[j] = nsteps[j]
         max_steps = max(max_steps, nsteps[j])
         W[at(OFF_S, S_MODE, j)] = 1.0  # any mode: the slip velocity is mode-independent
         W[at(OFF_S, S_UHX, j)] = 1.0
@@ -281,9 +476,14 @@ def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
             normalise_quaternion(W, OFF_Y, j)
             if param(W, FULL, j) < 0.5 and up_vector(W, OFF_Y, j)[2] <= 0.0:
                 status[j] = CAPSIZED
-        if status[j] != OK:
-            stop[j] = 0
-    evaluate_state(W)
+        W[at(OFF_K, K_RUN, j)] = 1.0 if status[j] == OK else 0.0
+        W[at(OFF_K, K_OPEN, j)] = 1.0
+        W[at(OFF_K, K_STOP, j)] = nsteps[j] if status[j] == OK else 0
+        W[at(OFF_K, K_WIN0, j)] = nsteps[j] - nsteps[j] // 10
+        W[at(OFF_K, K_T_CROSS, j)] = np.nan
+        W[at(OFF_K, K_FIRST_REV, j)] = np.nan
+    evaluate_state(W, True)
+    can_slip = False  # some lane may slip now or later: its static friction is finite
     for j in range(BLOCK):
         ux = W[at(OFF_X, X_UX, j)]
         uy = W[at(OFF_X, X_UY, j)]
@@ -294,133 +494,87 @@ def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
         O[O_E0, j] = energy_terms(W, OFF_Y, j)[0]
         n0 = spin_of(W, OFF_Y, j)
         O[O_SPIN0, j] = n0
-        spin_prev[j] = n0
-        side[j] = 1.0 if n0 > 0.0 else (-1.0 if n0 < 0.0 else 0.0)
-        min_up[j] = up_vector(W, OFF_Y, j)[2]
+        W[at(OFF_K, K_BAND, j)] = band * abs(n0)
+        W[at(OFF_K, K_SPIN_PREV, j)] = n0
+        W[at(OFF_K, K_SIDE, j)] = 1.0 if n0 > 0.0 else (-1.0 if n0 < 0.0 else 0.0)
+        W[at(OFF_K, K_MIN_UP, j)] = up_vector(W, OFF_Y, j)[2]
+        can_slip = can_slip or (W[at(OFF_K, K_RUN, j)] > 0.5 and (
+            param(W, MU_S, j) < math.inf or W[at(OFF_S, S_MODE, j)] > 0.5))
 
     # --- time loop ------------------------------------------------------------------
     for step in range(max_steps + 1):
-        evaluate_state(W)
-        changed = False
-        for j in range(BLOCK):
-            if status[j] != OK or step > stop[j]:
-                continue
-            if W[at(OFF_S, S_MODE, j)] > 0.5 and param(W, MU_S, j) > 0.0:
-                ux = W[at(OFF_X, X_UX, j)]
-                uy = W[at(OFF_X, X_UY, j)]
-                uu = math.sqrt(ux * ux + uy * uy)
-                reversed_ = ux * W[at(OFF_S, S_USX, j)] + uy * W[at(OFF_S, S_USY, j)] < 0.0
-                dying = (uu < param(W, MU_K, j) * param(W, GRAV, j) * param(W, DT, j)
-                         and uu < W[at(OFF_S, S_UPREV, j)])
-                if reversed_ or dying:
-                    stick_now(W, j)
-                    changed = True
-        if changed:
-            evaluate_state(W)
-        changed = False
-        for j in range(BLOCK):
-            if status[j] != OK or step > stop[j]:
-                continue
-            normal = W[at(OFF_X, X_N, j)]
-            if W[at(OFF_S, S_MODE, j)] < 0.5:
-                mu_s = param(W, MU_S, j)
-                if mu_s < math.inf and normal >= 0.0:
-                    fx = W[at(OFF_X, X_FX, j)]
-                    fy = W[at(OFF_X, X_FY, j)]
-                    ft = math.sqrt(fx * fx + fy * fy)
-                    if ft > mu_s * normal:
-                        start_slip(W, j, fx, fy, ft)
-                        changed = True
-            else:
-                note_slip(W, j)
-        if changed:
-            evaluate_state(W)
-        for j in range(BLOCK):
-            if status[j] == OK and step <= stop[j] and W[at(OFF_X, X_N, j)] < 0.0:
-                status[j] = LIFTED_OFF
-                stop[j] = step
+        slipping = can_slip and any_slipping(W)
+        evaluate_state(W, slipping)
+        if slipping:
+            flag_restick(W)
+            if count_flags(W) > 0:
+                for j in range(BLOCK):
+                    if W[at(OFF_K, K_FLAG, j)] != 0.0:
+                        stick_now(W, j)
+                slipping = any_slipping(W)
+                evaluate_state(W, slipping)
+        if can_slip:
+            flag_slip_start(W)
+            if count_flags(W) > 0:
+                for j in range(BLOCK):
+                    if W[at(OFF_K, K_FLAG, j)] != 0.0:
+                        fx = W[at(OFF_X, X_FX, j)]
+                        fy = W[at(OFF_X, X_FY, j)]
+                        start_slip(W, j, fx, fy, math.sqrt(fx * fx + fy * fy))
+                slipping = True
+                evaluate_state(W, True)
+        flag_end(W, step)
+        ending = count_flags(W) > 0
+        if ending:
+            for j in range(BLOCK):
+                flag = W[at(OFF_K, K_FLAG, j)]
+                if flag == 1.0:
+                    status[j] = LIFTED_OFF
+                    W[at(OFF_K, K_STOP, j)] = step
+                if flag != 0.0:
+                    W[at(OFF_K, K_RUN, j)] = 0.0
 
         if n_rec > 0 and step % record_every == 0 and step // record_every < n_rec:
             i_rec = step // record_every
             for j in range(BLOCK):
-                if step <= stop[j]:
+                if step <= W[at(OFF_K, K_STOP, j)]:
                     record_lane(W, j, rec)
                     for k in range(rec.shape[0]):
                         REC[i_rec, k, j] = rec[k]
                 else:
                     for k in range(rec.shape[0]):
                         REC[i_rec, k, j] = np.nan
+        if ending:  # written out only now, so that the record above still shows them
+            for j in range(BLOCK):
+                if W[at(OFF_K, K_FLAG, j)] != 0.0:
+                    finish_lane(W, j, P, status[j], Y, O)
+                    freeze_lane(W, j)
         if step == max_steps:
             break
 
         if method == RK4:
-            any_slip = False
-            for j in range(BLOCK):
-                any_slip = any_slip or W[at(OFF_S, S_MODE, j)] > 0.5
-            rk4_step(W, any_slip)
+            rk4_step(W, slipping)
         else:
             euler_step(W)
-
-        # --- commit the new state (region T) lane by lane ---------------------------
-        for j in range(BLOCK):
-            if status[j] != OK or step >= stop[j]:
-                continue
-            finite = True
-            for k in range(N_STATE):
-                if not math.isfinite(W[at(OFF_T, k, j)]):
-                    finite = False
-            if not finite:
-                status[j] = NON_FINITE
-                stop[j] = step
-                continue
-            normalise_quaternion(W, OFF_T, j)
-            up_z = up_vector(W, OFF_T, j)[2]
-            if param(W, FULL, j) < 0.5 and up_z <= 0.0:
-                status[j] = CAPSIZED
-                stop[j] = step
-                continue
-            for k in range(N_STATE):
-                W[at(OFF_Y, k, j)] = W[at(OFF_T, k, j)]
-            slip_steps[j] += W[at(OFF_S, S_MODE, j)]
-            min_up[j] = min(min_up[j], up_z)
-            dt = param(W, DT, j)
-            t_new = (step + 1) * dt
-            spin = spin_of(W, OFF_Y, j)
-            if step + 1 > nsteps[j] - nsteps[j] // 10:
-                win_sum[j] += spin
-                win_cnt[j] += 1.0
-            s = side[j]
-            if s != 0.0:
-                # a reversal: the spin crossed zero and went beyond the band on the other
-                # side; it is reported at the (linearly interpolated) crossing instant
-                if s * spin_prev[j] > 0.0 and s * spin <= 0.0:
-                    t_cross[j] = t_new - dt * spin / (spin - spin_prev[j])
-                if s * spin < -band * abs(O[O_SPIN0, j]):
-                    n_rev[j] += 1.0
-                    if n_rev[j] == 1.0:
-                        first_rev[j] = t_cross[j]
-                    side[j] = -s
-            spin_prev[j] = spin
-
-    # --- observables and final state -------------------------------------------------
+        flag_bad_step(W)
+        if count_flags(W) > 0:
+            for j in range(BLOCK):
+                flag = W[at(OFF_K, K_FLAG, j)]
+                if flag != 0.0:
+                    status[j] = NON_FINITE if flag == 1.0 else CAPSIZED
+                    W[at(OFF_K, K_STOP, j)] = step
+                    finish_lane(W, j, P, status[j], Y, O)
+                    freeze_lane(W, j)
+        accept_step(W)
+        observe(W, step)
+        if count_flags(W) > 0:
+            for j in range(BLOCK):
+                if W[at(OFF_K, K_FLAG, j)] != 0.0:
+                    note_reversal(W, j)
+    # every lane ends at or before max_steps and is written out there; this is a guard
     for j in range(BLOCK):
-        for k in range(N_STATE):
-            Y[k, j] = W[at(OFF_Y, k, j)]
-        O[O_FIRST_REV, j] = first_rev[j]
-        O[O_N_REV, j] = n_rev[j]
-        O[O_STATUS, j] = status[j]
-        O[O_STEPS, j] = stop[j]
-        O[O_T_END, j] = stop[j] * param(W, DT, j)
-        O[O_SLIP_FRAC, j] = slip_steps[j] / stop[j] if stop[j] > 0 else np.nan
-        O[O_MEAN_FINAL_SPIN, j] = win_sum[j] / win_cnt[j] if win_cnt[j] > 0 else np.nan
-        if status[j] == NON_FINITE and stop[j] == 0:
-            O[O_FINAL_SPIN, j] = np.nan
-            O[O_MAX_TILT, j] = np.nan
-            O[O_E_END, j] = np.nan
-        else:
-            O[O_FINAL_SPIN, j] = spin_of(W, OFF_Y, j)
-            O[O_MAX_TILT, j] = math.acos(min(1.0, max(-1.0, min_up[j])))
-            O[O_E_END, j] = energy_terms(W, OFF_Y, j)[0]
+        if W[at(OFF_K, K_OPEN, j)] > 0.5:
+            finish_lane(W, j, P, status[j], Y, O)
 
 
 @parallel_kernel
@@ -454,7 +608,7 @@ def contact_slip_velocity(P, Y, U):
     for b in range(P.shape[0]):
         for j in range(BLOCK):
             load_lane(W, P[b], Y[b], j, OFF_P, OFF_Y)
-        evaluate_state(W)
+        evaluate_state(W, True)
         for j in range(BLOCK):
             U[b, 0, j] = W[at(OFF_X, X_UX, j)]
             U[b, 1, j] = W[at(OFF_X, X_UY, j)]
@@ -469,7 +623,7 @@ def rolling_derivative(P, Y, D):
     for b in range(P.shape[0]):
         for j in range(BLOCK):
             load_lane(W, P[b], Y[b], j, OFF_P, OFF_T)
-        eval_block(W, False)
+        eval_block(W, False, False)
         for k in range(N_STATE):
             for j in range(BLOCK):
                 D[b, k, j] = W[at(OFF_D, k, j)]
