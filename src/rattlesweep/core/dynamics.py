@@ -1,10 +1,10 @@
 """Right-hand side of the rattleback with Coulomb stick/slip contact (MODEL.md section 4).
 
 One function, :func:`eval_block`, evaluates the time derivative of every lane of a block
-in one straight loop. The contact mode of each lane (stick or slip) is an input, held
-through the stages of a step; stick and slip share one 3×3 solve, with the matrix and
-right-hand side chosen per lane, so the loop has no data-dependent branches and LLVM
-vectorises it across lanes.
+in three straight loops over the lanes. The contact mode of each lane (stick or slip) is
+an input, held through the stages of a step; stick and slip share one 3×3 solve, with the
+matrix and right-hand side chosen per lane, so the loops have no data-dependent branches
+and LLVM vectorises them across lanes.
 """
 
 from __future__ import annotations
@@ -13,28 +13,75 @@ import math
 
 import numba
 
-from .geometry import contact_point, contact_point_rate, cross, solve3
-from .jit import kernel
+from .geometry import adjugate_solve, cross
+from .jit import inline_kernel, kernel
 from .layout import (
-    A2, B2, BLOCK, C2, DAMP, EPS_U, GRAV, GX, GY, GZ, IXX, IXY, IXZ, IYY, IYZ, IZZ,
-    MASS, MU_K, OFF_D, OFF_P, OFF_S, OFF_T, OFF_X, PX, PY, Q0, Q1, Q2, Q3, S_MODE,
-    S_UHX, S_UHY, VX, VY, W0, W1, W2, X_FX, X_FY, X_N, X_UX, X_UY,
+    A2, B2, BLOCK, C2, DAMP, DT, EPS_U, E_CVM, E_JXX, E_JXY, E_JXZ, E_JYY, E_JYZ, E_JZZ, GRAV, GX,
+    GY, GZ, G_DET, G_INV_Q, G_INV_S, G_LX, G_N0, G_R0, G_R1, G_R2, G_U0, G_U1, G_U2, G_UHX, G_UHY,
+    G_UX, G_UY, G_WW0, G_WW1, G_WW2, G_X0, G_X1, G_X2, IXX, IXY, IXZ, IYY, IYZ, IZZ, MASS, MU_K,
+    OFF_A, OFF_E, OFF_G, OFF_P, OFF_S, OFF_T, OFF_X, OFF_Y, PX, PY, Q0, Q1, Q2, Q3, S_MODE, S_UHX,
+    S_UHY, VX, VY, W0, W1, W2, X_FX, X_FY, X_N, X_UX, X_UY,
 )
 
 
+STAGE_START = 0
+STAGE_2 = 2
+STAGE_3 = 3
+STAGE_4 = 4
+
+
 @kernel
-def eval_block(W, slip_possible, outputs):
+def derive_parameters(W, j):
+    """Fill lane j's derived parameters (region E) from its parameters (region P)."""
+    m = W[(OFF_P + MASS) * BLOCK + j]
+    for src, dst in ((IXX, E_JXX), (IYY, E_JYY), (IZZ, E_JZZ), (IXY, E_JXY), (IXZ, E_JXZ),
+                     (IYZ, E_JYZ), (DAMP, E_CVM)):
+        W[(OFF_E + dst) * BLOCK + j] = W[(OFF_P + src) * BLOCK + j] / m
+
+
+@inline_kernel
+def put_derivative(W, j, k, stage, dk):
+    """Use component ``dk`` of lane j's derivative (state row k) as ``stage`` asks (see
+    :func:`eval_block`)."""
+    h = W[(OFF_P + DT) * BLOCK + j]
+    a = (OFF_A + k) * BLOCK + j
+    t = (OFF_T + k) * BLOCK + j
+    y = (OFF_Y + k) * BLOCK + j
+    if stage == STAGE_START:
+        W[a] = dk
+        W[t] = W[y] + 0.5 * h * dk
+    elif stage == STAGE_2:
+        W[a] += 2.0 * dk
+        W[t] = W[y] + 0.5 * h * dk
+    elif stage == STAGE_3:
+        W[a] += 2.0 * dk
+        W[t] = W[y] + h * dk
+    else:
+        W[t] = W[y] + h / 6.0 * (W[a] + dk)
+
+
+@kernel
+def eval_block(W, slip_possible, stage):
     """Time derivative of every lane of a block, plus its contact forces.
 
-    W is the block workspace (see :mod:`.layout`). Reads the parameters (region P), the
-    stage input state (region T) and, from the switching state (region S), each lane's
-    contact mode and stored slip direction; writes the derivative (region D) and, when
-    ``outputs``, the normal force, friction force and slip velocity (region X). Both
-    flags must be literals, so each combination compiles to its own variant:
-    ``slip_possible=False`` promises that every lane sticks and drops the slip-only work;
-    ``outputs=False`` (the inner RK stages, whose forces nobody reads) drops the work
-    that only feeds region X. A lane's derivative is computed by the same operations in
-    every variant, so it does not depend on which one ran.
+    W is the block workspace (see :mod:`.layout`). Reads the parameters (regions P and
+    E), the state in region T and, from the switching state (region S), each lane's
+    contact mode and stored slip direction. ``stage`` says what becomes of the
+    derivative d, fused with the classic RK4 stage arithmetic so that d never goes to
+    memory on its own (Y is the state at the start of the step, h the time step):
+
+    * ``STAGE_START``: T must equal Y; A = d and T = Y + (h/2) d, and the normal force,
+      friction force and slip velocity go to region X (the semi-implicit Euler step
+      also starts from A = d);
+    * ``STAGE_2``: A += 2d and T = Y + (h/2) d;
+    * ``STAGE_3``: A += 2d and T = Y + h d;
+    * ``STAGE_4``: T = Y + (h/6)(A + d), the new state. Forces, which nobody reads in
+      these inner stages, are not written.
+
+    Both flags must be literals, so each combination compiles to its own variant;
+    ``slip_possible=False`` promises that every lane sticks and drops the slip-only work.
+    A lane's derivative is computed by the same operations in every variant, so it does
+    not depend on which one ran.
 
     Stick (material contact point at rest):
         (I + m(|ρ|²𝟙 − ρρᵀ)) ω̇ = −ω × Iω − c_v ω + m ρ × (g n̂ − w)
@@ -43,14 +90,264 @@ def eval_block(W, slip_possible, outputs):
     with w = ω × (ω × ρ + ṡ_P), N₀ = m(g − n̂·w) and, in both modes, N = N₀ − m l·ω̇.
     """
     numba.literally(slip_possible)
-    numba.literally(outputs)
+    numba.literally(stage)
+    if stage == STAGE_START:
+        contact_kinematics(W, True)  # the slip velocity is an output
+    else:
+        contact_kinematics(W, slip_possible)
+    accelerations(W, slip_possible)
+    divide_out(W)
+    store_derivative(W, slip_possible, stage)
+
+
+@kernel
+def rot_row0(q00, q11, q22, q33, q12, q03, q13, q02):
+    """First row of R̃ = |q|² R (R: body -> world)."""
+    return (q00 + q11) - (q22 + q33), 2.0 * (q12 - q03), 2.0 * (q13 + q02)
+
+
+@kernel
+def rot_row1(q00, q11, q22, q33, q12, q03, q23, q01):
+    """Second row of R̃ = |q|² R."""
+    return 2.0 * (q12 + q03), (q00 + q22) - (q11 + q33), 2.0 * (q23 - q01)
+
+
+@kernel
+def contact_kinematics(W, slip_velocity):
+    """Phase 1 of :func:`eval_block`: contact point, its rate, w, and the slip velocity.
+
+    The rotation body -> world is R = R̃/|q|² with R̃ quadratic in q (stage quaternions
+    are not unit), and the world up-vector in body components n̂ = ũ/|q|², ũ the last
+    row of R̃. The contact point s_P = −A n̂/σ, σ = √(n̂ᵀA n̂), A = diag(a², b², c²), and
+    its rate ṡ_P = −(A ṅ + s_P (An̂·ṅ)/σ)/σ with ṅ = n̂ × ω (MODEL.md section 3) are
+    unchanged when n̂ is replaced by ũ and σ by σ̃ = √(ũᵀAũ) = |q|² σ, so the only
+    divisions are 1/|q|² and 1/σ̃, taken together as one. ``slip_velocity`` (a literal)
+    asks for the slip velocity too.
+    """
+    numba.literally(slip_velocity)
     for j in range(BLOCK):
-        # row r of region R is W[(OFF_R + r) * BLOCK]
+        y = OFF_T * BLOCK + j
+        o = OFF_G * BLOCK + j
+        p = OFF_P * BLOCK + j
+        q0 = W[y + Q0 * BLOCK]
+        q1 = W[y + Q1 * BLOCK]
+        q2 = W[y + Q2 * BLOCK]
+        q3 = W[y + Q3 * BLOCK]
+        q00 = q0 * q0
+        q11 = q1 * q1
+        q22 = q2 * q2
+        q33 = q3 * q3
+        qq = (q00 + q11) + (q22 + q33)
+        u0 = 2.0 * (q1 * q3 - q0 * q2)
+        u1 = 2.0 * (q2 * q3 + q0 * q1)
+        u2 = (q00 + q33) - (q11 + q22)
+        sig = math.sqrt(u0 * u0 * W[p + A2 * BLOCK] + u1 * u1 * W[p + B2 * BLOCK]
+                        + u2 * u2 * W[p + C2 * BLOCK])
+        inv = 1.0 / (qq * sig)
+        W[o + G_U0 * BLOCK] = u0
+        W[o + G_U1 * BLOCK] = u1
+        W[o + G_U2 * BLOCK] = u2
+        W[o + G_INV_Q * BLOCK] = inv * sig  # 1/|q|²
+        W[o + G_INV_S * BLOCK] = inv * qq  # 1/σ̃
+    for j in range(BLOCK):
         p = OFF_P * BLOCK + j
         y = OFF_T * BLOCK + j
-        d = OFF_D * BLOCK + j
-        x = OFF_X * BLOCK + j
+        o = OFF_G * BLOCK + j
+        w0 = W[y + W0 * BLOCK]
+        w1 = W[y + W1 * BLOCK]
+        w2 = W[y + W2 * BLOCK]
+        a2 = W[p + A2 * BLOCK]
+        b2 = W[p + B2 * BLOCK]
+        c2 = W[p + C2 * BLOCK]
+        u0 = W[o + G_U0 * BLOCK]
+        u1 = W[o + G_U1 * BLOCK]
+        u2 = W[o + G_U2 * BLOCK]
+        inv_s = W[o + G_INV_S * BLOCK]
+        au0 = a2 * u0
+        au1 = b2 * u1
+        au2 = c2 * u2
+        sp0 = -au0 * inv_s
+        sp1 = -au1 * inv_s
+        sp2 = -au2 * inv_s
+        du0, du1, du2 = cross(u0, u1, u2, w0, w1, w2)
+        f = (au0 * du0 + au1 * du1 + au2 * du2) * inv_s
+        ds0 = -(a2 * du0 + sp0 * f) * inv_s
+        ds1 = -(b2 * du1 + sp1 * f) * inv_s
+        ds2 = -(c2 * du2 + sp2 * f) * inv_s
+        r0 = sp0 - W[p + GX * BLOCK]
+        r1 = sp1 - W[p + GY * BLOCK]
+        r2 = sp2 - W[p + GZ * BLOCK]
+        wr0, wr1, wr2 = cross(w0, w1, w2, r0, r1, r2)
+        ww0, ww1, ww2 = cross(w0, w1, w2, wr0 + ds0, wr1 + ds1, wr2 + ds2)
+        W[o + G_R0 * BLOCK] = r0
+        W[o + G_R1 * BLOCK] = r1
+        W[o + G_R2 * BLOCK] = r2
+        W[o + G_WW0 * BLOCK] = ww0
+        W[o + G_WW1 * BLOCK] = ww1
+        W[o + G_WW2 * BLOCK] = ww2
+        if slip_velocity:
+            # slip velocity of the material contact point, world horizontal: v_G + R(ω × ρ)
+            q0 = W[y + Q0 * BLOCK]
+            q1 = W[y + Q1 * BLOCK]
+            q2 = W[y + Q2 * BLOCK]
+            q3 = W[y + Q3 * BLOCK]
+            q00 = q0 * q0
+            q11 = q1 * q1
+            q22 = q2 * q2
+            q33 = q3 * q3
+            inv_q = W[o + G_INV_Q * BLOCK]
+            q12 = q1 * q2
+            q03 = q0 * q3
+            e00, e01, e02 = rot_row0(q00, q11, q22, q33, q12, q03, q1 * q3, q0 * q2)
+            e10, e11, e12 = rot_row1(q00, q11, q22, q33, q12, q03, q2 * q3, q0 * q1)
+            W[o + G_UX * BLOCK] = W[y + VX * BLOCK] + (e00 * wr0 + e01 * wr1 + e02 * wr2) * inv_q
+            W[o + G_UY * BLOCK] = W[y + VY * BLOCK] + (e10 * wr0 + e11 * wr1 + e12 * wr2) * inv_q
+
+
+@kernel
+def accelerations(W, slip_possible):
+    """Phase 2 of :func:`eval_block`: the angular acceleration and the normal force.
+
+    Per unit mass, with J = I/m:
+    stick: (J + |ρ|²𝟙 − ρρᵀ) ω̇ = −ω × Jω − (c_v/m) ω + ρ × (g n̂ − w);
+    slip:  (J + k lᵀ) ω̇ = −ω × Jω − (c_v/m) ω + (N₀/m) k, l = ρ × n̂, k = ρ × (n̂ − μ_k û);
+    N₀/m = g − n̂·w and, in both modes, N/m = N₀/m − l·ω̇.
+    """
+    numba.literally(slip_possible)
+    for j in range(BLOCK):
+        p = OFF_P * BLOCK + j
+        e = OFF_E * BLOCK + j
+        y = OFF_T * BLOCK + j
+        o = OFF_G * BLOCK + j
         sw = OFF_S * BLOCK + j
+        w0 = W[y + W0 * BLOCK]
+        w1 = W[y + W1 * BLOCK]
+        w2 = W[y + W2 * BLOCK]
+        r0 = W[o + G_R0 * BLOCK]
+        r1 = W[o + G_R1 * BLOCK]
+        r2 = W[o + G_R2 * BLOCK]
+        ww0 = W[o + G_WW0 * BLOCK]
+        ww1 = W[o + G_WW1 * BLOCK]
+        ww2 = W[o + G_WW2 * BLOCK]
+        u0 = W[o + G_U0 * BLOCK]
+        u1 = W[o + G_U1 * BLOCK]
+        u2 = W[o + G_U2 * BLOCK]
+        inv_q = W[o + G_INV_Q * BLOCK]
+        g = W[p + GRAV * BLOCK]
+        jxx = W[e + E_JXX * BLOCK]
+        jyy = W[e + E_JYY * BLOCK]
+        jzz = W[e + E_JZZ * BLOCK]
+        jxy = W[e + E_JXY * BLOCK]
+        jxz = W[e + E_JXZ * BLOCK]
+        jyz = W[e + E_JYZ * BLOCK]
+        cvm = W[e + E_CVM * BLOCK]
+
+        jw0 = jxx * w0 + jxy * w1 + jxz * w2
+        jw1 = jxy * w0 + jyy * w1 + jyz * w2
+        jw2 = jxz * w0 + jyz * w1 + jzz * w2
+        gy0, gy1, gy2 = cross(w0, w1, w2, jw0, jw1, jw2)
+        gq = g * inv_q
+        n0 = u0 * inv_q
+        n1 = u1 * inv_q
+        n2 = u2 * inv_q
+        n_free = g - (n0 * ww0 + n1 * ww1 + n2 * ww2)
+        l0, l1, l2 = cross(r0, r1, r2, n0, n1, n2)
+        p00 = r0 * r0
+        p11 = r1 * r1
+        p22 = r2 * r2
+        m00 = jxx + (p11 + p22)
+        m11 = jyy + (p00 + p22)
+        m22 = jzz + (p00 + p11)
+        m01 = jxy - r0 * r1
+        m02 = jxz - r0 * r2
+        m12 = jyz - r1 * r2
+        m10 = m01
+        m20 = m02
+        m21 = m12
+        t0, t1, t2 = cross(r0, r1, r2, gq * u0 - ww0, gq * u1 - ww1, gq * u2 - ww2)
+        if slip_possible:
+            slip = W[sw + S_MODE * BLOCK] > 0.5
+            ux = W[o + G_UX * BLOCK]
+            uy = W[o + G_UY * BLOCK]
+            uu = math.sqrt(ux * ux + uy * uy)
+            if uu > W[p + EPS_U * BLOCK]:
+                uhx = ux / uu
+                uhy = uy / uu
+            else:
+                uhx = W[sw + S_UHX * BLOCK]
+                uhy = W[sw + S_UHY * BLOCK]
+            W[o + G_UHX * BLOCK] = uhx
+            W[o + G_UHY * BLOCK] = uhy
+            mu = W[p + MU_K * BLOCK] if slip else 0.0  # a stick lane may carry mu = inf
+            # û in body components: R̃ᵀ (û_x, û_y, 0) / |q|²
+            q0 = W[y + Q0 * BLOCK]
+            q1 = W[y + Q1 * BLOCK]
+            q2 = W[y + Q2 * BLOCK]
+            q3 = W[y + Q3 * BLOCK]
+            q00 = q0 * q0
+            q11 = q1 * q1
+            q22 = q2 * q2
+            q33 = q3 * q3
+            q12 = q1 * q2
+            q03 = q0 * q3
+            e00, e01, e02 = rot_row0(q00, q11, q22, q33, q12, q03, q1 * q3, q0 * q2)
+            e10, e11, e12 = rot_row1(q00, q11, q22, q33, q12, q03, q2 * q3, q0 * q1)
+            ub0 = (e00 * uhx + e10 * uhy) * inv_q
+            ub1 = (e01 * uhx + e11 * uhy) * inv_q
+            ub2 = (e02 * uhx + e12 * uhy) * inv_q
+            k0, k1, k2 = cross(r0, r1, r2, n0 - mu * ub0, n1 - mu * ub1, n2 - mu * ub2)
+            if slip:
+                m00 = jxx + k0 * l0
+                m01 = jxy + k0 * l1
+                m02 = jxz + k0 * l2
+                m10 = jxy + k1 * l0
+                m11 = jyy + k1 * l1
+                m12 = jyz + k1 * l2
+                m20 = jxz + k2 * l0
+                m21 = jyz + k2 * l1
+                m22 = jzz + k2 * l2
+                t0 = n_free * k0
+                t1 = n_free * k1
+                t2 = n_free * k2
+        # Cramer's rule, without the division: that is left to store_derivative, so that
+        # its latency does not lengthen this loop's chain
+        x0, x1, x2, det = adjugate_solve(m00, m01, m02, m10, m11, m12, m20, m21, m22,
+                                         t0 - gy0 - cvm * w0, t1 - gy1 - cvm * w1,
+                                         t2 - gy2 - cvm * w2)
+        W[o + G_X0 * BLOCK] = x0
+        W[o + G_X1 * BLOCK] = x1
+        W[o + G_X2 * BLOCK] = x2
+        W[o + G_DET * BLOCK] = det
+        W[o + G_N0 * BLOCK] = n_free
+        W[o + G_LX * BLOCK] = l0 * x0 + l1 * x1 + l2 * x2
+
+
+@kernel
+def divide_out(W):
+    """Phase 3 of :func:`eval_block`: finish Cramer's rule, ω̇ = adj(M) b / det M, in
+    place, and N/m = N₀/m − l·ω̇. Its own loop: the division's latency overlaps across
+    lanes instead of lengthening another loop's chain."""
+    for j in range(BLOCK):
+        o = OFF_G * BLOCK + j
+        inv_det = 1.0 / W[o + G_DET * BLOCK]
+        W[o + G_X0 * BLOCK] *= inv_det
+        W[o + G_X1 * BLOCK] *= inv_det
+        W[o + G_X2 * BLOCK] *= inv_det
+        W[o + G_N0 * BLOCK] -= W[o + G_LX * BLOCK] * inv_det
+
+
+@kernel
+def store_derivative(W, slip_possible, stage):
+    """Phase 4 of :func:`eval_block`: the friction force and the whole derivative, used
+    as ``stage`` asks; the outputs of region X at STAGE_START."""
+    numba.literally(slip_possible)
+    numba.literally(stage)
+    outputs = stage == STAGE_START
+    for j in range(BLOCK):
+        p = OFF_P * BLOCK + j
+        y = OFF_T * BLOCK + j
+        o = OFF_G * BLOCK + j
+        x = OFF_X * BLOCK + j
         q0 = W[y + Q0 * BLOCK]
         q1 = W[y + Q1 * BLOCK]
         q2 = W[y + Q2 * BLOCK]
@@ -58,124 +355,52 @@ def eval_block(W, slip_possible, outputs):
         w0 = W[y + W0 * BLOCK]
         w1 = W[y + W1 * BLOCK]
         w2 = W[y + W2 * BLOCK]
-        m = W[p + MASS * BLOCK]
-        g = W[p + GRAV * BLOCK]
-        ixx = W[p + IXX * BLOCK]
-        iyy = W[p + IYY * BLOCK]
-        izz = W[p + IZZ * BLOCK]
-        ixy = W[p + IXY * BLOCK]
-        ixz = W[p + IXZ * BLOCK]
-        iyz = W[p + IYZ * BLOCK]
-        a2 = W[p + A2 * BLOCK]
-        b2 = W[p + B2 * BLOCK]
-        c2 = W[p + C2 * BLOCK]
-
-        # rotation body -> world; its last row is the world up-vector in body components
-        s = 2.0 / (q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
-        r00 = 1.0 - s * (q2 * q2 + q3 * q3)
-        r01 = s * (q1 * q2 - q0 * q3)
-        r02 = s * (q1 * q3 + q0 * q2)
-        r10 = s * (q1 * q2 + q0 * q3)
-        r11 = 1.0 - s * (q1 * q1 + q3 * q3)
-        r12 = s * (q2 * q3 - q0 * q1)
-        n0 = s * (q1 * q3 - q0 * q2)
-        n1 = s * (q2 * q3 + q0 * q1)
-        n2 = 1.0 - s * (q1 * q1 + q2 * q2)
-
-        sp0, sp1, sp2, sigma = contact_point(a2, b2, c2, n0, n1, n2)
-        r0 = sp0 - W[p + GX * BLOCK]
-        r1 = sp1 - W[p + GY * BLOCK]
-        r2 = sp2 - W[p + GZ * BLOCK]
-        dn0, dn1, dn2 = cross(n0, n1, n2, w0, w1, w2)
-        ds0, ds1, ds2 = contact_point_rate(a2, b2, c2, n0, n1, n2, sigma, dn0, dn1, dn2)
-        wr0, wr1, wr2 = cross(w0, w1, w2, r0, r1, r2)
-        ww0, ww1, ww2 = cross(w0, w1, w2, wr0 + ds0, wr1 + ds1, wr2 + ds2)
-
-        # slip velocity of the material contact point, world horizontal
-        ux = W[y + VX * BLOCK] + r00 * wr0 + r01 * wr1 + r02 * wr2
-        uy = W[y + VY * BLOCK] + r10 * wr0 + r11 * wr1 + r12 * wr2
-        slip = slip_possible and W[sw + S_MODE * BLOCK] > 0.5
-        uu = math.sqrt(ux * ux + uy * uy)
-        inv_uu = 1.0 / uu
-        if uu > W[p + EPS_U * BLOCK]:
-            uhx = ux * inv_uu
-            uhy = uy * inv_uu
-        else:
-            uhx = W[sw + S_UHX * BLOCK]
-            uhy = W[sw + S_UHY * BLOCK]
-        mu = W[p + MU_K * BLOCK] if slip else 0.0  # a stick lane may carry mu = inf: keep it out
-        # slip direction in body components
-        ub0 = r00 * uhx + r10 * uhy
-        ub1 = r01 * uhx + r11 * uhy
-        ub2 = r02 * uhx + r12 * uhy
-
-        iw0 = ixx * w0 + ixy * w1 + ixz * w2
-        iw1 = ixy * w0 + iyy * w1 + iyz * w2
-        iw2 = ixz * w0 + iyz * w1 + izz * w2
-        gy0, gy1, gy2 = cross(w0, w1, w2, iw0, iw1, iw2)
-        cv = W[p + DAMP * BLOCK]
-        nw = n0 * ww0 + n1 * ww1 + n2 * ww2
-        n_free = m * (g - nw)
-        l0, l1, l2 = cross(r0, r1, r2, n0, n1, n2)
-        k0, k1, k2 = cross(r0, r1, r2, n0 - mu * ub0, n1 - mu * ub1, n2 - mu * ub2)
-        if slip:
-            m00 = ixx + m * k0 * l0
-            m01 = ixy + m * k0 * l1
-            m02 = ixz + m * k0 * l2
-            m10 = ixy + m * k1 * l0
-            m11 = iyy + m * k1 * l1
-            m12 = iyz + m * k1 * l2
-            m20 = ixz + m * k2 * l0
-            m21 = iyz + m * k2 * l1
-            m22 = izz + m * k2 * l2
-            f0 = n_free * k0
-            f1 = n_free * k1
-            f2 = n_free * k2
-        else:
-            rr = r0 * r0 + r1 * r1 + r2 * r2
-            m00 = ixx + m * (rr - r0 * r0)
-            m01 = ixy - m * r0 * r1
-            m02 = ixz - m * r0 * r2
-            m10 = m01
-            m11 = iyy + m * (rr - r1 * r1)
-            m12 = iyz - m * r1 * r2
-            m20 = m02
-            m21 = m12
-            m22 = izz + m * (rr - r2 * r2)
-            f0, f1, f2 = cross(r0, r1, r2, m * (g * n0 - ww0), m * (g * n1 - ww1),
-                               m * (g * n2 - ww2))
-        b0 = f0 - gy0 - cv * w0
-        b1 = f1 - gy1 - cv * w1
-        b2 = f2 - gy2 - cv * w2
-
-        a0, a1, a2_ = solve3(m00, m01, m02, m10, m11, m12, m20, m21, m22, b0, b1, b2)
-        normal = n_free - m * (l0 * a0 + l1 * a1 + l2 * a2_)
-        if slip:
-            fx = -mu * normal * uhx
-            fy = -mu * normal * uhy
-        else:
-            # F = m(a_G + g n̂) with a_G = −(ω̇ × ρ + w); its world-horizontal part
-            e0, e1, e2 = cross(a0, a1, a2_, r0, r1, r2)
-            e0 = -m * (e0 + ww0)
-            e1 = -m * (e1 + ww1)
-            e2 = -m * (e2 + ww2)
-            fx = r00 * e0 + r01 * e1 + r02 * e2
-            fy = r10 * e0 + r11 * e1 + r12 * e2
-
-        W[d + Q0 * BLOCK] = -0.5 * (q1 * w0 + q2 * w1 + q3 * w2)
-        W[d + Q1 * BLOCK] = 0.5 * (q0 * w0 + q2 * w2 - q3 * w1)
-        W[d + Q2 * BLOCK] = 0.5 * (q0 * w1 + q3 * w0 - q1 * w2)
-        W[d + Q3 * BLOCK] = 0.5 * (q0 * w2 + q1 * w1 - q2 * w0)
-        W[d + W0 * BLOCK] = a0
-        W[d + W1 * BLOCK] = a1
-        W[d + W2 * BLOCK] = a2_
-        W[d + PX * BLOCK] = W[y + VX * BLOCK]
-        W[d + PY * BLOCK] = W[y + VY * BLOCK]
-        W[d + VX * BLOCK] = fx / m
-        W[d + VY * BLOCK] = fy / m
+        vx = W[y + VX * BLOCK]
+        vy = W[y + VY * BLOCK]
+        a0 = W[o + G_X0 * BLOCK]  # ω̇, after divide_out
+        a1 = W[o + G_X1 * BLOCK]
+        a2 = W[o + G_X2 * BLOCK]
+        nm = W[o + G_N0 * BLOCK]  # N/m, after divide_out
+        inv_q = W[o + G_INV_Q * BLOCK]
+        # stick: F/m = a_G + g n̂ with a_G = −(ω̇ × ρ + w); its world-horizontal part
+        e0, e1, e2 = cross(a0, a1, a2, W[o + G_R0 * BLOCK], W[o + G_R1 * BLOCK],
+                           W[o + G_R2 * BLOCK])
+        e0 = -(e0 + W[o + G_WW0 * BLOCK])
+        e1 = -(e1 + W[o + G_WW1 * BLOCK])
+        e2 = -(e2 + W[o + G_WW2 * BLOCK])
+        q00 = q0 * q0
+        q11 = q1 * q1
+        q22 = q2 * q2
+        q33 = q3 * q3
+        q12 = q1 * q2
+        q03 = q0 * q3
+        e00, e01, e02 = rot_row0(q00, q11, q22, q33, q12, q03, q1 * q3, q0 * q2)
+        e10, e11, e12 = rot_row1(q00, q11, q22, q33, q12, q03, q2 * q3, q0 * q1)
+        fx = (e00 * e0 + e01 * e1 + e02 * e2) * inv_q
+        fy = (e10 * e0 + e11 * e1 + e12 * e2) * inv_q
+        if slip_possible:
+            if W[(OFF_S + S_MODE) * BLOCK + j] > 0.5:  # slip: F/m = −μ_k (N/m) û
+                mu_n = -W[p + MU_K * BLOCK] * nm
+                fx = mu_n * W[o + G_UHX * BLOCK]
+                fy = mu_n * W[o + G_UHY * BLOCK]
+        h0 = 0.5 * w0
+        h1 = 0.5 * w1
+        h2 = 0.5 * w2
+        put_derivative(W, j, Q0, stage, -(q1 * h0 + q2 * h1 + q3 * h2))
+        put_derivative(W, j, Q1, stage, q0 * h0 + q2 * h2 - q3 * h1)
+        put_derivative(W, j, Q2, stage, q0 * h1 + q3 * h0 - q1 * h2)
+        put_derivative(W, j, Q3, stage, q0 * h2 + q1 * h1 - q2 * h0)
+        put_derivative(W, j, W0, stage, a0)
+        put_derivative(W, j, W1, stage, a1)
+        put_derivative(W, j, W2, stage, a2)
+        put_derivative(W, j, PX, stage, vx)
+        put_derivative(W, j, PY, stage, vy)
+        put_derivative(W, j, VX, stage, fx)
+        put_derivative(W, j, VY, stage, fy)
         if outputs:
-            W[x + X_N * BLOCK] = normal
-            W[x + X_FX * BLOCK] = fx
-            W[x + X_FY * BLOCK] = fy
-            W[x + X_UX * BLOCK] = ux
-            W[x + X_UY * BLOCK] = uy
+            m = W[p + MASS * BLOCK]
+            W[x + X_N * BLOCK] = m * nm
+            W[x + X_FX * BLOCK] = m * fx
+            W[x + X_FY * BLOCK] = m * fy
+            W[x + X_UX * BLOCK] = W[o + G_UX * BLOCK]
+            W[x + X_UY * BLOCK] = W[o + G_UY * BLOCK]

@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from .jit import inline_kernel, kernel
 from .layout import (
     A2, B2, BLOCK, C2, GRAV, GX, GY, GZ, IXX, IXY, IXZ, IYY, IYZ, IZZ, MASS, OFF_P,
@@ -57,21 +55,6 @@ def contact_point(a2, b2, c2, n0, n1, n2):
     sigma = math.sqrt(n0 * an0 + n1 * an1 + n2 * an2)
     inv = 1.0 / sigma
     return -an0 * inv, -an1 * inv, -an2 * inv, sigma
-
-
-@kernel
-def contact_point_rate(a2, b2, c2, n0, n1, n2, sigma, d0, d1, d2):
-    """ds_P/dt = J dn̂/dt with J = −A/σ + (A n̂)(A n̂)ᵀ/σ³ (body components)."""
-    an0 = a2 * n0
-    an1 = b2 * n1
-    an2 = c2 * n2
-    inv = 1.0 / sigma
-    f = (an0 * d0 + an1 * d1 + an2 * d2) * inv * inv * inv
-    return (
-        -a2 * d0 * inv + an0 * f,
-        -b2 * d1 * inv + an1 * f,
-        -c2 * d2 * inv + an2 * f,
-    )
 
 
 @kernel
@@ -122,6 +105,26 @@ def energy_terms(W, off, j):
 
 
 @inline_kernel  # must inline into the lane loops: a call there stops vectorisation
+def adjugate_solve(m00, m01, m02, m10, m11, m12, m20, m21, m22, b0, b1, b2):
+    """adj(M) b and det M, so that M x = b has x = adj(M) b / det M (Cramer's rule)."""
+    c00 = m11 * m22 - m12 * m21
+    c01 = m12 * m20 - m10 * m22
+    c02 = m10 * m21 - m11 * m20
+    c10 = m02 * m21 - m01 * m22
+    c11 = m00 * m22 - m02 * m20
+    c12 = m01 * m20 - m00 * m21
+    c20 = m01 * m12 - m02 * m11
+    c21 = m02 * m10 - m00 * m12
+    c22 = m00 * m11 - m01 * m10
+    return (
+        c00 * b0 + c10 * b1 + c20 * b2,
+        c01 * b0 + c11 * b1 + c21 * b2,
+        c02 * b0 + c12 * b1 + c22 * b2,
+        m00 * c00 + m01 * c01 + m02 * c02,
+    )
+
+
+@inline_kernel  # must inline into the lane loops: a call there stops vectorisation
 def solve3(m00, m01, m02, m10, m11, m12, m20, m21, m22, b0, b1, b2):
     """Solve the 3×3 system M x = b by Cramer's rule (adjugate over determinant)."""
     c00 = m11 * m22 - m12 * m21
@@ -139,6 +142,18 @@ def solve3(m00, m01, m02, m10, m11, m12, m20, m21, m22, b0, b1, b2):
         (c01 * b0 + c11 * b1 + c21 * b2) * inv_det,
         (c02 * b0 + c12 * b1 + c22 * b2) * inv_det,
     )
+
+
+@kernel
+def impulse_column(r0, r1, r2, ixx, iyy, izz, ixy, ixz, iyz, inv_m, col):
+    """Column ``col`` of K = 𝟙/m − [ρ]ₓ I⁻¹ [ρ]ₓ: K e = e/m − ρ × I⁻¹(ρ × e)."""
+    e0 = 1.0 if col == 0 else 0.0
+    e1 = 1.0 if col == 1 else 0.0
+    e2 = 1.0 if col == 2 else 0.0
+    t0, t1, t2 = cross(r0, r1, r2, e0, e1, e2)
+    a0, a1, a2 = solve3(ixx, ixy, ixz, ixy, iyy, iyz, ixz, iyz, izz, t0, t1, t2)
+    c0, c1, c2 = cross(r0, r1, r2, a0, a1, a2)
+    return e0 * inv_m - c0, e1 * inv_m - c1, e2 * inv_m - c2
 
 
 @kernel
@@ -170,24 +185,16 @@ def plastic_contact_impulse(W, off, j, ux, uy):
     ixy = W[p + IXY * BLOCK]
     ixz = W[p + IXZ * BLOCK]
     iyz = W[p + IYZ * BLOCK]
-    # K e_k = e_k/m − ρ × I⁻¹(ρ × e_k), column by column
-    k = np.empty((3, 3))
-    for col in range(3):
-        e0 = 1.0 if col == 0 else 0.0
-        e1 = 1.0 if col == 1 else 0.0
-        e2 = 1.0 if col == 2 else 0.0
-        t0, t1, t2 = cross(r0, r1, r2, e0, e1, e2)
-        a0, a1, a2 = solve3(ixx, ixy, ixz, ixy, iyy, iyz, ixz, iyz, izz, t0, t1, t2)
-        c0, c1, c2 = cross(r0, r1, r2, a0, a1, a2)
-        k[0, col] = e0 * inv_m - c0
-        k[1, col] = e1 * inv_m - c1
-        k[2, col] = e2 * inv_m - c2
+    # K e_k = e_k/m − ρ × I⁻¹(ρ × e_k), column by column (scalars: no allocation here,
+    # this runs inside the time loop)
+    k00, k10, k20 = impulse_column(r0, r1, r2, ixx, iyy, izz, ixy, ixz, iyz, inv_m, 0)
+    k01, k11, k21 = impulse_column(r0, r1, r2, ixx, iyy, izz, ixy, ixz, iyz, inv_m, 1)
+    k02, k12, k22 = impulse_column(r0, r1, r2, ixx, iyy, izz, ixy, ixz, iyz, inv_m, 2)
     # slip velocity in body components (world vertical part is zero)
     u0 = r00 * ux + r10 * uy
     u1 = r01 * ux + r11 * uy
     u2 = r02 * ux + r12 * uy
-    j0, j1, j2 = solve3(k[0, 0], k[0, 1], k[0, 2], k[1, 0], k[1, 1], k[1, 2],
-                        k[2, 0], k[2, 1], k[2, 2], -u0, -u1, -u2)
+    j0, j1, j2 = solve3(k00, k01, k02, k10, k11, k12, k20, k21, k22, -u0, -u1, -u2)
     t0, t1, t2 = cross(r0, r1, r2, j0, j1, j2)
     dw0, dw1, dw2 = solve3(ixx, ixy, ixz, ixy, iyy, iyz, ixz, iyz, izz, t0, t1, t2)
     W[y + W0 * BLOCK] += dw0

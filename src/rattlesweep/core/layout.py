@@ -32,11 +32,34 @@ FULL = 18  # 1.0 for a full ellipsoid (no rim, never capsizes), else 0.0
 EPS_U = 19  # slip speed below which the stored slip direction is used, m/s
 N_PARAM = 20
 
+# --- per-trajectory parameters derived once per block, rows of region E --------------
+# The right-hand side works per unit mass: the inertia and damping divided by the mass.
+E_JXX, E_JYY, E_JZZ, E_JXY, E_JXZ, E_JYZ = 0, 1, 2, 3, 4, 5  # inertia about G / mass, m^2
+E_CVM = 6  # damping / mass, m^2/s
+N_DERIVED = 7
+
 # --- auxiliary outputs of one right-hand-side evaluation, rows of X -----------------
 X_N = 0  # normal force, N
 X_FX, X_FY = 1, 2  # horizontal friction force, world, N
 X_UX, X_UY = 3, 4  # horizontal slip velocity of the material contact point, world, m/s
 N_AUX = 5
+
+# --- intermediate results of one right-hand-side evaluation, rows of region G ---------
+# The evaluation runs as several loops over the lanes (geometry, dynamics, derivative),
+# handing these rows from one to the next: short loop bodies let the processor overlap
+# the long dependency chains (a square root and two divisions) of neighbouring lanes.
+G_R0, G_R1, G_R2 = 0, 1, 2  # ρ, from G to the contact point, body, m
+G_WW0, G_WW1, G_WW2 = 3, 4, 5  # w = ω × (ω × ρ + ṡ_P), body, m/s^2
+G_U0, G_U1, G_U2 = 6, 7, 8  # world up-vector in body components, times |q|^2
+G_INV_Q = 9  # 1/|q|^2
+G_UX, G_UY = 10, 11  # slip velocity of the material contact point, world, m/s
+G_UHX, G_UHY = 12, 13  # slip direction used for friction, world
+G_X0, G_X1, G_X2 = 14, 15, 16  # angular acceleration times G_DET (adjugate · rhs)
+G_DET = 17  # determinant of the 3×3 system for the angular acceleration
+G_N0 = 18  # N₀/m = g − n̂·w, m/s^2
+G_LX = 19  # l · (adjugate · rhs), so that N/m = G_N0 − G_LX / G_DET
+G_INV_S = 20  # 1/σ̃, 1/m
+N_SCRATCH = 21
 
 # --- per-lane switching state, rows of S ---------------------------------------------
 S_MODE = 0  # 0.0 stick, 1.0 slip
@@ -74,12 +97,13 @@ N_BOOK = 16
 # load of another row, so the lane loops vectorise without runtime alias checks (separate
 # arrays would each need such checks, and LLVM gives up past a handful).
 OFF_P = 0  # parameters (N_PARAM rows)
-OFF_Y = OFF_P + N_PARAM  # state at the start of the step (N_STATE rows)
-OFF_T = OFF_Y + N_STATE  # stage input: the state where the derivative is evaluated
-OFF_D = OFF_T + N_STATE  # derivative at the stage input
-OFF_A = OFF_D + N_STATE  # RK4 accumulator
+OFF_E = OFF_P + N_PARAM  # derived parameters (N_DERIVED rows)
+OFF_Y = OFF_E + N_DERIVED  # state at the start of the step (N_STATE rows)
+OFF_T = OFF_Y + N_STATE  # stage state: where the derivative is evaluated
+OFF_A = OFF_T + N_STATE  # RK4 accumulator of the stage derivatives
 OFF_X = OFF_A + N_STATE  # auxiliary outputs (N_AUX rows)
-OFF_S = OFF_X + N_AUX  # switching state (N_SWITCH rows)
+OFF_G = OFF_X + N_AUX  # right-hand-side intermediates (N_SCRATCH rows)
+OFF_S = OFF_G + N_SCRATCH  # switching state (N_SWITCH rows)
 OFF_K = OFF_S + N_SWITCH  # time-loop bookkeeping (N_BOOK rows)
 N_WORK = OFF_K + N_BOOK
 

@@ -22,14 +22,14 @@ import math
 import numpy as np
 from numba import prange
 
-from .dynamics import eval_block
+from .dynamics import STAGE_2, STAGE_3, STAGE_4, STAGE_START, derive_parameters, eval_block
 from .geometry import energy_terms, plastic_contact_impulse
 from .jit import kernel, parallel_kernel
 from .layout import (
     BLOCK, CAPSIZED, DT, EPS_U, FULL, GRAV, K_BAND, K_FIRST_REV, K_FLAG, K_MIN_UP, K_N_REV, K_OPEN,
     K_RUN, K_SIDE, K_SLIP_STEPS, K_SPIN_PREV, K_STOP, K_T_CAND, K_T_CROSS, K_WIN0, K_WIN_CNT,
-    K_WIN_SUM, LIFTED_OFF, MU_K, MU_S, NON_FINITE, N_STATE, N_WORK, OFF_A, OFF_D, OFF_K, OFF_P,
-    OFF_S, OFF_T, OFF_X, OFF_Y, OK, O_E0, O_E_END, O_FINAL_SPIN, O_FIRST_REV, O_MAX_TILT,
+    K_WIN_SUM, LIFTED_OFF, MU_K, MU_S, NON_FINITE, N_STATE, N_WORK, OFF_A, OFF_K, OFF_P, OFF_S,
+    OFF_T, OFF_X, OFF_Y, OK, O_E0, O_E_END, O_FINAL_SPIN, O_FIRST_REV, O_MAX_TILT,
     O_MEAN_FINAL_SPIN, O_N_REV, O_SLIP_FRAC, O_SPIN0, O_STATUS, O_STEPS, O_T_END, PX, PY, Q0, Q1,
     Q2, Q3, R_ENERGY, R_FX, R_FY, R_JX, R_JY, R_N, R_PX, R_PY, R_PZ, R_Q0, R_SLIP, R_SPIN, R_TILT,
     R_UX, R_UY, R_VX, R_VY, R_VZ, R_W0, S_JX, S_JY, S_MODE, S_UHX, S_UHY, S_UPREV, S_USX, S_USY, VX,
@@ -128,63 +128,54 @@ def record_lane(W, j, out):
 
 @kernel
 def evaluate_state(W, slip_possible):
-    """Evaluate the right-hand side, with every output, at the step-start state Y
-    (copied into region T). ``slip_possible`` as in :func:`.eval_block`, at run time:
-    False only when no lane that is still stepping slips."""
-    for k in range(N_STATE):
-        for j in range(BLOCK):
-            W[at(OFF_T, k, j)] = W[at(OFF_Y, k, j)]
+    """First RK stage, with every force output, at the step-start state (regions T and Y
+    hold it alike). ``slip_possible`` as in :func:`.eval_block`, at run time: False only
+    when no lane that is still stepped slips."""
     if slip_possible:
-        eval_block(W, True, True)
+        eval_block(W, True, STAGE_START)
     else:
-        eval_block(W, False, True)
+        eval_block(W, False, STAGE_START)
 
 
 @kernel
-def eval_stage(W, slip_possible):
-    """Derivative only (no forces) at an inner RK stage, in the variant the flag picks."""
-    if slip_possible:
-        eval_block(W, True, False)
-    else:
-        eval_block(W, False, False)
+def sync_stage_state(W):
+    """Region T = region Y, as :func:`evaluate_state` needs, after Y changed or the first
+    stage already moved T on."""
+    for k in range(N_STATE):
+        for j in range(BLOCK):
+            W[at(OFF_T, k, j)] = W[at(OFF_Y, k, j)]
+
+
+@kernel
+def reevaluate_state(W, slip_possible):
+    """:func:`evaluate_state` again, after the decisions changed a mode or a state."""
+    sync_stage_state(W)
+    evaluate_state(W, slip_possible)
 
 
 @kernel
 def rk4_step(W, slip_possible):
-    """Classic RK4 from region Y (derivative at Y already in D) into region T.
-    ``slip_possible=False`` (every lane sticks) lets the stages skip slip-only work."""
-    for k in range(N_STATE):
-        for j in range(BLOCK):
-            dk = W[at(OFF_D, k, j)]
-            W[at(OFF_A, k, j)] = dk
-            W[at(OFF_T, k, j)] = W[at(OFF_Y, k, j)] + 0.5 * W[at(OFF_P, DT, j)] * dk
-    eval_stage(W, slip_possible)
-    for k in range(N_STATE):
-        for j in range(BLOCK):
-            dk = W[at(OFF_D, k, j)]
-            W[at(OFF_A, k, j)] += 2.0 * dk
-            W[at(OFF_T, k, j)] = W[at(OFF_Y, k, j)] + 0.5 * W[at(OFF_P, DT, j)] * dk
-    eval_stage(W, slip_possible)
-    for k in range(N_STATE):
-        for j in range(BLOCK):
-            dk = W[at(OFF_D, k, j)]
-            W[at(OFF_A, k, j)] += 2.0 * dk
-            W[at(OFF_T, k, j)] = W[at(OFF_Y, k, j)] + W[at(OFF_P, DT, j)] * dk
-    eval_stage(W, slip_possible)
-    for k in range(N_STATE):
-        for j in range(BLOCK):
-            W[at(OFF_T, k, j)] = W[at(OFF_Y, k, j)] + W[at(OFF_P, DT, j)] / 6.0 * (
-                W[at(OFF_A, k, j)] + W[at(OFF_D, k, j)])
+    """The three inner stages of classic RK4 (the first ran in :func:`evaluate_state`),
+    leaving the new state in region T. ``slip_possible=False`` (every lane sticks) lets
+    the stages skip slip-only work."""
+    if slip_possible:
+        eval_block(W, True, STAGE_2)
+        eval_block(W, True, STAGE_3)
+        eval_block(W, True, STAGE_4)
+    else:
+        eval_block(W, False, STAGE_2)
+        eval_block(W, False, STAGE_3)
+        eval_block(W, False, STAGE_4)
 
 
 @kernel
 def euler_step(W):
-    """Semi-implicit Euler from region Y (derivative in D) into region T: velocities
-    first, then positions and orientation with the new velocities."""
+    """Semi-implicit Euler from region Y (derivative in A, from the first RK stage) into
+    region T: velocities first, then positions and orientation with the new velocities."""
     for j in range(BLOCK):
         dt = W[at(OFF_P, DT, j)]
         for k in (W0, W1, W2, VX, VY):
-            W[at(OFF_T, k, j)] = W[at(OFF_Y, k, j)] + dt * W[at(OFF_D, k, j)]
+            W[at(OFF_T, k, j)] = W[at(OFF_Y, k, j)] + dt * W[at(OFF_A, k, j)]
         h = 0.5 * dt
         q0 = W[at(OFF_Y, Q0, j)]
         q1 = W[at(OFF_Y, Q1, j)]
@@ -469,6 +460,7 @@ def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
     for j in range(BLOCK):
         if not load_lane(W, P, Y, j, OFF_P, OFF_Y):
             status[j] = NON_FINITE
+        derive_parameters(W, j)
         max_steps = max(max_steps, nsteps[j])
         W[at(OFF_S, S_MODE, j)] = 1.0  # any mode: the slip velocity is mode-independent
         W[at(OFF_S, S_UHX, j)] = 1.0
@@ -482,7 +474,7 @@ def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
         W[at(OFF_K, K_WIN0, j)] = nsteps[j] - nsteps[j] // 10
         W[at(OFF_K, K_T_CROSS, j)] = np.nan
         W[at(OFF_K, K_FIRST_REV, j)] = np.nan
-    evaluate_state(W, True)
+    reevaluate_state(W, True)
     can_slip = False  # some lane may slip now or later: its static friction is finite
     for j in range(BLOCK):
         ux = W[at(OFF_X, X_UX, j)]
@@ -500,6 +492,7 @@ def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
         W[at(OFF_K, K_MIN_UP, j)] = up_vector(W, OFF_Y, j)[2]
         can_slip = can_slip or (W[at(OFF_K, K_RUN, j)] > 0.5 and (
             param(W, MU_S, j) < math.inf or W[at(OFF_S, S_MODE, j)] > 0.5))
+    sync_stage_state(W)  # from here on, every step starts with T = Y
 
     # --- time loop ------------------------------------------------------------------
     for step in range(max_steps + 1):
@@ -512,7 +505,7 @@ def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
                     if W[at(OFF_K, K_FLAG, j)] != 0.0:
                         stick_now(W, j)
                 slipping = any_slipping(W)
-                evaluate_state(W, slipping)
+                reevaluate_state(W, slipping)
         if can_slip:
             flag_slip_start(W)
             if count_flags(W) > 0:
@@ -522,7 +515,7 @@ def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
                         fy = W[at(OFF_X, X_FY, j)]
                         start_slip(W, j, fx, fy, math.sqrt(fx * fx + fy * fy))
                 slipping = True
-                evaluate_state(W, True)
+                reevaluate_state(W, True)
         flag_end(W, step)
         ending = count_flags(W) > 0
         if ending:
@@ -608,7 +601,8 @@ def contact_slip_velocity(P, Y, U):
     for b in range(P.shape[0]):
         for j in range(BLOCK):
             load_lane(W, P[b], Y[b], j, OFF_P, OFF_Y)
-        evaluate_state(W, True)
+            derive_parameters(W, j)
+        reevaluate_state(W, True)
         for j in range(BLOCK):
             U[b, 0, j] = W[at(OFF_X, X_UX, j)]
             U[b, 1, j] = W[at(OFF_X, X_UY, j)]
@@ -622,8 +616,9 @@ def rolling_derivative(P, Y, D):
     W = np.zeros(N_WORK * BLOCK)  # switching state zero: every lane sticks
     for b in range(P.shape[0]):
         for j in range(BLOCK):
-            load_lane(W, P[b], Y[b], j, OFF_P, OFF_T)
-        eval_block(W, False, False)
+            load_lane(W, P[b], Y[b], j, OFF_P, OFF_Y)
+            derive_parameters(W, j)
+        reevaluate_state(W, False)
         for k in range(N_STATE):
             for j in range(BLOCK):
-                D[b, k, j] = W[at(OFF_D, k, j)]
+                D[b, k, j] = W[at(OFF_A, k, j)]  # the first RK stage leaves d in A
