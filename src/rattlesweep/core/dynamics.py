@@ -1,8 +1,8 @@
 """Right-hand side of the rattleback with Coulomb stick/slip contact (MODEL.md section 4).
 
 One function, :func:`eval_block`, evaluates the time derivative of every lane of a block
-in three straight loops over the lanes. The contact mode of each lane (stick or slip) is
-an input, held through the stages of a step; stick and slip share one 3×3 solve, with the
+in a few short straight loops over the lanes. The contact mode of each lane (stick or
+slip) is an input, held through the stages of a step; stick and slip share one 3×3 solve, with the
 matrix and right-hand side chosen per lane, so the loops have no data-dependent branches
 and LLVM vectorises them across lanes.
 """
@@ -206,7 +206,8 @@ def contact_kinematics(W, slip_velocity):
 
 @kernel
 def accelerations(W, slip_possible):
-    """Phase 2 of :func:`eval_block`: the angular acceleration and the normal force.
+    """Phase 2 of :func:`eval_block`: the angular acceleration and the normal force, as
+    adj(M) b and det M (see :func:`divide_out`).
 
     Per unit mass, with J = I/m:
     stick: (J + |ρ|²𝟙 − ρρᵀ) ω̇ = −ω × Jω − (c_v/m) ω + ρ × (g n̂ − w);
