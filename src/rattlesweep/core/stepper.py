@@ -11,8 +11,10 @@ The time loop of :func:`advance_block` works on one block of ``BLOCK`` lanes:
 3. flag lift-off (N < 0), record, take an RK4 (or semi-implicit Euler) step with the
    modes held, and commit each lane unless its new state is non-finite or past the rim.
 
-A lane that stops (status other than ok, or at the end of its own number of steps)
-keeps its last valid state. All work arrays are made once per block, none in the loop.
+Every step-wide task is a vector pass over the lanes that flags the few lanes needing
+scalar work (see the passes below). A lane that stops (status other than ok, or at the
+end of its own number of steps) is written out with its last valid state at once and
+then frozen. All work arrays are made once per block, none in the loop.
 """
 
 from __future__ import annotations
