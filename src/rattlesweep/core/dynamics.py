@@ -101,15 +101,18 @@ def eval_block(W, slip_possible, stage):
 
 
 @kernel
-def rot_row0(q00, q11, q22, q33, q12, q03, q13, q02):
-    """First row of R̃ = |q|² R (R: body -> world)."""
-    return (q00 + q11) - (q22 + q33), 2.0 * (q12 - q03), 2.0 * (q13 + q02)
-
-
-@kernel
-def rot_row1(q00, q11, q22, q33, q12, q03, q23, q01):
-    """Second row of R̃ = |q|² R."""
-    return 2.0 * (q12 + q03), (q00 + q22) - (q11 + q33), 2.0 * (q23 - q01)
+def horizontal_rows(q0, q1, q2, q3):
+    """First two rows of R̃ = |q|² R (R: body -> world), the world-horizontal ones."""
+    q00 = q0 * q0
+    q11 = q1 * q1
+    q22 = q2 * q2
+    q33 = q3 * q3
+    q12 = q1 * q2
+    q03 = q0 * q3
+    return (
+        (q00 + q11) - (q22 + q33), 2.0 * (q12 - q03), 2.0 * (q1 * q3 + q0 * q2),
+        2.0 * (q12 + q03), (q00 + q22) - (q11 + q33), 2.0 * (q2 * q3 - q0 * q1),
+    )
 
 
 @kernel
@@ -191,15 +194,8 @@ def contact_kinematics(W, slip_velocity):
             q1 = W[y + Q1 * BLOCK]
             q2 = W[y + Q2 * BLOCK]
             q3 = W[y + Q3 * BLOCK]
-            q00 = q0 * q0
-            q11 = q1 * q1
-            q22 = q2 * q2
-            q33 = q3 * q3
             inv_q = W[o + G_INV_Q * BLOCK]
-            q12 = q1 * q2
-            q03 = q0 * q3
-            e00, e01, e02 = rot_row0(q00, q11, q22, q33, q12, q03, q1 * q3, q0 * q2)
-            e10, e11, e12 = rot_row1(q00, q11, q22, q33, q12, q03, q2 * q3, q0 * q1)
+            e00, e01, e02, e10, e11, e12 = horizontal_rows(q0, q1, q2, q3)
             W[o + G_UX * BLOCK] = W[y + VX * BLOCK] + (e00 * wr0 + e01 * wr1 + e02 * wr2) * inv_q
             W[o + G_UY * BLOCK] = W[y + VY * BLOCK] + (e10 * wr0 + e11 * wr1 + e12 * wr2) * inv_q
 
@@ -285,14 +281,7 @@ def accelerations(W, slip_possible):
             q1 = W[y + Q1 * BLOCK]
             q2 = W[y + Q2 * BLOCK]
             q3 = W[y + Q3 * BLOCK]
-            q00 = q0 * q0
-            q11 = q1 * q1
-            q22 = q2 * q2
-            q33 = q3 * q3
-            q12 = q1 * q2
-            q03 = q0 * q3
-            e00, e01, e02 = rot_row0(q00, q11, q22, q33, q12, q03, q1 * q3, q0 * q2)
-            e10, e11, e12 = rot_row1(q00, q11, q22, q33, q12, q03, q2 * q3, q0 * q1)
+            e00, e01, e02, e10, e11, e12 = horizontal_rows(q0, q1, q2, q3)
             ub0 = (e00 * uhx + e10 * uhy) * inv_q
             ub1 = (e01 * uhx + e11 * uhy) * inv_q
             ub2 = (e02 * uhx + e12 * uhy) * inv_q
@@ -369,14 +358,7 @@ def store_derivative(W, slip_possible, stage):
         e0 = -(e0 + W[o + G_WW0 * BLOCK])
         e1 = -(e1 + W[o + G_WW1 * BLOCK])
         e2 = -(e2 + W[o + G_WW2 * BLOCK])
-        q00 = q0 * q0
-        q11 = q1 * q1
-        q22 = q2 * q2
-        q33 = q3 * q3
-        q12 = q1 * q2
-        q03 = q0 * q3
-        e00, e01, e02 = rot_row0(q00, q11, q22, q33, q12, q03, q1 * q3, q0 * q2)
-        e10, e11, e12 = rot_row1(q00, q11, q22, q33, q12, q03, q2 * q3, q0 * q1)
+        e00, e01, e02, e10, e11, e12 = horizontal_rows(q0, q1, q2, q3)
         fx = (e00 * e0 + e01 * e1 + e02 * e2) * inv_q
         fy = (e10 * e0 + e11 * e1 + e12 * e2) * inv_q
         if slip_possible:

@@ -127,21 +127,9 @@ def adjugate_solve(m00, m01, m02, m10, m11, m12, m20, m21, m22, b0, b1, b2):
 @inline_kernel  # must inline into the lane loops: a call there stops vectorisation
 def solve3(m00, m01, m02, m10, m11, m12, m20, m21, m22, b0, b1, b2):
     """Solve the 3×3 system M x = b by Cramer's rule (adjugate over determinant)."""
-    c00 = m11 * m22 - m12 * m21
-    c01 = m12 * m20 - m10 * m22
-    c02 = m10 * m21 - m11 * m20
-    c10 = m02 * m21 - m01 * m22
-    c11 = m00 * m22 - m02 * m20
-    c12 = m01 * m20 - m00 * m21
-    c20 = m01 * m12 - m02 * m11
-    c21 = m02 * m10 - m00 * m12
-    c22 = m00 * m11 - m01 * m10
-    inv_det = 1.0 / (m00 * c00 + m01 * c01 + m02 * c02)
-    return (
-        (c00 * b0 + c10 * b1 + c20 * b2) * inv_det,
-        (c01 * b0 + c11 * b1 + c21 * b2) * inv_det,
-        (c02 * b0 + c12 * b1 + c22 * b2) * inv_det,
-    )
+    x0, x1, x2, det = adjugate_solve(m00, m01, m02, m10, m11, m12, m20, m21, m22, b0, b1, b2)
+    inv_det = 1.0 / det
+    return x0 * inv_det, x1 * inv_det, x2 * inv_det
 
 
 @kernel
