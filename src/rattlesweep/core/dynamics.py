@@ -17,14 +17,15 @@ from .geometry import adjugate_solve, cross
 from .jit import inline_kernel, kernel
 from .layout import (
     A2, B2, BLOCK, C2, DAMP, DT, EPS_U, E_CVM, E_JXX, E_JXY, E_JXZ, E_JYY, E_JYZ, E_JZZ, GRAV, GX,
-    GY, GZ, G_DET, G_INV_Q, G_INV_S, G_LX, G_N0, G_R0, G_R1, G_R2, G_U0, G_U1, G_U2, G_UHX, G_UHY,
-    G_UX, G_UY, G_WW0, G_WW1, G_WW2, G_X0, G_X1, G_X2, IXX, IXY, IXZ, IYY, IYZ, IZZ, MASS, MU_K,
-    OFF_A, OFF_E, OFF_G, OFF_P, OFF_S, OFF_T, OFF_X, OFF_Y, PX, PY, Q0, Q1, Q2, Q3, S_MODE, S_UHX,
-    S_UHY, VX, VY, W0, W1, W2, X_FX, X_FY, X_N, X_UX, X_UY,
+    GY, GZ, G_DET, G_FX, G_FY, G_INV_Q, G_INV_S, G_LX, G_N0, G_R0, G_R1, G_R2, G_U0, G_U1, G_U2,
+    G_UHX, G_UHY, G_UX, G_UY, G_WW0, G_WW1, G_WW2, G_X0, G_X1, G_X2, IXX, IXY, IXZ, IYY, IYZ, IZZ,
+    MASS, MU_K, OFF_A, OFF_E, OFF_G, OFF_P, OFF_S, OFF_T, OFF_X, OFF_Y, PX, PY, Q0, Q1, Q2, Q3,
+    S_MODE, S_UHX, S_UHY, VX, VY, W0, W1, W2, X_FX, X_FY, X_N, X_UX, X_UY,
 )
 
 
 STAGE_START = 0
+STAGE_FIRST = 1
 STAGE_2 = 2
 STAGE_3 = 3
 STAGE_4 = 4
@@ -47,7 +48,7 @@ def put_derivative(W, j, k, stage, dk):
     a = (OFF_A + k) * BLOCK + j
     t = (OFF_T + k) * BLOCK + j
     y = (OFF_Y + k) * BLOCK + j
-    if stage == STAGE_START:
+    if stage == STAGE_START or stage == STAGE_FIRST:
         W[a] = dk
         W[t] = W[y] + 0.5 * h * dk
     elif stage == STAGE_2:
@@ -73,6 +74,8 @@ def eval_block(W, slip_possible, stage):
     * ``STAGE_START``: T must equal Y; A = d and T = Y + (h/2) d, and the normal force,
       friction force and slip velocity go to region X (the semi-implicit Euler step
       also starts from A = d);
+    * ``STAGE_FIRST``: the same with the normal force as the only output, for steps
+      where nothing reads the others;
     * ``STAGE_2``: A += 2d and T = Y + (h/2) d;
     * ``STAGE_3``: A += 2d and T = Y + h d;
     * ``STAGE_4``: T = Y + (h/6)(A + d), the new state. Forces, which nobody reads in
@@ -97,7 +100,8 @@ def eval_block(W, slip_possible, stage):
         contact_kinematics(W, slip_possible)
     accelerations(W, slip_possible)
     divide_out(W)
-    store_derivative(W, slip_possible, stage)
+    friction_force(W, slip_possible, stage)
+    store_derivative(W, stage)
 
 
 @kernel
@@ -327,12 +331,13 @@ def divide_out(W):
 
 
 @kernel
-def store_derivative(W, slip_possible, stage):
-    """Phase 4 of :func:`eval_block`: the friction force and the whole derivative, used
-    as ``stage`` asks; the outputs of region X at STAGE_START."""
+def friction_force(W, slip_possible, stage):
+    """Phase 4 of :func:`eval_block`: the friction force per unit mass, and the outputs
+    of region X at STAGE_START and STAGE_FIRST."""
     numba.literally(slip_possible)
     numba.literally(stage)
     outputs = stage == STAGE_START
+    normal_output = outputs or stage == STAGE_FIRST
     for j in range(BLOCK):
         p = OFF_P * BLOCK + j
         y = OFF_T * BLOCK + j
@@ -342,19 +347,11 @@ def store_derivative(W, slip_possible, stage):
         q1 = W[y + Q1 * BLOCK]
         q2 = W[y + Q2 * BLOCK]
         q3 = W[y + Q3 * BLOCK]
-        w0 = W[y + W0 * BLOCK]
-        w1 = W[y + W1 * BLOCK]
-        w2 = W[y + W2 * BLOCK]
-        vx = W[y + VX * BLOCK]
-        vy = W[y + VY * BLOCK]
-        a0 = W[o + G_X0 * BLOCK]  # ω̇, after divide_out
-        a1 = W[o + G_X1 * BLOCK]
-        a2 = W[o + G_X2 * BLOCK]
         nm = W[o + G_N0 * BLOCK]  # N/m, after divide_out
         inv_q = W[o + G_INV_Q * BLOCK]
         # stick: F/m = a_G + g n̂ with a_G = −(ω̇ × ρ + w); its world-horizontal part
-        e0, e1, e2 = cross(a0, a1, a2, W[o + G_R0 * BLOCK], W[o + G_R1 * BLOCK],
-                           W[o + G_R2 * BLOCK])
+        e0, e1, e2 = cross(W[o + G_X0 * BLOCK], W[o + G_X1 * BLOCK], W[o + G_X2 * BLOCK],
+                           W[o + G_R0 * BLOCK], W[o + G_R1 * BLOCK], W[o + G_R2 * BLOCK])
         e0 = -(e0 + W[o + G_WW0 * BLOCK])
         e1 = -(e1 + W[o + G_WW1 * BLOCK])
         e2 = -(e2 + W[o + G_WW2 * BLOCK])
@@ -366,24 +363,40 @@ def store_derivative(W, slip_possible, stage):
                 mu_n = -W[p + MU_K * BLOCK] * nm
                 fx = mu_n * W[o + G_UHX * BLOCK]
                 fy = mu_n * W[o + G_UHY * BLOCK]
-        h0 = 0.5 * w0
-        h1 = 0.5 * w1
-        h2 = 0.5 * w2
-        put_derivative(W, j, Q0, stage, -(q1 * h0 + q2 * h1 + q3 * h2))
-        put_derivative(W, j, Q1, stage, q0 * h0 + q2 * h2 - q3 * h1)
-        put_derivative(W, j, Q2, stage, q0 * h1 + q3 * h0 - q1 * h2)
-        put_derivative(W, j, Q3, stage, q0 * h2 + q1 * h1 - q2 * h0)
-        put_derivative(W, j, W0, stage, a0)
-        put_derivative(W, j, W1, stage, a1)
-        put_derivative(W, j, W2, stage, a2)
-        put_derivative(W, j, PX, stage, vx)
-        put_derivative(W, j, PY, stage, vy)
-        put_derivative(W, j, VX, stage, fx)
-        put_derivative(W, j, VY, stage, fy)
+        W[o + G_FX * BLOCK] = fx
+        W[o + G_FY * BLOCK] = fy
+        if normal_output:
+            W[x + X_N * BLOCK] = W[p + MASS * BLOCK] * nm
         if outputs:
             m = W[p + MASS * BLOCK]
-            W[x + X_N * BLOCK] = m * nm
             W[x + X_FX * BLOCK] = m * fx
             W[x + X_FY * BLOCK] = m * fy
             W[x + X_UX * BLOCK] = W[o + G_UX * BLOCK]
             W[x + X_UY * BLOCK] = W[o + G_UY * BLOCK]
+
+
+@kernel
+def store_derivative(W, stage):
+    """Phase 5 of :func:`eval_block`: the whole derivative, used as ``stage`` asks."""
+    numba.literally(stage)
+    for j in range(BLOCK):
+        y = OFF_T * BLOCK + j
+        o = OFF_G * BLOCK + j
+        q0 = W[y + Q0 * BLOCK]
+        q1 = W[y + Q1 * BLOCK]
+        q2 = W[y + Q2 * BLOCK]
+        q3 = W[y + Q3 * BLOCK]
+        h0 = 0.5 * W[y + W0 * BLOCK]
+        h1 = 0.5 * W[y + W1 * BLOCK]
+        h2 = 0.5 * W[y + W2 * BLOCK]
+        put_derivative(W, j, Q0, stage, -(q1 * h0 + q2 * h1 + q3 * h2))
+        put_derivative(W, j, Q1, stage, q0 * h0 + q2 * h2 - q3 * h1)
+        put_derivative(W, j, Q2, stage, q0 * h1 + q3 * h0 - q1 * h2)
+        put_derivative(W, j, Q3, stage, q0 * h2 + q1 * h1 - q2 * h0)
+        put_derivative(W, j, W0, stage, W[o + G_X0 * BLOCK])  # ω̇, after divide_out
+        put_derivative(W, j, W1, stage, W[o + G_X1 * BLOCK])
+        put_derivative(W, j, W2, stage, W[o + G_X2 * BLOCK])
+        put_derivative(W, j, PX, stage, W[y + VX * BLOCK])
+        put_derivative(W, j, PY, stage, W[y + VY * BLOCK])
+        put_derivative(W, j, VX, stage, W[o + G_FX * BLOCK])
+        put_derivative(W, j, VY, stage, W[o + G_FY * BLOCK])

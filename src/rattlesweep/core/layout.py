@@ -59,7 +59,8 @@ G_DET = 17  # determinant of the 3×3 system for the angular acceleration
 G_N0 = 18  # N₀/m = g − n̂·w, m/s^2
 G_LX = 19  # l · (adjugate · rhs), so that N/m = G_N0 − G_LX / G_DET
 G_INV_S = 20  # 1/σ̃, 1/m
-N_SCRATCH = 21
+G_FX, G_FY = 21, 22  # horizontal friction force per unit mass, world, m/s^2
+N_SCRATCH = 23
 
 # --- per-lane switching state, rows of S ---------------------------------------------
 S_MODE = 0  # 0.0 stick, 1.0 slip

@@ -24,7 +24,9 @@ import math
 import numpy as np
 from numba import prange
 
-from .dynamics import STAGE_2, STAGE_3, STAGE_4, STAGE_START, derive_parameters, eval_block
+from .dynamics import (
+    STAGE_2, STAGE_3, STAGE_4, STAGE_FIRST, STAGE_START, derive_parameters, eval_block,
+)
 from .geometry import energy_terms, plastic_contact_impulse
 from .jit import kernel, parallel_kernel
 from .layout import (
@@ -129,14 +131,17 @@ def record_lane(W, j, out):
 
 
 @kernel
-def evaluate_state(W, slip_possible):
-    """First RK stage, with every force output, at the step-start state (regions T and Y
-    hold it alike). ``slip_possible`` as in :func:`.eval_block`, at run time: False only
-    when no lane that is still stepped slips."""
+def evaluate_state(W, slip_possible, forces):
+    """First RK stage at the step-start state (regions T and Y hold it alike), with
+    the normal force in region X and, when ``forces`` or ``slip_possible``, the friction
+    force and slip velocity too. ``slip_possible`` as in :func:`.eval_block`, at run
+    time: False only when no lane that is still stepped slips."""
     if slip_possible:
         eval_block(W, True, STAGE_START)
-    else:
+    elif forces:
         eval_block(W, False, STAGE_START)
+    else:
+        eval_block(W, False, STAGE_FIRST)
 
 
 @kernel
@@ -150,9 +155,10 @@ def sync_stage_state(W):
 
 @kernel
 def reevaluate_state(W, slip_possible):
-    """:func:`evaluate_state` again, after the decisions changed a mode or a state."""
+    """:func:`evaluate_state` with every output, again after the decisions changed a
+    mode or a state."""
     sync_stage_state(W)
-    evaluate_state(W, slip_possible)
+    evaluate_state(W, slip_possible, True)
 
 
 @kernel
@@ -499,7 +505,10 @@ def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
     # --- time loop ------------------------------------------------------------------
     for step in range(max_steps + 1):
         slipping = can_slip and any_slipping(W)
-        evaluate_state(W, slipping)
+        recording = n_rec > 0 and step % record_every == 0 and step // record_every < n_rec
+        # the friction force and slip velocity are read only by the stick/slip decisions
+        # and the record
+        evaluate_state(W, slipping, can_slip or recording)
         if slipping:
             flag_restick(W)
             if count_flags(W) > 0:
@@ -529,7 +538,7 @@ def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
                 if flag != 0.0:
                     W[at(OFF_K, K_RUN, j)] = 0.0
 
-        if n_rec > 0 and step % record_every == 0 and step // record_every < n_rec:
+        if recording:
             i_rec = step // record_every
             for j in range(BLOCK):
                 if step <= W[at(OFF_K, K_STOP, j)]:
