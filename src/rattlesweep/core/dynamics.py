@@ -40,6 +40,12 @@ def derive_parameters(W, j):
         W[(OFF_E + dst) * BLOCK + j] = W[(OFF_P + src) * BLOCK + j] / m
 
 
+@kernel
+def first_stage(stage):
+    """True for the stages that evaluate the step-start state, region Y."""
+    return stage == STAGE_START or stage == STAGE_FIRST
+
+
 @inline_kernel
 def put_derivative(W, j, k, stage, dk):
     """Use component ``dk`` of lane j's derivative (state row k) as ``stage`` asks (see
@@ -48,17 +54,24 @@ def put_derivative(W, j, k, stage, dk):
     a = (OFF_A + k) * BLOCK + j
     t = (OFF_T + k) * BLOCK + j
     y = (OFF_Y + k) * BLOCK + j
-    if stage == STAGE_START or stage == STAGE_FIRST:
+    # no stage reads the position of G, so no stage state has one
+    stage_state = k != PX and k != PY
+    if first_stage(stage):
         W[a] = dk
-        W[t] = W[y] + 0.5 * h * dk
+        if stage_state:
+            W[t] = W[y] + 0.5 * h * dk
     elif stage == STAGE_2:
         W[a] += 2.0 * dk
-        W[t] = W[y] + 0.5 * h * dk
+        if stage_state:
+            W[t] = W[y] + 0.5 * h * dk
     elif stage == STAGE_3:
         W[a] += 2.0 * dk
-        W[t] = W[y] + h * dk
+        if stage_state:
+            W[t] = W[y] + h * dk
     else:
-        W[t] = W[y] + h / 6.0 * (W[a] + dk)
+        y_old = W[y]
+        W[y] = y_old + h / 6.0 * (W[a] + dk)
+        W[a] = y_old  # A is free now: it keeps the old state, for a step that fails
 
 
 @kernel
@@ -66,20 +79,23 @@ def eval_block(W, slip_possible, stage):
     """Time derivative of every lane of a block, plus its contact forces.
 
     W is the block workspace (see :mod:`.layout`). Reads the parameters (regions P and
-    E), the state in region T and, from the switching state (region S), each lane's
-    contact mode and stored slip direction. ``stage`` says what becomes of the
+    E), the state (region Y in the first stage, the stage state T in the others) and,
+    from the switching state (region S), each lane's contact mode and stored slip
+    direction. ``stage`` says what becomes of the
     derivative d, fused with the classic RK4 stage arithmetic so that d never goes to
     memory on its own (Y is the state at the start of the step, h the time step):
 
-    * ``STAGE_START``: T must equal Y; A = d and T = Y + (h/2) d, and the normal force,
+    * ``STAGE_START``: A = d and T = Y + (h/2) d (but for the position of G, which no
+      stage reads: T has none), and the normal force,
       friction force and slip velocity go to region X (the semi-implicit Euler step
       also starts from A = d);
     * ``STAGE_FIRST``: the same with the normal force as the only output, for steps
       where nothing reads the others;
     * ``STAGE_2``: A += 2d and T = Y + (h/2) d;
     * ``STAGE_3``: A += 2d and T = Y + h d;
-    * ``STAGE_4``: T = Y + (h/6)(A + d), the new state. Forces, which nobody reads in
-      these inner stages, are not written.
+    * ``STAGE_4``: Y = Y + (h/6)(A + d), the new state, in place, and A = the old Y,
+      for a lane whose step fails. Forces, which nobody reads in these inner stages,
+      are not written.
 
     Both flags must be literals, so each combination compiles to its own variant;
     ``slip_possible=False`` promises that every lane sticks and drops the slip-only work.
@@ -95,10 +111,14 @@ def eval_block(W, slip_possible, stage):
     numba.literally(slip_possible)
     numba.literally(stage)
     if stage == STAGE_START:
-        contact_kinematics(W, True)  # the slip velocity is an output
+        contact_kinematics(W, True, OFF_Y)  # the slip velocity is an output
+        accelerations(W, slip_possible, OFF_Y)
+    elif stage == STAGE_FIRST:
+        contact_kinematics(W, slip_possible, OFF_Y)
+        accelerations(W, slip_possible, OFF_Y)
     else:
-        contact_kinematics(W, slip_possible)
-    accelerations(W, slip_possible)
+        contact_kinematics(W, slip_possible, OFF_T)
+        accelerations(W, slip_possible, OFF_T)
     divide_out(W)
     friction_force(W, slip_possible, stage)
     store_derivative(W, stage)
@@ -120,7 +140,7 @@ def horizontal_rows(q0, q1, q2, q3):
 
 
 @kernel
-def contact_kinematics(W, slip_velocity):
+def contact_kinematics(W, slip_velocity, state):
     """Phase 1 of :func:`eval_block`: contact point, its rate, w, and the slip velocity.
 
     The rotation body -> world is R = R̃/|q|² with R̃ quadratic in q (stage quaternions
@@ -129,11 +149,12 @@ def contact_kinematics(W, slip_velocity):
     its rate ṡ_P = −(A ṅ + s_P (An̂·ṅ)/σ)/σ with ṅ = n̂ × ω (MODEL.md section 3) are
     unchanged when n̂ is replaced by ũ and σ by σ̃ = √(ũᵀAũ) = |q|² σ, so the only
     divisions are 1/|q|² and 1/σ̃, taken together as one. ``slip_velocity`` (a literal)
-    asks for the slip velocity too.
+    asks for the slip velocity too; ``state`` (a literal) is the region of the state.
     """
     numba.literally(slip_velocity)
+    numba.literally(state)
     for j in range(BLOCK):
-        y = OFF_T * BLOCK + j
+        y = state * BLOCK + j
         o = OFF_G * BLOCK + j
         p = OFF_P * BLOCK + j
         q0 = W[y + Q0 * BLOCK]
@@ -158,7 +179,7 @@ def contact_kinematics(W, slip_velocity):
         W[o + G_INV_S * BLOCK] = inv * qq  # 1/σ̃
     for j in range(BLOCK):
         p = OFF_P * BLOCK + j
-        y = OFF_T * BLOCK + j
+        y = state * BLOCK + j
         o = OFF_G * BLOCK + j
         w0 = W[y + W0 * BLOCK]
         w1 = W[y + W1 * BLOCK]
@@ -205,20 +226,22 @@ def contact_kinematics(W, slip_velocity):
 
 
 @kernel
-def accelerations(W, slip_possible):
+def accelerations(W, slip_possible, state):
     """Phase 2 of :func:`eval_block`: the angular acceleration and the normal force, as
     adj(M) b and det M (see :func:`divide_out`).
 
     Per unit mass, with J = I/m:
     stick: (J + |ρ|²𝟙 − ρρᵀ) ω̇ = −ω × Jω − (c_v/m) ω + ρ × (g n̂ − w);
     slip:  (J + k lᵀ) ω̇ = −ω × Jω − (c_v/m) ω + (N₀/m) k, l = ρ × n̂, k = ρ × (n̂ − μ_k û);
-    N₀/m = g − n̂·w and, in both modes, N/m = N₀/m − l·ω̇.
+    N₀/m = g − n̂·w and, in both modes, N/m = N₀/m − l·ω̇. ``state`` (a literal) is the
+    region of the state.
     """
     numba.literally(slip_possible)
+    numba.literally(state)
     for j in range(BLOCK):
         p = OFF_P * BLOCK + j
         e = OFF_E * BLOCK + j
-        y = OFF_T * BLOCK + j
+        y = state * BLOCK + j
         o = OFF_G * BLOCK + j
         sw = OFF_S * BLOCK + j
         w0 = W[y + W0 * BLOCK]
@@ -338,9 +361,10 @@ def friction_force(W, slip_possible, stage):
     numba.literally(stage)
     outputs = stage == STAGE_START
     normal_output = outputs or stage == STAGE_FIRST
+    state = OFF_Y if first_stage(stage) else OFF_T
     for j in range(BLOCK):
         p = OFF_P * BLOCK + j
-        y = OFF_T * BLOCK + j
+        y = state * BLOCK + j
         o = OFF_G * BLOCK + j
         x = OFF_X * BLOCK + j
         q0 = W[y + Q0 * BLOCK]
@@ -379,8 +403,9 @@ def friction_force(W, slip_possible, stage):
 def store_derivative(W, stage):
     """Phase 5 of :func:`eval_block`: the whole derivative, used as ``stage`` asks."""
     numba.literally(stage)
+    state = OFF_Y if first_stage(stage) else OFF_T
     for j in range(BLOCK):
-        y = OFF_T * BLOCK + j
+        y = state * BLOCK + j
         o = OFF_G * BLOCK + j
         q0 = W[y + Q0 * BLOCK]
         q1 = W[y + Q1 * BLOCK]

@@ -132,7 +132,7 @@ def record_lane(W, j, out):
 
 @kernel
 def evaluate_state(W, slip_possible, forces):
-    """First RK stage at the step-start state (regions T and Y hold it alike), with
+    """First RK stage at the step-start state (region Y), with
     the normal force in region X and, when ``forces`` or ``slip_possible``, the friction
     force and slip velocity too. ``slip_possible`` as in :func:`.eval_block`, at run
     time: False only when no lane that is still stepped slips."""
@@ -145,26 +145,16 @@ def evaluate_state(W, slip_possible, forces):
 
 
 @kernel
-def sync_stage_state(W):
-    """Region T = region Y, as :func:`evaluate_state` needs, after Y changed or the first
-    stage already moved T on."""
-    for k in range(N_STATE):
-        for j in range(BLOCK):
-            W[at(OFF_T, k, j)] = W[at(OFF_Y, k, j)]
-
-
-@kernel
 def reevaluate_state(W, slip_possible):
     """:func:`evaluate_state` with every output, again after the decisions changed a
     mode or a state."""
-    sync_stage_state(W)
     evaluate_state(W, slip_possible, True)
 
 
 @kernel
 def rk4_step(W, slip_possible):
     """The three inner stages of classic RK4 (the first ran in :func:`evaluate_state`),
-    leaving the new state in region T. ``slip_possible=False`` (every lane sticks) lets
+    leaving the new state in region Y and the old one in region A. ``slip_possible=False`` (every lane sticks) lets
     the stages skip slip-only work."""
     if slip_possible:
         eval_block(W, True, STAGE_2)
@@ -178,26 +168,36 @@ def rk4_step(W, slip_possible):
 
 @kernel
 def euler_step(W):
-    """Semi-implicit Euler from region Y (derivative in A, from the first RK stage) into
-    region T: velocities first, then positions and orientation with the new velocities."""
+    """Semi-implicit Euler on region Y, in place, with the derivative in A from the first
+    RK stage: velocities first, then positions and orientation with the new velocities.
+    Leaves the old state in A, as :func:`rk4_step` does."""
     for j in range(BLOCK):
         dt = W[at(OFF_P, DT, j)]
-        for k in (W0, W1, W2, VX, VY):
-            W[at(OFF_T, k, j)] = W[at(OFF_Y, k, j)] + dt * W[at(OFF_A, k, j)]
         h = 0.5 * dt
         q0 = W[at(OFF_Y, Q0, j)]
         q1 = W[at(OFF_Y, Q1, j)]
         q2 = W[at(OFF_Y, Q2, j)]
         q3 = W[at(OFF_Y, Q3, j)]
-        w0 = W[at(OFF_T, W0, j)]
-        w1 = W[at(OFF_T, W1, j)]
-        w2 = W[at(OFF_T, W2, j)]
-        W[at(OFF_T, Q0, j)] = q0 - h * (q1 * w0 + q2 * w1 + q3 * w2)
-        W[at(OFF_T, Q1, j)] = q1 + h * (q0 * w0 + q2 * w2 - q3 * w1)
-        W[at(OFF_T, Q2, j)] = q2 + h * (q0 * w1 + q3 * w0 - q1 * w2)
-        W[at(OFF_T, Q3, j)] = q3 + h * (q0 * w2 + q1 * w1 - q2 * w0)
-        W[at(OFF_T, PX, j)] = W[at(OFF_Y, PX, j)] + dt * W[at(OFF_T, VX, j)]
-        W[at(OFF_T, PY, j)] = W[at(OFF_Y, PY, j)] + dt * W[at(OFF_T, VY, j)]
+        w0 = W[at(OFF_Y, W0, j)] + dt * W[at(OFF_A, W0, j)]
+        w1 = W[at(OFF_Y, W1, j)] + dt * W[at(OFF_A, W1, j)]
+        w2 = W[at(OFF_Y, W2, j)] + dt * W[at(OFF_A, W2, j)]
+        vx = W[at(OFF_Y, VX, j)] + dt * W[at(OFF_A, VX, j)]
+        vy = W[at(OFF_Y, VY, j)] + dt * W[at(OFF_A, VY, j)]
+        px = W[at(OFF_Y, PX, j)] + dt * vx
+        py = W[at(OFF_Y, PY, j)] + dt * vy
+        for k in range(N_STATE):
+            W[at(OFF_A, k, j)] = W[at(OFF_Y, k, j)]
+        W[at(OFF_Y, Q0, j)] = q0 - h * (q1 * w0 + q2 * w1 + q3 * w2)
+        W[at(OFF_Y, Q1, j)] = q1 + h * (q0 * w0 + q2 * w2 - q3 * w1)
+        W[at(OFF_Y, Q2, j)] = q2 + h * (q0 * w1 + q3 * w0 - q1 * w2)
+        W[at(OFF_Y, Q3, j)] = q3 + h * (q0 * w2 + q1 * w1 - q2 * w0)
+        W[at(OFF_Y, W0, j)] = w0
+        W[at(OFF_Y, W1, j)] = w1
+        W[at(OFF_Y, W2, j)] = w2
+        W[at(OFF_Y, PX, j)] = px
+        W[at(OFF_Y, PY, j)] = py
+        W[at(OFF_Y, VX, j)] = vx
+        W[at(OFF_Y, VY, j)] = vy
 
 
 @kernel
@@ -332,37 +332,29 @@ def flag_end(W, step):
 
 @kernel
 def flag_bad_step(W):
-    """Renormalise the quaternion of the new state (region T) of every lane and flag the
+    """Renormalise the quaternion of the new state (region Y) of every lane and flag the
     stepped lanes whose new state is not finite (1.0) or past the rim (2.0)."""
     for j in range(BLOCK):
         nan_or_inf = 0.0
         for k in range(N_STATE):
-            x = W[at(OFF_T, k, j)]
+            x = W[at(OFF_Y, k, j)]
             nan_or_inf += x - x  # NaN for a non-finite x, 0 otherwise
-        q0 = W[at(OFF_T, Q0, j)]
-        q1 = W[at(OFF_T, Q1, j)]
-        q2 = W[at(OFF_T, Q2, j)]
-        q3 = W[at(OFF_T, Q3, j)]
+        q0 = W[at(OFF_Y, Q0, j)]
+        q1 = W[at(OFF_Y, Q1, j)]
+        q2 = W[at(OFF_Y, Q2, j)]
+        q3 = W[at(OFF_Y, Q3, j)]
         qn = 1.0 / math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
         q1 *= qn
         q2 *= qn
-        W[at(OFF_T, Q0, j)] = q0 * qn
-        W[at(OFF_T, Q1, j)] = q1
-        W[at(OFF_T, Q2, j)] = q2
-        W[at(OFF_T, Q3, j)] = q3 * qn
+        W[at(OFF_Y, Q0, j)] = q0 * qn
+        W[at(OFF_Y, Q1, j)] = q1
+        W[at(OFF_Y, Q2, j)] = q2
+        W[at(OFF_Y, Q3, j)] = q3 * qn
         up_z = 1.0 - 2.0 * (q1 * q1 + q2 * q2)
         run = W[at(OFF_K, K_RUN, j)] > 0.5
         bad_value = run & (nan_or_inf != 0.0)
         capsized = run & (param(W, FULL, j) < 0.5) & (up_z <= 0.0)
         W[at(OFF_K, K_FLAG, j)] = 1.0 if bad_value else (2.0 if capsized else 0.0)
-
-
-@kernel
-def accept_step(W):
-    """Region T becomes the state Y of every lane (failed lanes were restored first)."""
-    for k in range(N_STATE):
-        for j in range(BLOCK):
-            W[at(OFF_Y, k, j)] = W[at(OFF_T, k, j)]
 
 
 @kernel
@@ -500,7 +492,6 @@ def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
         W[at(OFF_K, K_MIN_UP, j)] = up_vector(W, OFF_Y, j)[2]
         can_slip = can_slip or (W[at(OFF_K, K_RUN, j)] > 0.5 and (
             param(W, MU_S, j) < math.inf or W[at(OFF_S, S_MODE, j)] > 0.5))
-    sync_stage_state(W)  # from here on, every step starts with T = Y
 
     # --- time loop ------------------------------------------------------------------
     for step in range(max_steps + 1):
@@ -567,9 +558,10 @@ def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
                 if flag != 0.0:
                     status[j] = NON_FINITE if flag == 1.0 else CAPSIZED
                     W[at(OFF_K, K_STOP, j)] = step
+                    for k in range(N_STATE):  # the last valid state, which the step kept
+                        W[at(OFF_Y, k, j)] = W[at(OFF_A, k, j)]
                     finish_lane(W, j, P, status[j], Y, O)
                     freeze_lane(W, j)
-        accept_step(W)
         observe(W, step)
         if count_flags(W) > 0:
             for j in range(BLOCK):
