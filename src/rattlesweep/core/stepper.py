@@ -154,8 +154,8 @@ def reevaluate_state(W, slip_possible):
 @kernel
 def rk4_step(W, slip_possible):
     """The three inner stages of classic RK4 (the first ran in :func:`evaluate_state`),
-    leaving the new state in region Y and the old one in region A. ``slip_possible=False`` (every lane sticks) lets
-    the stages skip slip-only work."""
+    leaving the new state in region Y and the old one in region A.
+    ``slip_possible=False`` (every lane sticks) lets the stages skip slip-only work."""
     if slip_possible:
         eval_block(W, True, STAGE_2)
         eval_block(W, True, STAGE_3)
