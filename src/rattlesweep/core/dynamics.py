@@ -119,7 +119,10 @@ def eval_block(W, slip_possible, stage):
     else:
         contact_kinematics(W, slip_possible, OFF_T)
         accelerations(W, slip_possible, OFF_T)
-    divide_out(W)
+    if slip_possible or first_stage(stage):
+        divide_out(W, True)
+    else:
+        divide_out(W, False)  # the normal force, which no lane needs
     friction_force(W, slip_possible, stage)
     store_derivative(W, stage)
 
@@ -234,10 +237,12 @@ def accelerations(W, slip_possible, state):
     stick: (J + |ρ|²𝟙 − ρρᵀ) ω̇ = −ω × Jω − (c_v/m) ω + ρ × (g n̂ − w);
     slip:  (J + k lᵀ) ω̇ = −ω × Jω − (c_v/m) ω + (N₀/m) k, l = ρ × n̂, k = ρ × (n̂ − μ_k û);
     N₀/m = g − n̂·w and, in both modes, N/m = N₀/m − l·ω̇. ``state`` (a literal) is the
-    region of the state.
+    region of the state. The inner stages of a block where every lane sticks need no
+    normal force, and skip it.
     """
     numba.literally(slip_possible)
     numba.literally(state)
+    normal = slip_possible or state == OFF_Y
     for j in range(BLOCK):
         p = OFF_P * BLOCK + j
         e = OFF_E * BLOCK + j
@@ -335,22 +340,26 @@ def accelerations(W, slip_possible, state):
         W[o + G_X1 * BLOCK] = x1
         W[o + G_X2 * BLOCK] = x2
         W[o + G_DET * BLOCK] = det
-        W[o + G_N0 * BLOCK] = n_free
-        W[o + G_LX * BLOCK] = l0 * x0 + l1 * x1 + l2 * x2
+        if normal:
+            W[o + G_N0 * BLOCK] = n_free
+            W[o + G_LX * BLOCK] = l0 * x0 + l1 * x1 + l2 * x2
 
 
 @kernel
-def divide_out(W):
+def divide_out(W, normal):
     """Phase 3 of :func:`eval_block`: finish Cramer's rule, ω̇ = adj(M) b / det M, in
-    place, and N/m = N₀/m − l·ω̇. Its own loop: the division's latency overlaps across
-    lanes instead of lengthening another loop's chain."""
+    place, and, if ``normal`` (a literal), N/m = N₀/m − l·ω̇. Its own loop: the
+    division's latency overlaps across lanes instead of lengthening another loop's
+    chain."""
+    numba.literally(normal)
     for j in range(BLOCK):
         o = OFF_G * BLOCK + j
         inv_det = 1.0 / W[o + G_DET * BLOCK]
         W[o + G_X0 * BLOCK] *= inv_det
         W[o + G_X1 * BLOCK] *= inv_det
         W[o + G_X2 * BLOCK] *= inv_det
-        W[o + G_N0 * BLOCK] -= W[o + G_LX * BLOCK] * inv_det
+        if normal:
+            W[o + G_N0 * BLOCK] -= W[o + G_LX * BLOCK] * inv_det
 
 
 @kernel
