@@ -251,19 +251,11 @@ def stick_now(W, j):
 # Each is one straight loop over the lanes that writes every lane (no stores on only
 # some lanes), so it vectorises like the right-hand side. Lanes that need scalar work (a
 # mode switch, a status change, a spin reversal) are flagged in row K_FLAG and handled
-# afterwards, only when :func:`count_flags` finds any. A lane whose run has ended is
+# afterwards, only when the pass's count of flagged lanes (its return value, an integer
+# sum that vectorises with the pass) is not zero. A lane whose run has ended is
 # written out at once by :func:`finish_lane` and then frozen (:func:`freeze_lane`): its
 # time step is set to zero and its state to a harmless one, so the passes may go on
 # updating it without masks; nothing reads it again.
-
-
-@kernel
-def count_flags(W):
-    """How many lanes have a non-zero K_FLAG."""
-    n = 0
-    for j in range(BLOCK):
-        n += W[at(OFF_K, K_FLAG, j)] != 0.0
-    return n
 
 
 @kernel
@@ -279,7 +271,8 @@ def any_slipping(W):
 def flag_restick(W):
     """Flag the slipping lanes that stick again (MODEL.md section 4): their slip velocity
     reversed over the last step, or a decaying slip would die within the next one
-    (|u| < μ_k g dt and smaller than a step earlier)."""
+    (|u| < μ_k g dt and smaller than a step earlier). Returns how many."""
+    n = 0
     for j in range(BLOCK):
         ux = W[at(OFF_X, X_UX, j)]
         uy = W[at(OFF_X, X_UY, j)]
@@ -290,13 +283,16 @@ def flag_restick(W):
         flag = ((W[at(OFF_K, K_RUN, j)] > 0.5) & (W[at(OFF_S, S_MODE, j)] > 0.5)
                 & (param(W, MU_S, j) > 0.0) & (reversed_ | dying))
         W[at(OFF_K, K_FLAG, j)] = 1.0 if flag else 0.0
+        n += 1 if flag else 0
+    return n
 
 
 @kernel
 def flag_slip_start(W):
     """Flag the sticking lanes whose friction leaves the cone, |F_t| > μ_s N (μ_s
     finite, N ≥ 0); in the same pass the slipping lanes remember this step's slip
-    velocity (as :func:`note_slip`)."""
+    velocity (as :func:`note_slip`). Returns how many lanes it flagged."""
+    n = 0
     for j in range(BLOCK):
         run = W[at(OFF_K, K_RUN, j)] > 0.5
         slipping = W[at(OFF_S, S_MODE, j)] > 0.5
@@ -307,6 +303,7 @@ def flag_slip_start(W):
         flag = (run & (not slipping) & (mu_s < math.inf) & (normal >= 0.0)
                 & (math.sqrt(fx * fx + fy * fy) > mu_s * normal))
         W[at(OFF_K, K_FLAG, j)] = 1.0 if flag else 0.0
+        n += 1 if flag else 0
 
         note = run & slipping
         ux = W[at(OFF_X, X_UX, j)]
@@ -318,22 +315,28 @@ def flag_slip_start(W):
         turn = note & (uu > param(W, EPS_U, j))
         W[at(OFF_S, S_UHX, j)] = ux / uu if turn else W[at(OFF_S, S_UHX, j)]
         W[at(OFF_S, S_UHY, j)] = uy / uu if turn else W[at(OFF_S, S_UHY, j)]
+    return n
 
 
 @kernel
 def flag_end(W, step):
     """Flag the lanes whose run ends at this step: 1.0 for a stepped lane whose normal
-    force is negative (lift-off), 2.0 for a lane at its last step."""
+    force is negative (lift-off), 2.0 for a lane at its last step. Returns how many."""
+    n = 0
     for j in range(BLOCK):
         lift = (W[at(OFF_K, K_RUN, j)] > 0.5) & (W[at(OFF_X, X_N, j)] < 0.0)
         last = (W[at(OFF_K, K_OPEN, j)] > 0.5) & (step >= W[at(OFF_K, K_STOP, j)])
         W[at(OFF_K, K_FLAG, j)] = 1.0 if lift else (2.0 if last else 0.0)
+        n += 1 if lift | last else 0
+    return n
 
 
 @kernel
 def flag_bad_step(W):
     """Renormalise the quaternion of the new state (region Y) of every lane and flag the
-    stepped lanes whose new state is not finite (1.0) or past the rim (2.0)."""
+    stepped lanes whose new state is not finite (1.0) or past the rim (2.0). Returns how
+    many."""
+    n = 0
     for j in range(BLOCK):
         nan_or_inf = 0.0
         for k in range(N_STATE):
@@ -355,13 +358,17 @@ def flag_bad_step(W):
         bad_value = run & (nan_or_inf != 0.0)
         capsized = run & (param(W, FULL, j) < 0.5) & (up_z <= 0.0)
         W[at(OFF_K, K_FLAG, j)] = 1.0 if bad_value else (2.0 if capsized else 0.0)
+        n += 1 if bad_value | capsized else 0
+    return n
 
 
 @kernel
 def observe(W, step):
     """Update the run observables from the new state Y, and flag the lanes whose spin
-    crossed zero (bit 1) or went beyond the reversal band on the other side (bit 2).
-    Frozen lanes are updated too: harmless, nothing reads them."""
+    crossed zero (bit 1) or went beyond the reversal band on the other side (bit 2);
+    returns how many it flagged. Frozen lanes are updated too: harmless, nothing reads
+    them."""
+    n = 0
     for j in range(BLOCK):
         q0 = W[at(OFF_Y, Q0, j)]
         q1 = W[at(OFF_Y, Q1, j)]
@@ -385,7 +392,9 @@ def observe(W, step):
         crossed = (side * spin_prev > 0.0) & (side * spin <= 0.0)
         beyond = side * spin < -W[at(OFF_K, K_BAND, j)]
         W[at(OFF_K, K_FLAG, j)] = (1.0 if crossed else 0.0) + (2.0 if beyond else 0.0)
+        n += 1 if crossed | beyond else 0
         W[at(OFF_K, K_SPIN_PREV, j)] = spin
+    return n
 
 
 @kernel
@@ -501,16 +510,14 @@ def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
         # and the record
         evaluate_state(W, slipping, can_slip or recording)
         if slipping:
-            flag_restick(W)
-            if count_flags(W) > 0:
+            if flag_restick(W) > 0:
                 for j in range(BLOCK):
                     if W[at(OFF_K, K_FLAG, j)] != 0.0:
                         stick_now(W, j)
                 slipping = any_slipping(W)
                 reevaluate_state(W, slipping)
         if can_slip:
-            flag_slip_start(W)
-            if count_flags(W) > 0:
+            if flag_slip_start(W) > 0:
                 for j in range(BLOCK):
                     if W[at(OFF_K, K_FLAG, j)] != 0.0:
                         fx = W[at(OFF_X, X_FX, j)]
@@ -518,8 +525,7 @@ def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
                         start_slip(W, j, fx, fy, math.sqrt(fx * fx + fy * fy))
                 slipping = True
                 reevaluate_state(W, True)
-        flag_end(W, step)
-        ending = count_flags(W) > 0
+        ending = flag_end(W, step) > 0
         if ending:
             for j in range(BLOCK):
                 flag = W[at(OFF_K, K_FLAG, j)]
@@ -551,8 +557,7 @@ def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
             rk4_step(W, slipping)
         else:
             euler_step(W)
-        flag_bad_step(W)
-        if count_flags(W) > 0:
+        if flag_bad_step(W) > 0:
             for j in range(BLOCK):
                 flag = W[at(OFF_K, K_FLAG, j)]
                 if flag != 0.0:
@@ -562,8 +567,7 @@ def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
                         W[at(OFF_Y, k, j)] = W[at(OFF_A, k, j)]
                     finish_lane(W, j, P, status[j], Y, O)
                     freeze_lane(W, j)
-        observe(W, step)
-        if count_flags(W) > 0:
+        if observe(W, step) > 0:
             for j in range(BLOCK):
                 if W[at(OFF_K, K_FLAG, j)] != 0.0:
                     note_reversal(W, j)
