@@ -16,11 +16,11 @@ import numba
 from .geometry import adjugate_solve, cross
 from .jit import inline_kernel, kernel
 from .layout import (
-    A2, B2, BLOCK, C2, DAMP, DT, EPS_U, E_CVM, E_JXX, E_JXY, E_JXZ, E_JYY, E_JYZ, E_JZZ, GRAV, GX,
-    GY, GZ, G_DET, G_FX, G_FY, G_INV_Q, G_INV_S, G_LX, G_N0, G_R0, G_R1, G_R2, G_U0, G_U1, G_U2,
-    G_UHX, G_UHY, G_UX, G_UY, G_WW0, G_WW1, G_WW2, G_X0, G_X1, G_X2, IXX, IXY, IXZ, IYY, IYZ, IZZ,
-    MASS, MU_K, OFF_A, OFF_E, OFF_G, OFF_P, OFF_S, OFF_T, OFF_X, OFF_Y, PX, PY, Q0, Q1, Q2, Q3,
-    S_MODE, S_UHX, S_UHY, VX, VY, W0, W1, W2, X_FX, X_FY, X_N, X_UX, X_UY,
+    A2, B2, BLOCK, C2, DAMP, DT, EPS_U, E_CVM, E_HALF_DT, E_JXX, E_JXY, E_JXZ, E_JYY, E_JYZ, E_JZZ,
+    E_SIXTH_DT, GRAV, GX, GY, GZ, G_DET, G_FX, G_FY, G_INV_Q, G_INV_S, G_LX, G_N0, G_R0, G_R1, G_R2,
+    G_U0, G_U1, G_U2, G_UHX, G_UHY, G_UX, G_UY, G_WW0, G_WW1, G_WW2, G_X0, G_X1, G_X2, IXX, IXY,
+    IXZ, IYY, IYZ, IZZ, MASS, MU_K, OFF_A, OFF_E, OFF_G, OFF_P, OFF_S, OFF_T, OFF_X, OFF_Y, PX, PY,
+    Q0, Q1, Q2, Q3, S_MODE, S_UHX, S_UHY, VX, VY, W0, W1, W2, X_FX, X_FY, X_N, X_UX, X_UY,
 )
 
 
@@ -38,6 +38,9 @@ def derive_parameters(W, j):
     for src, dst in ((IXX, E_JXX), (IYY, E_JYY), (IZZ, E_JZZ), (IXY, E_JXY), (IXZ, E_JXZ),
                      (IYZ, E_JYZ), (DAMP, E_CVM)):
         W[(OFF_E + dst) * BLOCK + j] = W[(OFF_P + src) * BLOCK + j] / m
+    h = W[(OFF_P + DT) * BLOCK + j]
+    W[(OFF_E + E_HALF_DT) * BLOCK + j] = 0.5 * h
+    W[(OFF_E + E_SIXTH_DT) * BLOCK + j] = h / 6.0
 
 
 @kernel
@@ -50,7 +53,6 @@ def first_stage(stage):
 def put_derivative(W, j, k, stage, dk):
     """Use component ``dk`` of lane j's derivative (state row k) as ``stage`` asks (see
     :func:`eval_block`)."""
-    h = W[(OFF_P + DT) * BLOCK + j]
     a = (OFF_A + k) * BLOCK + j
     t = (OFF_T + k) * BLOCK + j
     y = (OFF_Y + k) * BLOCK + j
@@ -59,18 +61,18 @@ def put_derivative(W, j, k, stage, dk):
     if first_stage(stage):
         W[a] = dk
         if stage_state:
-            W[t] = W[y] + 0.5 * h * dk
+            W[t] = W[y] + W[(OFF_E + E_HALF_DT) * BLOCK + j] * dk
     elif stage == STAGE_2:
         W[a] += 2.0 * dk
         if stage_state:
-            W[t] = W[y] + 0.5 * h * dk
+            W[t] = W[y] + W[(OFF_E + E_HALF_DT) * BLOCK + j] * dk
     elif stage == STAGE_3:
         W[a] += 2.0 * dk
         if stage_state:
-            W[t] = W[y] + h * dk
+            W[t] = W[y] + W[(OFF_P + DT) * BLOCK + j] * dk
     else:
         y_old = W[y]
-        W[y] = y_old + h / 6.0 * (W[a] + dk)
+        W[y] = y_old + W[(OFF_E + E_SIXTH_DT) * BLOCK + j] * (W[a] + dk)
         W[a] = y_old  # A is free now: it keeps the old state, for a step that fails
 
 

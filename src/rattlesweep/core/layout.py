@@ -33,10 +33,13 @@ EPS_U = 19  # slip speed below which the stored slip direction is used, m/s
 N_PARAM = 20
 
 # --- per-trajectory parameters derived once per block, rows of region E --------------
-# The right-hand side works per unit mass: the inertia and damping divided by the mass.
+# The right-hand side works per unit mass: the inertia and damping divided by the mass;
+# the RK4 stages use fractions of the time step.
 E_JXX, E_JYY, E_JZZ, E_JXY, E_JXZ, E_JYZ = 0, 1, 2, 3, 4, 5  # inertia about G / mass, m^2
 E_CVM = 6  # damping / mass, m^2/s
-N_DERIVED = 7
+E_HALF_DT = 7  # dt / 2, s
+E_SIXTH_DT = 8  # dt / 6, s (a division the last RK4 stage would otherwise take every step)
+N_DERIVED = 9
 
 # --- auxiliary outputs of one right-hand-side evaluation, rows of X -----------------
 X_N = 0  # normal force, N

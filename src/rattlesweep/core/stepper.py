@@ -30,14 +30,14 @@ from .dynamics import (
 from .geometry import energy_terms, plastic_contact_impulse
 from .jit import kernel, parallel_kernel
 from .layout import (
-    BLOCK, CAPSIZED, DT, EPS_U, FULL, GRAV, K_BAND, K_FIRST_REV, K_FLAG, K_MIN_UP, K_N_REV, K_OPEN,
-    K_RUN, K_SIDE, K_SLIP_STEPS, K_SPIN_PREV, K_STOP, K_T_CAND, K_T_CROSS, K_WIN0, K_WIN_CNT,
-    K_WIN_SUM, LIFTED_OFF, MU_K, MU_S, NON_FINITE, N_STATE, N_WORK, OFF_A, OFF_K, OFF_P, OFF_S,
-    OFF_T, OFF_X, OFF_Y, OK, O_E0, O_E_END, O_FINAL_SPIN, O_FIRST_REV, O_MAX_TILT,
-    O_MEAN_FINAL_SPIN, O_N_REV, O_SLIP_FRAC, O_SPIN0, O_STATUS, O_STEPS, O_T_END, PX, PY, Q0, Q1,
-    Q2, Q3, R_ENERGY, R_FX, R_FY, R_JX, R_JY, R_N, R_PX, R_PY, R_PZ, R_Q0, R_SLIP, R_SPIN, R_TILT,
-    R_UX, R_UY, R_VX, R_VY, R_VZ, R_W0, S_JX, S_JY, S_MODE, S_UHX, S_UHY, S_UPREV, S_USX, S_USY, VX,
-    VY, W0, W1, W2, X_FX, X_FY, X_N, X_UX, X_UY,
+    BLOCK, CAPSIZED, DT, EPS_U, E_HALF_DT, E_SIXTH_DT, FULL, GRAV, K_BAND, K_FIRST_REV, K_FLAG,
+    K_MIN_UP, K_N_REV, K_OPEN, K_RUN, K_SIDE, K_SLIP_STEPS, K_SPIN_PREV, K_STOP, K_T_CAND,
+    K_T_CROSS, K_WIN0, K_WIN_CNT, K_WIN_SUM, LIFTED_OFF, MU_K, MU_S, NON_FINITE, N_STATE, N_WORK,
+    OFF_A, OFF_E, OFF_K, OFF_P, OFF_S, OFF_T, OFF_X, OFF_Y, OK, O_E0, O_E_END, O_FINAL_SPIN,
+    O_FIRST_REV, O_MAX_TILT, O_MEAN_FINAL_SPIN, O_N_REV, O_SLIP_FRAC, O_SPIN0, O_STATUS, O_STEPS,
+    O_T_END, PX, PY, Q0, Q1, Q2, Q3, R_ENERGY, R_FX, R_FY, R_JX, R_JY, R_N, R_PX, R_PY, R_PZ, R_Q0,
+    R_SLIP, R_SPIN, R_TILT, R_UX, R_UY, R_VX, R_VY, R_VZ, R_W0, S_JX, S_JY, S_MODE, S_UHX, S_UHY,
+    S_UPREV, S_USX, S_USY, VX, VY, W0, W1, W2, X_FX, X_FY, X_N, X_UX, X_UY,
 )
 
 RK4 = 0
@@ -441,6 +441,8 @@ def freeze_lane(W, j):
     W[at(OFF_K, K_RUN, j)] = 0.0
     W[at(OFF_K, K_OPEN, j)] = 0.0
     W[at(OFF_P, DT, j)] = 0.0
+    W[at(OFF_E, E_HALF_DT, j)] = 0.0
+    W[at(OFF_E, E_SIXTH_DT, j)] = 0.0
     for k in range(N_STATE):
         W[at(OFF_Y, k, j)] = 0.0
         W[at(OFF_T, k, j)] = 0.0
