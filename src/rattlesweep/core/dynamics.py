@@ -83,14 +83,13 @@ def eval_block(W, slip_possible, stage):
     W is the block workspace (see :mod:`.layout`). Reads the parameters (regions P and
     E), the state (region Y in the first stage, the stage state T in the others) and,
     from the switching state (region S), each lane's contact mode and stored slip
-    direction. ``stage`` says what becomes of the
-    derivative d, fused with the classic RK4 stage arithmetic so that d never goes to
-    memory on its own (Y is the state at the start of the step, h the time step):
+    direction. ``stage`` says what becomes of the derivative d, fused with the classic
+    RK4 stage arithmetic so that d never goes to memory on its own (Y is the state at
+    the start of the step, h the time step):
 
     * ``STAGE_START``: A = d and T = Y + (h/2) d (but for the position of G, which no
-      stage reads: T has none), and the normal force,
-      friction force and slip velocity go to region X (the semi-implicit Euler step
-      also starts from A = d);
+      stage reads: T has none), and the normal force, friction force and slip velocity
+      go to region X (the semi-implicit Euler step also starts from A = d);
     * ``STAGE_FIRST``: the same with the normal force as the only output, for steps
       where nothing reads the others;
     * ``STAGE_2``: A += 2d and T = Y + (h/2) d;

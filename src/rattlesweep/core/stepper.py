@@ -132,10 +132,10 @@ def record_lane(W, j, out):
 
 @kernel
 def evaluate_state(W, slip_possible, forces):
-    """First RK stage at the step-start state (region Y), with
-    the normal force in region X and, when ``forces`` or ``slip_possible``, the friction
-    force and slip velocity too. ``slip_possible`` as in :func:`.eval_block`, at run
-    time: False only when no lane that is still stepped slips."""
+    """First RK stage at the step-start state (region Y), with the normal force in
+    region X and, when ``forces`` or ``slip_possible``, the friction force and slip
+    velocity too. ``slip_possible`` as in :func:`.eval_block`, at run time: False only
+    when no lane that is still stepped slips."""
     if slip_possible:
         eval_block(W, True, STAGE_START)
     elif forces:
