@@ -17,10 +17,10 @@ from .geometry import adjugate_solve, cross
 from .jit import inline_kernel, kernel
 from .layout import (
     A2, B2, BLOCK, C2, DAMP, DT, EPS_U, E_CVM, E_HALF_DT, E_JXX, E_JXY, E_JXZ, E_JYY, E_JYZ, E_JZZ,
-    E_SIXTH_DT, GRAV, GX, GY, GZ, G_DET, G_FX, G_FY, G_INV_Q, G_INV_S, G_LX, G_N0, G_R0, G_R1, G_R2,
-    G_U0, G_U1, G_U2, G_UHX, G_UHY, G_UX, G_UY, G_WW0, G_WW1, G_WW2, G_X0, G_X1, G_X2, IXX, IXY,
-    IXZ, IYY, IYZ, IZZ, MASS, MU_K, OFF_A, OFF_E, OFF_G, OFF_P, OFF_S, OFF_T, OFF_X, OFF_Y, PX, PY,
-    Q0, Q1, Q2, Q3, S_MODE, S_UHX, S_UHY, VX, VY, W0, W1, W2, X_FX, X_FY, X_N, X_UX, X_UY,
+    E_SIXTH_DT, GRAV, GX, GY, GZ, G_DET, G_FX, G_FY, G_INV_Q, G_INV_S, G_N0, G_R0, G_R1, G_R2, G_U0,
+    G_U1, G_U2, G_UHX, G_UHY, G_UX, G_UY, G_WW0, G_WW1, G_WW2, G_X0, G_X1, G_X2, IXX, IXY, IXZ, IYY,
+    IYZ, IZZ, MASS, MU_K, OFF_A, OFF_E, OFF_G, OFF_P, OFF_S, OFF_T, OFF_X, OFF_Y, PX, PY, Q0, Q1,
+    Q2, Q3, S_MODE, S_UHX, S_UHY, VX, VY, W0, W1, W2, X_FX, X_FY, X_N, X_UX, X_UY,
 )
 
 
@@ -195,17 +195,18 @@ def contact_kinematics(W, slip_velocity, state):
         u1 = W[o + G_U1 * BLOCK]
         u2 = W[o + G_U2 * BLOCK]
         inv_s = W[o + G_INV_S * BLOCK]
-        au0 = a2 * u0
-        au1 = b2 * u1
-        au2 = c2 * u2
-        sp0 = -au0 * inv_s
-        sp1 = -au1 * inv_s
-        sp2 = -au2 * inv_s
+        ai0 = a2 * inv_s  # A/σ̃
+        ai1 = b2 * inv_s
+        ai2 = c2 * inv_s
+        sp0 = -ai0 * u0
+        sp1 = -ai1 * u1
+        sp2 = -ai2 * u2
         du0, du1, du2 = cross(u0, u1, u2, w0, w1, w2)
-        f = (au0 * du0 + au1 * du1 + au2 * du2) * inv_s
-        ds0 = -(a2 * du0 + sp0 * f) * inv_s
-        ds1 = -(b2 * du1 + sp1 * f) * inv_s
-        ds2 = -(c2 * du2 + sp2 * f) * inv_s
+        # ṡ_P = −(A u̇ + s_P (Aũ·u̇)/σ̃)/σ̃ with Aũ/σ̃ = −s_P
+        f = (sp0 * du0 + sp1 * du1 + sp2 * du2) * inv_s
+        ds0 = sp0 * f - ai0 * du0
+        ds1 = sp1 * f - ai1 * du1
+        ds2 = sp2 * f - ai2 * du2
         r0 = sp0 - W[p + GX * BLOCK]
         r1 = sp1 - W[p + GY * BLOCK]
         r2 = sp2 - W[p + GZ * BLOCK]
@@ -237,13 +238,11 @@ def accelerations(W, slip_possible, state):
     Per unit mass, with J = I/m:
     stick: (J + |ρ|²𝟙 − ρρᵀ) ω̇ = −ω × Jω − (c_v/m) ω + ρ × (g n̂ − w);
     slip:  (J + k lᵀ) ω̇ = −ω × Jω − (c_v/m) ω + (N₀/m) k, l = ρ × n̂, k = ρ × (n̂ − μ_k û);
-    N₀/m = g − n̂·w and, in both modes, N/m = N₀/m − l·ω̇. ``state`` (a literal) is the
-    region of the state. The inner stages of a block where every lane sticks need no
-    normal force, and skip it.
+    N₀/m = g − n̂·w. ``state`` (a literal) is the region of the state. The normal force
+    N/m = N₀/m − l·ω̇ is left to :func:`divide_out`, which needs ω̇.
     """
     numba.literally(slip_possible)
     numba.literally(state)
-    normal = slip_possible or state == OFF_Y
     for j in range(BLOCK):
         p = OFF_P * BLOCK + j
         e = OFF_E * BLOCK + j
@@ -341,26 +340,42 @@ def accelerations(W, slip_possible, state):
         W[o + G_X1 * BLOCK] = x1
         W[o + G_X2 * BLOCK] = x2
         W[o + G_DET * BLOCK] = det
-        if normal:
-            W[o + G_N0 * BLOCK] = n_free
-            W[o + G_LX * BLOCK] = l0 * x0 + l1 * x1 + l2 * x2
 
 
 @kernel
 def divide_out(W, normal):
     """Phase 3 of :func:`eval_block`: finish Cramer's rule, ω̇ = adj(M) b / det M, in
-    place, and, if ``normal`` (a literal), N/m = N₀/m − l·ω̇. Its own loop: the
-    division's latency overlaps across lanes instead of lengthening another loop's
-    chain."""
+    place, and, if ``normal`` (a literal), the normal force per unit mass,
+    N/m = g − n̂·w − l·ω̇ with l = ρ × n̂, into G_N0.
+
+    Its own loop: the division's latency overlaps across lanes instead of lengthening
+    another loop's chain. The normal force is here rather than in
+    :func:`accelerations`, whose loop is bound by the multiply pipes and, with it,
+    short of registers; this loop has the multiply pipes idle while it waits on the
+    divider.
+    """
     numba.literally(normal)
     for j in range(BLOCK):
         o = OFF_G * BLOCK + j
         inv_det = 1.0 / W[o + G_DET * BLOCK]
-        W[o + G_X0 * BLOCK] *= inv_det
-        W[o + G_X1 * BLOCK] *= inv_det
-        W[o + G_X2 * BLOCK] *= inv_det
+        x0 = W[o + G_X0 * BLOCK] * inv_det
+        x1 = W[o + G_X1 * BLOCK] * inv_det
+        x2 = W[o + G_X2 * BLOCK] * inv_det
+        W[o + G_X0 * BLOCK] = x0
+        W[o + G_X1 * BLOCK] = x1
+        W[o + G_X2 * BLOCK] = x2
         if normal:
-            W[o + G_N0 * BLOCK] -= W[o + G_LX * BLOCK] * inv_det
+            inv_q = W[o + G_INV_Q * BLOCK]
+            n0 = W[o + G_U0 * BLOCK] * inv_q
+            n1 = W[o + G_U1 * BLOCK] * inv_q
+            n2 = W[o + G_U2 * BLOCK] * inv_q
+            l0, l1, l2 = cross(W[o + G_R0 * BLOCK], W[o + G_R1 * BLOCK], W[o + G_R2 * BLOCK],
+                               n0, n1, n2)
+            W[o + G_N0 * BLOCK] = (
+                (W[(OFF_P + GRAV) * BLOCK + j]
+                 - (n0 * W[o + G_WW0 * BLOCK] + n1 * W[o + G_WW1 * BLOCK]
+                    + n2 * W[o + G_WW2 * BLOCK]))
+                - (l0 * x0 + l1 * x1 + l2 * x2))
 
 
 @kernel

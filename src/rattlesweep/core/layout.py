@@ -57,13 +57,12 @@ G_U0, G_U1, G_U2 = 6, 7, 8  # world up-vector in body components, times |q|^2
 G_INV_Q = 9  # 1/|q|^2
 G_UX, G_UY = 10, 11  # slip velocity of the material contact point, world, m/s
 G_UHX, G_UHY = 12, 13  # slip direction used for friction, world
-G_X0, G_X1, G_X2 = 14, 15, 16  # angular acceleration times G_DET (adjugate · rhs)
+G_X0, G_X1, G_X2 = 14, 15, 16  # angular acceleration, rad/s^2 (first times G_DET)
 G_DET = 17  # determinant of the 3×3 system for the angular acceleration
-G_N0 = 18  # N₀/m = g − n̂·w, m/s^2
-G_LX = 19  # l · (adjugate · rhs), so that N/m = G_N0 − G_LX / G_DET
-G_INV_S = 20  # 1/σ̃, 1/m
-G_FX, G_FY = 21, 22  # horizontal friction force per unit mass, world, m/s^2
-N_SCRATCH = 23
+G_N0 = 18  # N/m, normal force per unit mass, m/s^2
+G_INV_S = 19  # 1/σ̃, 1/m
+G_FX, G_FY = 20, 21  # horizontal friction force per unit mass, world, m/s^2
+N_SCRATCH = 22
 
 # --- per-lane switching state, rows of S ---------------------------------------------
 S_MODE = 0  # 0.0 stick, 1.0 slip
