@@ -8,8 +8,9 @@ The time loop of :func:`advance_block` works on one block of ``BLOCK`` lanes:
    about to die (|u| < μ_k g dt and smaller than a step earlier), setting u = 0 exactly;
    stick → slip when |F_t| > μ_s N, starting with û = −F_t/|F_t|; forces are evaluated
    again only when some lane switched;
-3. flag lift-off (N < 0), record, take an RK4 (or semi-implicit Euler) step with the
-   modes held, and commit each lane unless its new state is non-finite or past the rim.
+3. record, take an RK4 (or semi-implicit Euler) step with the modes held, and commit
+   each lane unless its new state is non-finite or past the rim, or its normal force at
+   the start of the step was negative (lift-off: the lane ends with its state there).
 
 Every step-wide task is a vector pass over the lanes that flags the few lanes needing
 scalar work (see the passes below). A lane that stops (status other than ok, or at the
@@ -247,6 +248,28 @@ def stick_now(W, j):
     W[at(OFF_S, S_JY, j)] += jy
 
 
+@kernel
+def flag_end(W, step):
+    """Flag the lanes whose run ends at this step: 1.0 for a stepped lane whose normal
+    force is negative (lift-off), 2.0 for a lane at its last step. Scalar: it runs only
+    at the steps where some lane's run ends (:func:`next_stop`); at the others a
+    lift-off is found by :func:`flag_bad_step`, after the step."""
+    for j in range(BLOCK):
+        lift = W[at(OFF_K, K_RUN, j)] > 0.5 and W[at(OFF_X, X_N, j)] < 0.0
+        last = W[at(OFF_K, K_OPEN, j)] > 0.5 and step >= W[at(OFF_K, K_STOP, j)]
+        W[at(OFF_K, K_FLAG, j)] = 1.0 if lift else (2.0 if last else 0.0)
+
+
+@kernel
+def next_stop(W):
+    """The earliest last step of the lanes not yet written out (inf when none)."""
+    stop = math.inf
+    for j in range(BLOCK):
+        if W[at(OFF_K, K_OPEN, j)] > 0.5:
+            stop = min(stop, W[at(OFF_K, K_STOP, j)])
+    return stop
+
+
 # --- once-per-step passes over a block ------------------------------------------------
 # Each is one straight loop over the lanes that writes every lane (no stores on only
 # some lanes), so it vectorises like the right-hand side. Lanes that need scalar work (a
@@ -319,23 +342,13 @@ def flag_slip_start(W):
 
 
 @kernel
-def flag_end(W, step):
-    """Flag the lanes whose run ends at this step: 1.0 for a stepped lane whose normal
-    force is negative (lift-off), 2.0 for a lane at its last step. Returns how many."""
-    n = 0
-    for j in range(BLOCK):
-        lift = (W[at(OFF_K, K_RUN, j)] > 0.5) & (W[at(OFF_X, X_N, j)] < 0.0)
-        last = (W[at(OFF_K, K_OPEN, j)] > 0.5) & (step >= W[at(OFF_K, K_STOP, j)])
-        W[at(OFF_K, K_FLAG, j)] = 1.0 if lift else (2.0 if last else 0.0)
-        n += 1 if lift | last else 0
-    return n
-
-
-@kernel
 def flag_bad_step(W):
-    """Renormalise the quaternion of the new state (region Y) of every lane and flag the
-    stepped lanes whose new state is not finite (1.0) or past the rim (2.0). Returns how
-    many."""
+    """Renormalise the quaternion of the new state (region Y) of every lane and flag,
+    with the status it ends with, each stepped lane whose new state is not finite or
+    past the rim, or whose state at the start of the step (region A now) had a
+    negative normal force: it lifted off there, and the step is undone. (Finding the
+    lift-off here rather than before the step saves a pass over the lanes; the lane's
+    result is the same.) Returns how many."""
     n = 0
     for j in range(BLOCK):
         q0 = W[at(OFF_Y, Q0, j)]
@@ -359,10 +372,12 @@ def flag_bad_step(W):
         W[at(OFF_Y, Q3, j)] = q3 * qn
         up_z = 1.0 - 2.0 * (q1 * q1 + q2 * q2)
         run = W[at(OFF_K, K_RUN, j)] > 0.5
+        lift = run & (W[at(OFF_X, X_N, j)] < 0.0)  # from the first stage, at region A
         bad_value = run & (nan_or_inf != 0.0)
         capsized = run & (param(W, FULL, j) < 0.5) & (up_z <= 0.0)
-        W[at(OFF_K, K_FLAG, j)] = 1.0 if bad_value else (2.0 if capsized else 0.0)
-        n += 1 if bad_value | capsized else 0
+        W[at(OFF_K, K_FLAG, j)] = (float(LIFTED_OFF) if lift else (
+            float(NON_FINITE) if bad_value else (float(CAPSIZED) if capsized else 0.0)))
+        n += 1 if lift | bad_value | capsized else 0
     return n
 
 
@@ -511,6 +526,7 @@ def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
             param(W, MU_S, j) < math.inf or W[at(OFF_S, S_MODE, j)] > 0.5))
 
     # --- time loop ------------------------------------------------------------------
+    stop = next_stop(W)  # kept up to date whenever a lane is written out
     for step in range(max_steps + 1):
         slipping = can_slip and any_slipping(W)
         recording = n_rec > 0 and step % record_every == 0 and step // record_every < n_rec
@@ -533,8 +549,9 @@ def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
                         start_slip(W, j, fx, fy, math.sqrt(fx * fx + fy * fy))
                 slipping = True
                 reevaluate_state(W, True)
-        ending = flag_end(W, step) > 0
+        ending = step >= stop
         if ending:
+            flag_end(W, step)
             for j in range(BLOCK):
                 flag = W[at(OFF_K, K_FLAG, j)]
                 if flag == 1.0:
@@ -558,6 +575,7 @@ def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
                 if W[at(OFF_K, K_FLAG, j)] != 0.0:
                     finish_lane(W, j, P, status[j], Y, O)
                     freeze_lane(W, j)
+            stop = next_stop(W)
         if step == max_steps:
             break
 
@@ -569,12 +587,13 @@ def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
             for j in range(BLOCK):
                 flag = W[at(OFF_K, K_FLAG, j)]
                 if flag != 0.0:
-                    status[j] = NON_FINITE if flag == 1.0 else CAPSIZED
+                    status[j] = int(flag)
                     W[at(OFF_K, K_STOP, j)] = step
                     for k in range(N_STATE):  # the last valid state, which the step kept
                         W[at(OFF_Y, k, j)] = W[at(OFF_A, k, j)]
                     finish_lane(W, j, P, status[j], Y, O)
                     freeze_lane(W, j)
+            stop = next_stop(W)
         if observe(W, step) > 0:
             for j in range(BLOCK):
                 if W[at(OFF_K, K_FLAG, j)] != 0.0:
