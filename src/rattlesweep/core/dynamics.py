@@ -17,10 +17,10 @@ from .geometry import adjugate_solve, cross
 from .jit import inline_kernel, kernel
 from .layout import (
     A2, B2, BLOCK, C2, DAMP, DT, EPS_U, E_CVM, E_HALF_DT, E_JXX, E_JXY, E_JXZ, E_JYY, E_JYZ, E_JZZ,
-    E_SIXTH_DT, GRAV, GX, GY, GZ, G_DET, G_FX, G_FY, G_INV_Q, G_INV_S, G_N0, G_R0, G_R1, G_R2, G_U0,
-    G_U1, G_U2, G_UHX, G_UHY, G_UX, G_UY, G_WW0, G_WW1, G_WW2, G_X0, G_X1, G_X2, IXX, IXY, IXZ, IYY,
-    IYZ, IZZ, MASS, MU_K, OFF_A, OFF_E, OFF_G, OFF_P, OFF_S, OFF_T, OFF_X, OFF_Y, PX, PY, Q0, Q1,
-    Q2, Q3, S_MODE, S_UHX, S_UHY, VX, VY, W0, W1, W2, X_FX, X_FY, X_N, X_UX, X_UY,
+    E_SIXTH_DT, GRAV, GX, GY, GZ, G_DET, G_INV_Q, G_INV_S, G_N0, G_R0, G_R1, G_R2, G_U0, G_U1, G_U2,
+    G_UHX, G_UHY, G_UX, G_UY, G_WW0, G_WW1, G_WW2, G_X0, G_X1, G_X2, IXX, IXY, IXZ, IYY, IYZ, IZZ,
+    MASS, MU_K, OFF_A, OFF_E, OFF_G, OFF_P, OFF_S, OFF_T, OFF_X, OFF_Y, PX, PY, Q0, Q1, Q2, Q3,
+    S_MODE, S_UHX, S_UHY, VX, VY, W0, W1, W2, X_FX, X_FY, X_N, X_UX, X_UY,
 )
 
 
@@ -124,8 +124,7 @@ def eval_block(W, slip_possible, stage):
         divide_out(W, True)
     else:
         divide_out(W, False)  # the normal force, which no lane needs
-    friction_force(W, slip_possible, stage)
-    store_derivative(W, stage)
+    store_derivative(W, slip_possible, stage)
 
 
 @kernel
@@ -232,8 +231,8 @@ def contact_kinematics(W, slip_velocity, state):
 
 @kernel
 def accelerations(W, slip_possible, state):
-    """Phase 2 of :func:`eval_block`: the angular acceleration and the normal force, as
-    adj(M) b and det M (see :func:`divide_out`).
+    """Phase 2 of :func:`eval_block`: the angular acceleration, as adj(M) b and det M
+    (see :func:`divide_out`).
 
     Per unit mass, with J = I/m:
     stick: (J + |ρ|²𝟙 − ρρᵀ) ω̇ = −ω × Jω − (c_v/m) ω + ρ × (g n̂ − w);
@@ -378,55 +377,56 @@ def divide_out(W, normal):
                 - (l0 * x0 + l1 * x1 + l2 * x2))
 
 
-@kernel
-def friction_force(W, slip_possible, stage):
-    """Phase 4 of :func:`eval_block`: the friction force per unit mass, and the outputs
-    of region X at STAGE_START and STAGE_FIRST."""
-    numba.literally(slip_possible)
-    numba.literally(stage)
+@inline_kernel
+def friction_lane(W, j, slip_possible, stage):
+    """Friction force per unit mass on lane j, world horizontal (m/s²), for
+    :func:`store_derivative`; writes the outputs of region X at STAGE_START and
+    STAGE_FIRST. Inlined into the derivative loop, which is bound by its loads and
+    stores: the friction's arithmetic fits in beside them, and its result never goes
+    to memory."""
     outputs = stage == STAGE_START
     normal_output = outputs or stage == STAGE_FIRST
     state = OFF_Y if first_stage(stage) else OFF_T
-    for j in range(BLOCK):
-        p = OFF_P * BLOCK + j
-        y = state * BLOCK + j
-        o = OFF_G * BLOCK + j
-        x = OFF_X * BLOCK + j
-        q0 = W[y + Q0 * BLOCK]
-        q1 = W[y + Q1 * BLOCK]
-        q2 = W[y + Q2 * BLOCK]
-        q3 = W[y + Q3 * BLOCK]
-        nm = W[o + G_N0 * BLOCK]  # N/m, after divide_out
-        inv_q = W[o + G_INV_Q * BLOCK]
-        # stick: F/m = a_G + g n̂ with a_G = −(ω̇ × ρ + w); its world-horizontal part
-        e0, e1, e2 = cross(W[o + G_X0 * BLOCK], W[o + G_X1 * BLOCK], W[o + G_X2 * BLOCK],
-                           W[o + G_R0 * BLOCK], W[o + G_R1 * BLOCK], W[o + G_R2 * BLOCK])
-        e0 = -(e0 + W[o + G_WW0 * BLOCK])
-        e1 = -(e1 + W[o + G_WW1 * BLOCK])
-        e2 = -(e2 + W[o + G_WW2 * BLOCK])
-        e00, e01, e02, e10, e11, e12 = horizontal_rows(q0, q1, q2, q3)
-        fx = (e00 * e0 + e01 * e1 + e02 * e2) * inv_q
-        fy = (e10 * e0 + e11 * e1 + e12 * e2) * inv_q
-        if slip_possible:
-            if W[(OFF_S + S_MODE) * BLOCK + j] > 0.5:  # slip: F/m = −μ_k (N/m) û
-                mu_n = -W[p + MU_K * BLOCK] * nm
-                fx = mu_n * W[o + G_UHX * BLOCK]
-                fy = mu_n * W[o + G_UHY * BLOCK]
-        W[o + G_FX * BLOCK] = fx
-        W[o + G_FY * BLOCK] = fy
-        if normal_output:
-            W[x + X_N * BLOCK] = W[p + MASS * BLOCK] * nm
-        if outputs:
-            m = W[p + MASS * BLOCK]
-            W[x + X_FX * BLOCK] = m * fx
-            W[x + X_FY * BLOCK] = m * fy
-            W[x + X_UX * BLOCK] = W[o + G_UX * BLOCK]
-            W[x + X_UY * BLOCK] = W[o + G_UY * BLOCK]
+    p = OFF_P * BLOCK + j
+    y = state * BLOCK + j
+    o = OFF_G * BLOCK + j
+    x = OFF_X * BLOCK + j
+    q0 = W[y + Q0 * BLOCK]
+    q1 = W[y + Q1 * BLOCK]
+    q2 = W[y + Q2 * BLOCK]
+    q3 = W[y + Q3 * BLOCK]
+    nm = W[o + G_N0 * BLOCK]  # N/m, after divide_out
+    inv_q = W[o + G_INV_Q * BLOCK]
+    # stick: F/m = a_G + g n̂ with a_G = −(ω̇ × ρ + w); its world-horizontal part
+    e0, e1, e2 = cross(W[o + G_X0 * BLOCK], W[o + G_X1 * BLOCK], W[o + G_X2 * BLOCK],
+                       W[o + G_R0 * BLOCK], W[o + G_R1 * BLOCK], W[o + G_R2 * BLOCK])
+    e0 = -(e0 + W[o + G_WW0 * BLOCK])
+    e1 = -(e1 + W[o + G_WW1 * BLOCK])
+    e2 = -(e2 + W[o + G_WW2 * BLOCK])
+    e00, e01, e02, e10, e11, e12 = horizontal_rows(q0, q1, q2, q3)
+    fx = (e00 * e0 + e01 * e1 + e02 * e2) * inv_q
+    fy = (e10 * e0 + e11 * e1 + e12 * e2) * inv_q
+    if slip_possible:
+        if W[(OFF_S + S_MODE) * BLOCK + j] > 0.5:  # slip: F/m = −μ_k (N/m) û
+            mu_n = -W[p + MU_K * BLOCK] * nm
+            fx = mu_n * W[o + G_UHX * BLOCK]
+            fy = mu_n * W[o + G_UHY * BLOCK]
+    if normal_output:
+        W[x + X_N * BLOCK] = W[p + MASS * BLOCK] * nm
+    if outputs:
+        m = W[p + MASS * BLOCK]
+        W[x + X_FX * BLOCK] = m * fx
+        W[x + X_FY * BLOCK] = m * fy
+        W[x + X_UX * BLOCK] = W[o + G_UX * BLOCK]
+        W[x + X_UY * BLOCK] = W[o + G_UY * BLOCK]
+    return fx, fy
 
 
 @kernel
-def store_derivative(W, stage):
-    """Phase 5 of :func:`eval_block`: the whole derivative, used as ``stage`` asks."""
+def store_derivative(W, slip_possible, stage):
+    """Phase 4 of :func:`eval_block`: the friction force and the whole derivative, used
+    as ``stage`` asks."""
+    numba.literally(slip_possible)
     numba.literally(stage)
     state = OFF_Y if first_stage(stage) else OFF_T
     for j in range(BLOCK):
@@ -436,6 +436,7 @@ def store_derivative(W, stage):
         q1 = W[y + Q1 * BLOCK]
         q2 = W[y + Q2 * BLOCK]
         q3 = W[y + Q3 * BLOCK]
+        fx, fy = friction_lane(W, j, slip_possible, stage)
         h0 = 0.5 * W[y + W0 * BLOCK]
         h1 = 0.5 * W[y + W1 * BLOCK]
         h2 = 0.5 * W[y + W2 * BLOCK]
@@ -448,5 +449,5 @@ def store_derivative(W, stage):
         put_derivative(W, j, W2, stage, W[o + G_X2 * BLOCK])
         put_derivative(W, j, PX, stage, W[y + VX * BLOCK])
         put_derivative(W, j, PY, stage, W[y + VY * BLOCK])
-        put_derivative(W, j, VX, stage, W[o + G_FX * BLOCK])
-        put_derivative(W, j, VY, stage, W[o + G_FY * BLOCK])
+        put_derivative(W, j, VX, stage, fx)
+        put_derivative(W, j, VY, stage, fy)

@@ -61,8 +61,7 @@ G_X0, G_X1, G_X2 = 14, 15, 16  # angular acceleration, rad/s^2 (first times G_DE
 G_DET = 17  # determinant of the 3×3 system for the angular acceleration
 G_N0 = 18  # N/m, normal force per unit mass, m/s^2
 G_INV_S = 19  # 1/σ̃, 1/m
-G_FX, G_FY = 20, 21  # horizontal friction force per unit mass, world, m/s^2
-N_SCRATCH = 22
+N_SCRATCH = 20
 
 # --- per-lane switching state, rows of S ---------------------------------------------
 S_MODE = 0  # 0.0 stick, 1.0 slip
