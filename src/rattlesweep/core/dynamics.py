@@ -49,15 +49,20 @@ def first_stage(stage):
     return stage == STAGE_START or stage == STAGE_FIRST
 
 
-@inline_kernel
-def put_derivative(W, j, k, stage, dk):
-    """Use component ``dk`` of lane j's derivative (state row k) as ``stage`` asks (see
-    :func:`eval_block`)."""
-    a = (OFF_A + k) * BLOCK + j
-    t = (OFF_T + k) * BLOCK + j
-    y = (OFF_Y + k) * BLOCK + j
-    # no stage reads the position of G, so no stage state has one
-    stage_state = k != PX and k != PY
+@kernel
+def put_derivative(W, j, row, stage, dk, stage_state):
+    """Use lane j's derivative component ``dk``, of state row k, as ``stage`` asks (see
+    :func:`eval_block`); ``row`` = k·BLOCK + j, and ``stage_state`` says whether the
+    stage state T has row k.
+
+    Called with the row as a number that depends on j, not as the literal k: numba
+    compiles a function once per combination of literal arguments, and a literal k
+    would make eleven copies of each stage's variant (seconds of compile time). The
+    compiled calls are inlined into the lane loop all the same.
+    """
+    a = OFF_A * BLOCK + row
+    t = OFF_T * BLOCK + row
+    y = OFF_Y * BLOCK + row
     if first_stage(stage):
         W[a] = dk
         if stage_state:
@@ -440,14 +445,16 @@ def store_derivative(W, slip_possible, stage):
         h0 = 0.5 * W[y + W0 * BLOCK]
         h1 = 0.5 * W[y + W1 * BLOCK]
         h2 = 0.5 * W[y + W2 * BLOCK]
-        put_derivative(W, j, Q0, stage, -(q1 * h0 + q2 * h1 + q3 * h2))
-        put_derivative(W, j, Q1, stage, q0 * h0 + q2 * h2 - q3 * h1)
-        put_derivative(W, j, Q2, stage, q0 * h1 + q3 * h0 - q1 * h2)
-        put_derivative(W, j, Q3, stage, q0 * h2 + q1 * h1 - q2 * h0)
-        put_derivative(W, j, W0, stage, W[o + G_X0 * BLOCK])  # ω̇, after divide_out
-        put_derivative(W, j, W1, stage, W[o + G_X1 * BLOCK])
-        put_derivative(W, j, W2, stage, W[o + G_X2 * BLOCK])
-        put_derivative(W, j, PX, stage, W[y + VX * BLOCK])
-        put_derivative(W, j, PY, stage, W[y + VY * BLOCK])
-        put_derivative(W, j, VX, stage, fx)
-        put_derivative(W, j, VY, stage, fy)
+        put_derivative(W, j, Q0 * BLOCK + j, stage, -(q1 * h0 + q2 * h1 + q3 * h2), True)
+        put_derivative(W, j, Q1 * BLOCK + j, stage, q0 * h0 + q2 * h2 - q3 * h1, True)
+        put_derivative(W, j, Q2 * BLOCK + j, stage, q0 * h1 + q3 * h0 - q1 * h2, True)
+        put_derivative(W, j, Q3 * BLOCK + j, stage, q0 * h2 + q1 * h1 - q2 * h0, True)
+        # ω̇, after divide_out
+        put_derivative(W, j, W0 * BLOCK + j, stage, W[o + G_X0 * BLOCK], True)
+        put_derivative(W, j, W1 * BLOCK + j, stage, W[o + G_X1 * BLOCK], True)
+        put_derivative(W, j, W2 * BLOCK + j, stage, W[o + G_X2 * BLOCK], True)
+        # no stage reads the position of G, so no stage state has one
+        put_derivative(W, j, PX * BLOCK + j, stage, W[y + VX * BLOCK], False)
+        put_derivative(W, j, PY * BLOCK + j, stage, W[y + VY * BLOCK], False)
+        put_derivative(W, j, VX * BLOCK + j, stage, fx, True)
+        put_derivative(W, j, VY * BLOCK + j, stage, fy, True)
