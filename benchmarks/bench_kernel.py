@@ -651,8 +651,8 @@ def main(argv=None):
           f"{numba.config.NUMBA_NUM_THREADS}, mode {'quick' if args.quick else 'full'}")
     # The kernels are compiled into numba's cache by a child process first, so that this
     # one loads them: on the benchmark machine a process that compiles the kernels
-    # itself runs them 15-45 % slower than one that loads the same code from the cache
-    # (cause not found; see the README). The first call here, which loads them, is kept
+    # itself runs them up to 1.8 times slower than one that loads them from the cache
+    # (see the README). The first call here, which loads them, is kept
     # out of every timing below.
     t0 = time.perf_counter()
     subprocess.run([sys.executable, "-c", WARM_CACHE_SNIPPET], check=True,
