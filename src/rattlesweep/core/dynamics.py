@@ -383,23 +383,17 @@ def divide_out(W, normal):
 
 
 @inline_kernel
-def friction_lane(W, j, slip_possible, stage):
+def friction_lane(W, j, slip_possible, stage, q0, q1, q2, q3):
     """Friction force per unit mass on lane j, world horizontal (m/s²), for
-    :func:`store_derivative`; writes the outputs of region X at STAGE_START and
-    STAGE_FIRST. Inlined into the derivative loop, which is bound by its loads and
-    stores: the friction's arithmetic fits in beside them, and its result never goes
-    to memory."""
+    :func:`store_derivative`, which passes the state's quaternion; writes the outputs
+    of region X at STAGE_START and STAGE_FIRST. Inlined into the derivative loop,
+    which is bound by its loads and stores: the friction's arithmetic fits in beside
+    them, and its result never goes to memory."""
     outputs = stage == STAGE_START
     normal_output = outputs or stage == STAGE_FIRST
-    state = OFF_Y if first_stage(stage) else OFF_T
     p = OFF_P * BLOCK + j
-    y = state * BLOCK + j
     o = OFF_G * BLOCK + j
     x = OFF_X * BLOCK + j
-    q0 = W[y + Q0 * BLOCK]
-    q1 = W[y + Q1 * BLOCK]
-    q2 = W[y + Q2 * BLOCK]
-    q3 = W[y + Q3 * BLOCK]
     nm = W[o + G_N0 * BLOCK]  # N/m, after divide_out
     inv_q = W[o + G_INV_Q * BLOCK]
     # stick: F/m = a_G + g n̂ with a_G = −(ω̇ × ρ + w); its world-horizontal part
@@ -441,7 +435,7 @@ def store_derivative(W, slip_possible, stage):
         q1 = W[y + Q1 * BLOCK]
         q2 = W[y + Q2 * BLOCK]
         q3 = W[y + Q3 * BLOCK]
-        fx, fy = friction_lane(W, j, slip_possible, stage)
+        fx, fy = friction_lane(W, j, slip_possible, stage, q0, q1, q2, q3)
         h0 = 0.5 * W[y + W0 * BLOCK]
         h1 = 0.5 * W[y + W1 * BLOCK]
         h2 = 0.5 * W[y + W2 * BLOCK]

@@ -250,14 +250,15 @@ def stick_now(W, j):
 
 @kernel
 def flag_end(W, step):
-    """Flag the lanes whose run ends at this step: 1.0 for a stepped lane whose normal
-    force is negative (lift-off), 2.0 for a lane at its last step. Scalar: it runs only
-    at the steps where some lane's run ends (:func:`next_stop`); at the others a
-    lift-off is found by :func:`flag_bad_step`, after the step."""
+    """Flag the lanes whose run ends at this step: LIFTED_OFF, as :func:`flag_bad_step`
+    flags it, for a stepped lane whose normal force is negative; -1.0 for a lane at its
+    last step, whose status stays. Scalar: it runs only at the steps where some lane's
+    run ends (:func:`next_stop`); at the others a lift-off is found by
+    :func:`flag_bad_step`, after the step."""
     for j in range(BLOCK):
         lift = W[at(OFF_K, K_RUN, j)] > 0.5 and W[at(OFF_X, X_N, j)] < 0.0
         last = W[at(OFF_K, K_OPEN, j)] > 0.5 and step >= W[at(OFF_K, K_STOP, j)]
-        W[at(OFF_K, K_FLAG, j)] = 1.0 if lift else (2.0 if last else 0.0)
+        W[at(OFF_K, K_FLAG, j)] = float(LIFTED_OFF) if lift else (-1.0 if last else 0.0)
 
 
 @kernel
@@ -554,7 +555,7 @@ def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
             flag_end(W, step)
             for j in range(BLOCK):
                 flag = W[at(OFF_K, K_FLAG, j)]
-                if flag == 1.0:
+                if flag == LIFTED_OFF:
                     status[j] = LIFTED_OFF
                     W[at(OFF_K, K_STOP, j)] = step
                 if flag != 0.0:
