@@ -48,7 +48,7 @@ import math
 import numpy as np
 from numba import prange
 
-from .jit import kernel, parallel_kernel
+from .jit import allocating_kernel, kernel, parallel_kernel
 from .layout import BLOCK, CAPSIZED, LIFTED_OFF, NON_FINITE, OK
 from .stepper import EULER, RK4, at, load_lane
 
@@ -335,7 +335,7 @@ def stick_now(W, j):
     W[at(OFF_Y, RATE, j)] += dw
 
 
-@kernel
+@allocating_kernel
 def advance_block(P, Y, nsteps, method, record_every, O, REC):
     """Integrate one block from t = 0 for nsteps[j] steps of P[DT, j] per lane.
 

@@ -29,7 +29,7 @@ from .dynamics import (
     STAGE_2, STAGE_3, STAGE_4, STAGE_FIRST, STAGE_START, derive_parameters, eval_block,
 )
 from .geometry import energy_terms, plastic_contact_impulse
-from .jit import kernel, parallel_kernel
+from .jit import allocating_kernel, kernel, parallel_kernel
 from .layout import (
     BLOCK, CAPSIZED, DT, EPS_U, E_HALF_DT, E_SIXTH_DT, FULL, GRAV, K_BAND, K_FIRST_REV, K_FLAG,
     K_MIN_UP, K_N_REV, K_OPEN, K_RUN, K_SIDE, K_SLIP_STEPS, K_SPIN_PREV, K_STOP, K_T_CAND,
@@ -473,7 +473,7 @@ def freeze_lane(W, j):
     W[at(OFF_S, S_MODE, j)] = 0.0
 
 
-@kernel
+@allocating_kernel
 def advance_block(P, Y, nsteps, method, record_every, band, O, REC):
     """Integrate one block from t = 0 for nsteps[j] steps of P[DT, j] per lane.
 
@@ -624,7 +624,7 @@ def integrate_serial(P, Y, nsteps, method, record_every, band, O, REC):
         advance_block(P[b], Y[b], nsteps[b], method, record_every, band, O[b], REC[b])
 
 
-@kernel
+@allocating_kernel
 def contact_slip_velocity(P, Y, U):
     """Horizontal velocity (world, m/s) of the material contact point of every lane,
     U (n_blocks, 2, BLOCK).
@@ -643,7 +643,7 @@ def contact_slip_velocity(P, Y, U):
             U[b, 1, j] = W[at(OFF_X, X_UY, j)]
 
 
-@kernel
+@allocating_kernel
 def rolling_derivative(P, Y, D):
     """Time derivative D (n_blocks, N_STATE, BLOCK) of every lane's state Y in rolling
     contact (every lane sticking), from the kernel's own right-hand side. For checks
