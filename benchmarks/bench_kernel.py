@@ -14,7 +14,9 @@ Every figure is measured in this process (latency in subprocesses) on the
    spins ``linspace(-10, 10, n)`` rad/s and a 0.5 degree roll, rolling (mu = inf) and
    Coulomb (mu = 0.3). "threads 1" is the serial entry point (``parallel=False``);
    "threads 2" is ``parallel=True, threads=2``. ``t_end`` is chosen per batch so that each
-   run takes about ``--target`` seconds on one core; each configuration runs once untimed
+   run takes about ``--target`` seconds on one core, but at least ``MIN_T_END`` = 1 s of
+   simulated time (1 126 steps), so that large batches are not timed on runs shorter
+   than any real study; each configuration runs once untimed
    (compilation, caches) and then ``--repeats`` times; the best wall time is reported and
    "spread" is (slowest - best) / best, a noise indicator. "other" is how many cores
    other processes kept busy during the best run (from /proc/stat minus this process's
@@ -25,6 +27,8 @@ Every figure is measured in this process (latency in subprocesses) on the
    "slip" is the mean fraction of steps spent slipping; with short ``t_end`` the
    mu = 0.3 batches may never slip, and then time the rolling code path plus the
    friction-cone check.
+   1b. The fixed cost per trajectory: ``execute`` with no steps to take, at the largest
+   batch, and what it costs a run of L steps per trajectory.
 2. Memory. Bytes per trajectory of the arrays the kernel call needs (``prep.P``,
    ``prep.Y``, ``prep.nsteps`` and the observables ``obs``), and the tracemalloc peak of
    everything NumPy allocates during ``prepare`` + ``execute`` (coordinates, temporaries).
@@ -66,6 +70,7 @@ solve_ivp run refines that crossing on its dense output instead).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import os
 import resource
@@ -89,6 +94,12 @@ ROLL = math.radians(0.5)
 FAST_SPIN = 5.0  # rad/s; I_xy * n > 0, the fast-reversing sense (MODEL.md section 2)
 BAND = 0.05  # spin-reversal hysteresis, fraction of |n(0)| (the kernel's default)
 NOMINAL_RATE = 8e6  # lane-steps per second per core, only to size t_end for each run
+# Shortest run in the throughput table, s of simulated time (1 126 steps at the default
+# dt). The fast launch first reverses at about 5.8 s and the demo sweep runs 5 s, so no
+# study of reversals integrates for less. Without a floor, sizing runs by wall time
+# alone gave the largest batch 0.16 s runs (184 steps), and its row measured the
+# per-trajectory set-up (about 6 steps' worth, section 1b) as much as the batch size.
+MIN_T_END = 1.0
 RK4 = 0
 
 FULL_SIZES = (1, 16, 256, 4096, 65536)
@@ -104,9 +115,9 @@ def padded_lanes(n: int) -> int:
 
 
 def t_end_for(n: int, target_s: float) -> float:
-    """t_end giving about target_s seconds on one core: the kernel steps whole blocks,
-    so the cost follows the padded lane count, not n."""
-    return target_s * NOMINAL_RATE * DT / padded_lanes(n)
+    """t_end giving about target_s seconds on one core (the kernel steps whole blocks,
+    so the cost follows the padded lane count, not n), and at least MIN_T_END."""
+    return max(MIN_T_END, target_s * NOMINAL_RATE * DT / padded_lanes(n))
 
 
 def sweep_prep(n: int, mu: float, t_end: float):
@@ -229,7 +240,8 @@ def bench_throughput(sizes, thread_counts, target_s, repeats):
     print("\n1. THROUGHPUT  (kane_levinson, spins linspace(-10, 10, n) rad/s, roll 0.5 deg, "
           f"RK4, dt = {DT * 1e3:.4f} ms)")
     print(f"   t_end sized for ~{target_s:g} s per run on one core at a nominal "
-          f"{NOMINAL_RATE:.0e} lane-steps/s; best of {repeats} after 1 warm-up; "
+          f"{NOMINAL_RATE:.0e} lane-steps/s, at least {MIN_T_END:g} s simulated; best of "
+          f"{repeats} after 1 warm-up; "
           f"BLOCK = {L.BLOCK} lanes")
     print(rule())
     print(f"{'mu':>5} {'batch':>6} {'lanes':>5} {'t_end s':>8} {'steps/traj':>10} "
@@ -257,6 +269,28 @@ def bench_throughput(sizes, thread_counts, target_s, repeats):
     print(f"other: cores kept busy by other processes during the best run; * = they needed "
           f"a core this run used, even after {EXTRA_TRIES} extra tries: rerun")
     return rates
+
+
+def bench_fixed_cost(n: int, rate_1thread: float | None, repeats: int) -> float:
+    """Prints and returns the cost per trajectory that does not depend on its length:
+    ``execute`` on n launches with no steps to take (the block set-up, the write-out of
+    the final state and observables, and execute's array copies), in seconds."""
+    prep = sweep_prep(n, math.inf, DT)
+    prep = dataclasses.replace(prep, nsteps=np.zeros_like(prep.nsteps))
+    run_kernel(prep, 1)
+    cost = best_of(lambda: run_kernel(prep, 1), max(repeats, 5)).best / n
+    print(f"\n1b. FIXED COST PER TRAJECTORY  (execute on {n} launches with no steps, "
+          f"one thread)")
+    print(f"   {cost * 1e9:.0f} ns per trajectory: block set-up, write-out of the final "
+          f"state and observables, execute's array copies")
+    if rate_1thread:
+        c_steps = cost * rate_1thread
+        print(f"   = {c_steps:.1f} steps at the batch-{n} rate above "
+              f"({rate_1thread / 1e6:.2f} M steps/s). A run of L steps per trajectory "
+              f"gets L / (L + {c_steps:.1f}) of that rate:")
+        print("   " + ", ".join(f"L = {steps}: {steps / (steps + c_steps):.1%}"
+                               for steps in (184, 1126, 5630)))
+    return cost
 
 
 # --------------------------------------------------------------------------------------
@@ -665,6 +699,7 @@ def main(argv=None):
     rates = {}
     if "throughput" not in skip:
         rates = bench_throughput(sizes, thread_counts, target, repeats)
+        bench_fixed_cost(max(sizes), rates.get((math.inf, max(sizes), 1)), repeats)
     if "memory" not in skip:
         bench_memory(sizes)
 
