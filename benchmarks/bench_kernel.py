@@ -685,7 +685,7 @@ def main(argv=None):
           f"{numba.config.NUMBA_NUM_THREADS}, mode {'quick' if args.quick else 'full'}")
     # The kernels are compiled into numba's cache by a child process first, so that this
     # one loads them: on the benchmark machine a process that compiles the kernels
-    # itself runs them up to 1.8 times slower than one that loads them from the cache
+    # itself runs them about 6 % slower than one that loads them from the cache
     # (see the README). The first call here, which loads them, is kept
     # out of every timing below.
     t0 = time.perf_counter()
