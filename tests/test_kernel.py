@@ -117,3 +117,41 @@ def test_reversal_count_and_mean_final_spin(kl):
     assert int(ds.n_reversals) == count >= 1
     tail = spin[ds.time.values > 0.9 * 40.0]
     assert float(ds.mean_final_spin) == pytest.approx(tail.mean(), rel=0.02)
+
+
+def test_no_allocation_in_the_time_loop(kl):
+    """numba's allocation count for a run does not grow with the number of steps: the
+    block drivers allocate their workspace once per block, and nothing in the time loop
+    allocates (stick, slip and recording paths, serial and parallel entries)."""
+    from numba.core.runtime import _nrt_python, rtsys
+
+    from rattlesweep.batch import execute, prepare
+    from rattlesweep.core import layout as L
+    from rattlesweep.core.stepper import RK4
+
+    def allocations(t_end, parallel):
+        # a rolling block and two that slip (mu = 0.02, 0.01): the stick, slip and
+        # re-stick code paths all run
+        prep = prepare(kl, spin=np.linspace(-8.0, 8.0, BLOCK), roll=math.radians(2.0),
+                       mu=np.array([math.inf, 0.02, 0.01])[:, None], t_end=t_end)
+        kw = dict(method=RK4, record_every=5, band=0.05, parallel=parallel)
+        obs = execute(prep, **kw)[0]  # compiles and warms up outside the count
+        slip = obs[L.O_SLIP_FRAC].reshape(3, BLOCK)
+        assert slip[0].max() == 0.0 and (slip[1:].max(axis=1) > 0.0).all()
+        before = rtsys.get_allocation_stats()
+        execute(prep, **kw)
+        after = rtsys.get_allocation_stats()
+        return after.alloc - before.alloc, after.free - before.free, int(prep.nsteps.max())
+
+    enabled = _nrt_python.memsys_stats_enabled()
+    _nrt_python.memsys_enable_stats()
+    try:
+        for parallel in (False, True):
+            short = allocations(0.01, parallel)
+            long = allocations(1.0, parallel)
+            assert long[2] > 50 * short[2]
+            assert long[:2] == short[:2]
+            assert short[0] == short[1] > 0  # every allocation freed; the count is live
+    finally:
+        if not enabled:
+            _nrt_python.memsys_disable_stats()
