@@ -15,8 +15,8 @@ Every figure is measured in this process (latency in subprocesses) on the
    Coulomb (mu = 0.3). "threads 1" is the serial entry point (``parallel=False``);
    "threads 2" is ``parallel=True, threads=2``. ``t_end`` is chosen per batch so that each
    run takes about ``--target`` seconds on one core, but at least ``MIN_T_END`` = 1 s of
-   simulated time (1 126 steps), so that large batches are not timed on runs shorter
-   than any real study; each configuration runs once untimed
+   simulated time (1 126 steps), so that large batches are not timed on runs much
+   shorter than those that show a reversal; each configuration runs once untimed
    (compilation, caches) and then ``--repeats`` times; the best wall time is reported and
    "spread" is (slowest - best) / best, a noise indicator. "other" is how many cores
    other processes kept busy during the best run (from /proc/stat minus this process's
@@ -95,10 +95,10 @@ FAST_SPIN = 5.0  # rad/s; I_xy * n > 0, the fast-reversing sense (MODEL.md secti
 BAND = 0.05  # spin-reversal hysteresis, fraction of |n(0)| (the kernel's default)
 NOMINAL_RATE = 8e6  # lane-steps per second per core, only to size t_end for each run
 # Shortest run in the throughput table, s of simulated time (1 126 steps at the default
-# dt). The fast launch first reverses at about 5.8 s and the demo sweep runs 5 s, so no
-# study of reversals integrates for less. Without a floor, sizing runs by wall time
-# alone gave the largest batch 0.16 s runs (184 steps), and its row measured the
-# per-trajectory set-up (about 6 steps' worth, section 1b) as much as the batch size.
+# dt). The fast launch first reverses at about 5.8 s and the demo sweep runs 5 s: runs
+# that show a reversal are longer. Without a floor, sizing runs by wall time alone gave
+# the largest batch 0.16 s runs (184 steps), and its row measured the per-trajectory
+# set-up (about 6 steps' worth, section 1b) as much as the batch size.
 MIN_T_END = 1.0
 RK4 = 0
 

@@ -50,7 +50,7 @@ kernel = functools.partial(
 allocating_kernel = functools.partial(
     numba.njit, nogil=True, cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=True
 )
-"""Decorator for a serial block driver that allocates its workspace (with NRT)."""
+"""Decorator for a serial function that allocates a block workspace (with NRT)."""
 
 inline_kernel = functools.partial(
     numba.njit, nogil=True, cache=True, error_model="numpy", fastmath=FASTMATH,
