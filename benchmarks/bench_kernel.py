@@ -22,18 +22,11 @@ Every figure is measured in this process (latency in subprocesses) on the
    other processes kept busy during the best run (from /proc/stat minus this process's
    CPU time). While it exceeds the idle cores (CPUs minus threads used) by 0.25 the
    configuration is timed again (up to 3 more times); a remaining "*" marks a figure
-   that competed for a core. "xtalk" (two-thread rows) is a probe of the machine, not of
-   the kernel: how much longer two copies of a pure-arithmetic loop that share nothing
-   take on two threads at once than half their time on one thread, measured before and
-   after the runs. On this virtual machine it is within a few % of 0 most of the time,
-   but there are phases in which two busy threads slow each other down by 5-35 % with
-   no other process running, and the kernel's two-thread rate drops with it. While it
-   exceeds 5 % the runs are repeated (up to 3 more rounds); a remaining "!" marks a
-   figure taken while the two cores were not independent. The kernel works on blocks
-   of ``BLOCK`` lanes, so a batch smaller than a block still pays for a whole block:
-   "lanes" is n / padded lanes. "slip" is the mean fraction of steps spent slipping;
-   with short ``t_end`` the mu = 0.3 batches may never slip, and then time the rolling
-   code path plus the friction-cone check.
+   that competed for a core. The kernel works on blocks of ``BLOCK`` lanes, so a batch
+   smaller than a block still pays for a whole block: "lanes" is n / padded lanes.
+   "slip" is the mean fraction of steps spent slipping; with short ``t_end`` the
+   mu = 0.3 batches may never slip, and then time the rolling code path plus the
+   friction-cone check.
    1b. The fixed cost per trajectory: ``execute`` with no steps to take, at the largest
    batch, and what it costs a run of L steps per trajectory.
 2. Memory. Bytes per trajectory of the arrays the kernel call needs (``prep.P``,
@@ -142,52 +135,6 @@ def run_kernel(prep, threads: int):
 
 OTHER_MAX = 0.25  # other processes' load beyond the idle cores that makes a timing retried
 EXTRA_TRIES = 3
-# Cross-talk between the two cores beyond which a two-thread timing is retried and flagged.
-# On this machine (a virtual one) there are phases, seconds to minutes long, in which two
-# busy threads slow each other down by 5-35 % although no other process runs: the
-# host, not this process, decides that. A probe that shares nothing shows it.
-XTALK_MAX = 0.05
-
-
-@numba.njit(nogil=True, cache=True)
-def _probe_loop(n):
-    """n multiply-adds on 64 independent chains in L1 (FP throughput bound)."""
-    a = np.empty(64)
-    for k in range(64):
-        a[k] = 1.0 + k * 1e-3
-    for _ in range(n // 64):
-        for k in range(64):
-            a[k] = a[k] * 1.0000001 + 1e-9
-    return a.sum()
-
-
-@numba.njit(nogil=True, cache=True, parallel=True)
-def _probe_pair(n):
-    """_probe_loop(n) twice, as two prange iterations: one per thread on two threads."""
-    out = np.empty(2)
-    for i in numba.prange(2):
-        out[i] = _probe_loop(n)
-    return out.sum()
-
-
-def crosstalk(n: int = 500_000_000) -> float:
-    """How much longer two copies of a pure-arithmetic loop (no shared data) take on two
-    numba threads at once than on one thread, one after the other, halved: near 0 when
-    the two cores are independent. Both sides run the same compiled code, and each is
-    timed around one nopython call, so Python's GIL plays no part."""
-    def wall():
-        t0 = time.perf_counter()
-        _probe_pair(n)
-        return time.perf_counter() - t0
-    old = numba.get_num_threads()
-    try:
-        numba.set_num_threads(1)
-        _probe_pair(64)
-        one = min(wall(), wall())
-        numba.set_num_threads(2)
-        return min(wall(), wall()) / (one / 2) - 1.0
-    finally:
-        numba.set_num_threads(old)
 
 
 def system_busy_s() -> float | None:
@@ -217,7 +164,6 @@ class Timing:
     worst: float  # s, slowest run
     other: float  # cores used by other processes during the fastest run
     limit: float  # `other` above this means the timing competed for a core
-    xtalk: float = math.nan  # cross-talk probe around the runs (two threads only)
 
     @property
     def spread(self) -> float:
@@ -225,40 +171,21 @@ class Timing:
 
     @property
     def flag(self) -> str:
-        return ("*" if self.other > self.limit else " ") + (
-            "!" if self.xtalk > XTALK_MAX else " ")
+        return "*" if self.other > self.limit else " "
 
 
 def best_of(fn, repeats: int, threads: int = 1) -> Timing:
     """Best of `repeats` timed calls of fn (which uses `threads` cores). While the best
     one competed with other work for a core (other processes busier than the idle cores
-    plus OTHER_MAX), up to EXTRA_TRIES more calls. With two or more threads, the
-    cross-talk probe runs before and after the calls, and while it exceeds XTALK_MAX
-    the calls and probes are repeated (up to EXTRA_TRIES times); the best calls of the
-    round with the least cross-talk are kept. The caller warms up first."""
+    plus OTHER_MAX), up to EXTRA_TRIES more calls. The caller warms up first."""
     limit = max(0, (os.cpu_count() or 1) - threads) + OTHER_MAX
-
-    def round_of_runs():
-        runs = [timed(fn) for _ in range(repeats)]
-        for _ in range(EXTRA_TRIES):
-            if not min(runs)[1] > limit:
-                break
-            runs.append(timed(fn))
-        return runs
-
-    if threads < 2:
-        runs, xtalk = round_of_runs(), math.nan
-    else:
-        rounds = []
-        for _ in range(1 + EXTRA_TRIES):
-            before = crosstalk()
-            runs = round_of_runs()
-            rounds.append((max(before, crosstalk()), runs))
-            if rounds[-1][0] <= XTALK_MAX:
-                break
-        xtalk, runs = min(rounds, key=lambda r: r[0])
+    runs = [timed(fn) for _ in range(repeats)]
+    for _ in range(EXTRA_TRIES):
+        if not min(runs)[1] > limit:
+            break
+        runs.append(timed(fn))
     best = min(runs)
-    return Timing(best[0], max(r[0] for r in runs), best[1], limit, xtalk)
+    return Timing(best[0], max(r[0] for r in runs), best[1], limit)
 
 
 def time_kernel(prep, threads: int, repeats: int):
@@ -319,7 +246,7 @@ def bench_throughput(sizes, thread_counts, target_s, repeats):
     print(rule())
     print(f"{'mu':>5} {'batch':>6} {'lanes':>5} {'t_end s':>8} {'steps/traj':>10} "
           f"{'pack us/traj':>12} {'thr':>3} {'wall s':>7} {'spread':>6} "
-          f"{'Msteps/s':>9} {'/core':>7} {'slip':>5} {'other':>6} {'xtalk':>7}")
+          f"{'Msteps/s':>9} {'/core':>7} {'slip':>5} {'other':>6}")
     print(rule())
     rates = {}
     for mu in (math.inf, 0.3):
@@ -337,16 +264,10 @@ def bench_throughput(sizes, thread_counts, target_s, repeats):
                 print(f"{mu:>5g} {n:>6d} {n / padded_lanes(n):>5.2f} {t_end:>8.4g} "
                       f"{steps_per_traj:>10d} {pack / n * 1e6:>12.2f} {threads:>3d} "
                       f"{tm.best:>7.3f} {tm.spread:>6.1%} {rate / 1e6:>9.2f} "
-                      f"{rate / threads / 1e6:>7.2f} {slip:>5.3f} {tm.other:>5.2f} "
-                      f"{'' if math.isnan(tm.xtalk) else f'{tm.xtalk:.1%}':>7}{tm.flag}")
+                      f"{rate / threads / 1e6:>7.2f} {slip:>5.3f} {tm.other:>5.2f}{tm.flag}")
     print(rule())
     print(f"other: cores kept busy by other processes during the best run; * = they needed "
           f"a core this run used, even after {EXTRA_TRIES} extra tries: rerun")
-    print(f"xtalk: how much longer two copies of a pure-arithmetic probe took on two threads "
-          f"at once than on one, halved, before and after the runs (worse of the two); ! = above "
-          f"{XTALK_MAX:.0%} even after {EXTRA_TRIES} extra rounds: the machine's two cores "
-          f"were not independent, so the two-thread figure is low for a reason outside "
-          f"the kernel: rerun")
     return rates
 
 
