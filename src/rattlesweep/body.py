@@ -9,29 +9,18 @@ later in a simulation.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
-from typing import Iterable
+from typing import Iterable, Sequence
 
 import numpy as np
 
+from .validation import as_float_array, finite_vector, positive
+
+__all__ = ["Body", "PRESETS", "distinct_bodies", "rotated_inertia"]
+
 _REL_TOL = 1e-9
-
-
-def _as_vector(name: str, value, n: int) -> np.ndarray:
-    arr = np.asarray(value, dtype=float)
-    if arr.shape != (n,):
-        raise ValueError(f"{name} must have shape ({n},), got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite, got {arr.tolist()}")
-    return arr
-
-
-def _positive(name: str, value) -> float:
-    v = float(value)
-    if not (math.isfinite(v) and v > 0.0):
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
-    return v
 
 
 def rotated_inertia(i1: float, i2: float, i3: float, delta: float) -> np.ndarray:
@@ -43,7 +32,9 @@ def rotated_inertia(i1: float, i2: float, i3: float, delta: float) -> np.ndarray
     return rz @ np.diag([i1, i2, i3]) @ rz.T
 
 
-@dataclass(frozen=True)
+# eq=False: the generated __eq__ would compare the ndarray fields with ==, whose
+# elementwise result has no truth value, and the generated __hash__ would fail on them
+@dataclass(frozen=True, eq=False)
 class Body:
     """A rigid body with an ellipsoidal bottom resting on a flat floor.
 
@@ -62,6 +53,10 @@ class Body:
         A full ellipsoid has no rim, so it never capsizes (Kane and Levinson's body).
     name : str
         Label stored with results.
+
+    Bodies are values: two bodies are equal, and hash alike, when all their parameters
+    above except ``name`` are equal (exactly, float by float), so they can be dict keys
+    and set members.
     """
 
     a: float
@@ -75,9 +70,9 @@ class Body:
 
     def __post_init__(self) -> None:
         for key in ("a", "b", "c", "mass"):
-            object.__setattr__(self, key, _positive(key, getattr(self, key)))
-        com = _as_vector("com", self.com, 3)
-        inertia = np.asarray(self.inertia, dtype=float)
+            object.__setattr__(self, key, positive(key, getattr(self, key)))
+        com = finite_vector("com", self.com, 3)
+        inertia = as_float_array("inertia", self.inertia)
         if inertia.shape != (3, 3):
             raise ValueError(f"inertia must have shape (3, 3), got {inertia.shape}")
         if not np.all(np.isfinite(inertia)):
@@ -127,8 +122,8 @@ class Body:
         G = (0, 0, −3c/8); inertia about C is diag(b²+c², a²+c², a²+b²)·m/5, moved to G
         by the parallel-axis rule, then rotated.
         """
-        a, b, c, mass = (_positive("a", a), _positive("b", b), _positive("c", c),
-                         _positive("mass", mass))
+        a, b, c, mass = (positive("a", a), positive("b", b), positive("c", c),
+                         positive("mass", mass))
         if not math.isfinite(delta):
             raise ValueError(f"delta must be finite, got {delta!r}")
         zg = -3.0 * c / 8.0
@@ -141,8 +136,8 @@ class Body:
                   ) -> "Body":
         """Homogeneous solid full ellipsoid (m, kg), G at its centre. With a = b = c this is
         a uniform sphere."""
-        a, b, c, mass = (_positive("a", a), _positive("b", b), _positive("c", c),
-                         _positive("mass", mass))
+        a, b, c, mass = (positive("a", a), positive("b", b), positive("c", c),
+                         positive("mass", mass))
         inertia = np.diag([b * b + c * c, a * a + c * c, a * a + b * b]) * mass / 5.0
         return cls(a, b, c, mass, (0.0, 0.0, 0.0), inertia, full_ellipsoid=True, name=name)
 
@@ -153,8 +148,8 @@ class Body:
         first = self.mass * self.com
         items = []
         for i, (mi, pos) in enumerate(masses):
-            mi = _positive(f"masses[{i}] mass", mi)
-            pos = _as_vector(f"masses[{i}] position", pos, 3)
+            mi = positive(f"masses[{i}] mass", mi)
+            pos = finite_vector(f"masses[{i}] position", pos, 3)
             items.append((mi, pos))
             total += mi
             first = first + mi * pos
@@ -179,6 +174,38 @@ class Body:
                 f"preset name {name!r} is unknown; choose one of {sorted(PRESETS)}"
             ) from None
         return factory()
+
+    # --- value semantics ----------------------------------------------------------
+    # Both cached: a batch hashes the same body once per trajectory, and hashing the key
+    # costs more than the rest of a dictionary lookup.
+    @functools.cached_property
+    def _key(self) -> tuple:
+        """Every parameter but the name, as plain Python scalars."""
+        return (self.a, self.b, self.c, self.mass, *self.com.tolist(),
+                *self.inertia.ravel().tolist(), self.full_ellipsoid)
+
+    @functools.cached_property
+    def _hash(self) -> int:
+        return hash(self._key)
+
+    def __eq__(self, other: object) -> bool:
+        if other.__class__ is not self.__class__:
+            return NotImplemented
+        return self is other or self._key == other._key
+
+    def __hash__(self) -> int:
+        return self._hash
+
+    # Pickling and deepcopy rebuild the arrays writable; freeze them again, or the copy
+    # could be changed after its key was cached. The cached key and hash are left out: a
+    # hash need not survive a change of Python version.
+    def __getstate__(self) -> dict:
+        return {k: v for k, v in self.__dict__.items() if k not in ("_key", "_hash")}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self.com.setflags(write=False)
+        self.inertia.setflags(write=False)
 
     # --- derived properties -------------------------------------------------------
     @property
@@ -211,7 +238,7 @@ class Body:
         solve det(K − ω² M) = 0 with K = m g diag(b²/c − ℓ, a²/c − ℓ) and M the x–y block
         of the inertia (MODEL.md section 7). A neutral mode has frequency 0.
         """
-        g = _positive("g", g)
+        g = positive("g", g)
         ell = self.com_height
         extra = self.mass * ell * ell if rolling else 0.0
         m_mat = self.inertia[:2, :2] + extra * np.eye(2)
@@ -234,18 +261,7 @@ class Body:
         """Default time step (s): 1/64 of the shortest small-oscillation period over the
         rolling and frictionless limits (MODEL.md section 5). A body with no restoring
         stiffness (a sphere with G at its centre) uses the period 2π√(c/g) instead."""
-        # memoised per body and g (sweeps ask for it once per tile); the body is immutable,
-        # so the cache lives in the instance dict like functools.cached_property's
-        cache = self.__dict__.setdefault("_default_dt_cache", {})
-        g = float(g)
-        if g in cache:
-            return cache[g]
-        w = max(*self.small_oscillation_frequencies(g, rolling=True),
-                *self.small_oscillation_frequencies(g, rolling=False))
-        if w == 0.0:
-            w = math.sqrt(g / self.c)
-        cache[g] = 2.0 * math.pi / w / 64.0
-        return cache[g]
+        return _default_dt(self, positive("g", g))
 
     def describe(self) -> dict:
         """Plain-number description for result attributes."""
@@ -262,15 +278,29 @@ class Body:
                 f"inertia={self.inertia.tolist()}, full_ellipsoid={self.full_ellipsoid})")
 
 
-def distinct_bodies(bodies) -> tuple[list[Body], np.ndarray]:
-    """The distinct Body objects of a flat sequence, in first-seen order, and each
-    item's index into them (bodies are told apart by identity: a batch or grid reuses
-    the same objects, and comparing arrays field by field would cost more)."""
-    ids = np.fromiter(map(id, bodies), dtype=np.int64, count=len(bodies))
-    _, first, index = np.unique(ids, return_index=True, return_inverse=True)
-    order = np.argsort(first)
-    table = [bodies[i] for i in first[order]]
-    return table, np.argsort(order)[index.reshape(-1)]
+# Sweeps ask for the default step of the same few bodies once per tile, and each answer
+# costs two small eigenproblems. Bounded, as a sweep over random bodies meets thousands.
+@functools.lru_cache(maxsize=4096)
+def _default_dt(body: Body, g: float) -> float:
+    w = max(*body.small_oscillation_frequencies(g, rolling=True),
+            *body.small_oscillation_frequencies(g, rolling=False))
+    if w == 0.0:
+        w = math.sqrt(g / body.c)
+    return 2.0 * math.pi / w / 64.0
+
+
+def distinct_bodies(bodies: Sequence[Body] | np.ndarray) -> tuple[list[Body], np.ndarray]:
+    """The distinct bodies of a flat sequence, in first-seen order, and each item's index
+    into them (an int array of the sequence's length).
+
+    Bodies are told apart by value and by name: results label each trajectory with the
+    name from this table, so equal bodies with different names stay apart. The table
+    holds the first item seen of each.
+    """
+    seen: dict[tuple[Body, str], int] = {}
+    index = np.fromiter((seen.setdefault((b, b.name), len(seen)) for b in bodies),
+                        dtype=np.intp, count=len(bodies))
+    return [body for body, _ in seen], index
 
 
 def _kane_levinson() -> Body:

@@ -14,17 +14,11 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..validation import positive
+
+__all__ = ["ContactPoint", "PlanarBody"]
+
 _REL_TOL = 1e-9
-
-
-def _positive(name: str, value) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}") from None
-    if not (math.isfinite(v) and v > 0.0):
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
-    return v
 
 
 class ContactPoint(NamedTuple):
@@ -77,7 +71,7 @@ class PlanarBody:
     name: str = field(default="semi_ellipse", compare=False)
 
     def __post_init__(self) -> None:
-        a, b, m = (_positive(k, getattr(self, k)) for k in ("a", "b", "mass"))
+        a, b, m = (positive(k, getattr(self, k)) for k in ("a", "b", "mass"))
         if self.com_depth is None:
             d = 4.0 * b / (3.0 * math.pi)
         else:
@@ -85,12 +79,12 @@ class PlanarBody:
                 raise ValueError(
                     "com_depth needs inertia too: the default inertia formula holds only "
                     "for the homogeneous lamina, whose com_depth is 4b/(3 pi)")
-            d = _positive("com_depth", self.com_depth)
+            d = positive("com_depth", self.com_depth)
             if not d < b:
                 raise ValueError(f"com_depth must be < b = {b!r} (G inside the body), "
                                  f"got {self.com_depth!r}")
         inertia = (m * ((a * a + b * b) / 4.0 - d * d) if self.inertia is None
-                   else _positive("inertia", self.inertia))
+                   else positive("inertia", self.inertia))
         radius, height = a * a / b, b - d
         if radius < height * (1.0 - _REL_TOL):
             raise ValueError(
@@ -152,7 +146,7 @@ class PlanarBody:
         the contact point) and J = I_G when frictionless (G only moves vertically, to
         second order). 0 for a neutral body (a²/b = b − d).
         """
-        g = _positive("g", g)
+        g = positive("g", g)
         margin = self.a**2 / self.b - self.rest_height
         if margin <= _REL_TOL * self.rest_height:
             return 0.0
@@ -167,7 +161,7 @@ class PlanarBody:
         period is capped at 2π√(b/g), the time scale of motion over the body's own depth
         (this only matters when a²/b − (b − d) is small against b).
         """
-        g = _positive("g", g)
+        g = positive("g", g)
         w = max(self.rocking_frequency(g, True), self.rocking_frequency(g, False),
                 math.sqrt(g / self.b))
         return 2.0 * math.pi / w / 64.0
