@@ -1,4 +1,13 @@
-"""rattlesweep: fast batch simulation of rattlebacks with Coulomb stick/slip friction."""
+"""rattlesweep: fast batch simulation of rattlebacks with Coulomb stick/slip friction.
+
+The sweep machinery (:mod:`rattlesweep.sweep`, :class:`Sweep`, :func:`run_sweep`,
+:func:`resume`) is imported on first use: it brings in dask and netCDF4, which a
+simulation does not need.
+"""
+
+from __future__ import annotations
+
+import importlib
 
 from ._version import __version__
 from .body import PRESETS, Body
@@ -6,9 +15,24 @@ from .batch import run_batch
 from .simulate import simulate
 from . import planar
 from .planar import PlanarBody, run_planar_batch, simulate_planar
-from . import stability, sweep
-from .sweep import Sweep, resume, run_sweep
+from . import stability
 
 __all__ = ["Body", "PRESETS", "PlanarBody", "Sweep", "planar", "resume", "run_batch",
            "run_planar_batch", "run_sweep", "stability", "sweep",
            "simulate", "simulate_planar", "__version__"]
+
+_FROM_SWEEP = ("Sweep", "resume", "run_sweep")
+
+
+def __getattr__(name: str):
+    if name == "sweep":
+        return importlib.import_module(".sweep", __name__)
+    if name in _FROM_SWEEP:
+        value = getattr(importlib.import_module(".sweep", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -10,8 +10,8 @@ from pathlib import Path
 import xarray as xr
 
 NETCDF_LOCK = threading.RLock()
-"""Serialises netCDF/HDF5 calls made by rattlesweep: the HDF5 library is not thread-safe,
-and sweep tiles finish on several threads at once (measured: concurrent writes crash)."""
+"""Serialises netCDF/HDF5 calls made by rattlesweep: the HDF5 library is not thread-safe
+(concurrent writes crash it), and sweep tiles finish on several threads at once."""
 
 
 def write_netcdf(ds: xr.Dataset, path: str | os.PathLike) -> Path:

@@ -1,7 +1,28 @@
-"""Parameter sweeps: specification, tiled execution on dask, resumable netCDF output."""
+"""Parameter sweeps: specification, tiled execution on dask, resumable netCDF output.
 
-from .spec import Sweep
+:func:`run_sweep` and :func:`resume` are imported on first use, so making or reading a
+:class:`Sweep` does not import dask or netCDF4.
+"""
+
+from __future__ import annotations
+
+import importlib
+
 from .outcomes import OUTCOME_NAMES, classify
-from .run import resume, run_sweep
+from .spec import Sweep
 
 __all__ = ["OUTCOME_NAMES", "Sweep", "classify", "resume", "run_sweep"]
+
+_FROM_RUN = ("resume", "run_sweep")
+
+
+def __getattr__(name: str):
+    if name in _FROM_RUN:
+        value = getattr(importlib.import_module(".run", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

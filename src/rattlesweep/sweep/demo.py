@@ -1,5 +1,7 @@
 """The default sweep behind ``rattlesweep demo`` (the README's main job)."""
 
+__all__ = ["DEMO_TOML"]
+
 DEMO_TOML = """\
 # rattlesweep demo: where does the toy rattleback reverse?
 # Spin x misalignment for Coulomb friction (mu = 0.3) and pure rolling (mu = inf),

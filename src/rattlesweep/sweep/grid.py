@@ -18,6 +18,9 @@ import numpy as np
 from ..body import Body
 from .params import BODY_PARAMS, DEFAULTS
 
+__all__ = ["NORMAL_CLIP", "Axis", "RandomParam", "batch_inputs", "body_for",
+           "semi_ellipsoid_defaults", "uniform01"]
+
 NORMAL_CLIP = 4.0
 """Normal draws are truncated at mean ± NORMAL_CLIP standard deviations (so validation of
 the configuration can bound them)."""

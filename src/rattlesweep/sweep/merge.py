@@ -19,6 +19,8 @@ from .params import resolve
 from .spec import Sweep
 from .tiles import RESULT_VARS, extra_vars, read_tile, tile_path, variable_attrs
 
+__all__ = ["grid_coords", "merge_tiles", "sweep_attrs", "versions"]
+
 
 def versions() -> dict[str, str]:
     """Versions of rattlesweep and the libraries that shape its results."""

@@ -7,6 +7,9 @@ import numpy as np
 from ..core import layout as L
 from ..metadata import flag_attrs
 
+__all__ = ["CAPSIZED", "FAILED", "LIFTED_OFF", "NO_REVERSAL", "OUTCOME_ATTRS",
+           "OUTCOME_NAMES", "REVERSED", "SEVERAL", "STOPPED", "classify"]
+
 OUTCOME_NAMES = ("no_reversal", "reversed", "several_reversals", "stopped", "capsized",
                  "lifted_off", "numerical_failure")
 NO_REVERSAL, REVERSED, SEVERAL, STOPPED, CAPSIZED, LIFTED_OFF, FAILED = range(7)

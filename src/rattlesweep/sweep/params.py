@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+__all__ = ["BODY_PARAMS", "DEFAULTS", "PARAMS", "Param", "check_values", "resolve"]
+
 _ANGLE = {"rad": (1.0, "rad"), "deg": (math.pi / 180.0, "degree"),
           "degree": (math.pi / 180.0, "degree"), "degrees": (math.pi / 180.0, "degree")}
 _SPIN = {"rad/s": (1.0, "rad s-1"), "rad s-1": (1.0, "rad s-1"),

@@ -6,6 +6,8 @@ import sys
 import time
 from typing import TextIO
 
+__all__ = ["Progress"]
+
 
 class Progress:
     """Report finished tiles to ``stream``: redrawn in place on a terminal, otherwise a line

@@ -24,6 +24,9 @@ from .progress import Progress
 from .spec import Sweep
 from .tiles import CANCEL, compute_tile, tile_is_valid, tile_path
 
+__all__ = ["CONFIG_NAME", "RESULT_NAME", "TILES_DIR", "prepare_directory", "resume",
+           "run_sweep", "stored_sweep"]
+
 CONFIG_NAME = "sweep.toml"
 RESULT_NAME = "sweep.nc"
 TILES_DIR = "tiles"
@@ -90,7 +93,7 @@ class _LocalProgress(Callback):
 
 
 def _tasks(sweep: Sweep, todo: list[int], tiles_dir: Path) -> list:
-    # the sweep goes into the graph once, untraversed (dask would rebuild a dataclass)
+    # the sweep goes into the graph once, shared by every tile task and not traversed
     shared = dask.delayed(sweep, traverse=False, name=f"rattlesweep-config-"
                           f"{sweep.config_hash()[:12]}")
     task = dask.delayed(compute_tile, pure=False)

@@ -18,6 +18,9 @@ from ..metadata import attrs_for
 from .outcomes import OUTCOME_ATTRS, classify
 from .spec import Sweep
 
+__all__ = ["CANCEL", "RESULT_VARS", "compute_tile", "extra_vars", "read_tile",
+           "tile_is_valid", "tile_path", "variable_attrs"]
+
 RESULT_VARS = ("first_reversal_time", "n_reversals", "initial_spin", "final_spin",
                "mean_final_spin", "max_tilt", "energy_initial", "energy_final",
                "energy_lost", "slip_fraction", "t_final", "steps", "status")

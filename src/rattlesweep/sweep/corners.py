@@ -1,0 +1,102 @@
+"""The corner check of a sweep and the automatic tile size.
+
+The batch layer's rules (tilt within the rim, ``mu_static >= mu``, curvature against the
+step size, ...) are monotone in each parameter, so checking every combination of the
+extremes of the axes and random ranges checks the whole grid, and the largest number of
+steps any point takes is reached at a corner too. That number sizes the tiles.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+
+from .. import batch
+from .grid import Axis, RandomParam, batch_inputs
+from .params import resolve
+
+__all__ = ["TILE_STEPS", "check_corners", "choose_tile_size"]
+
+TILE_STEPS = 2e7
+"""Trajectory-steps per tile aimed at by the automatic tile size."""
+
+_STABILITY_T_END = 1.0
+"""End time (s) the tiles of a configuration without ``t_end`` are sized for."""
+
+
+def _max_steps(bodies, kwargs) -> int:
+    return int(batch.prepare(bodies, **kwargs).nsteps.max())
+
+
+def check_corners(grid_axes: tuple[Axis, ...], random_params: tuple[RandomParam, ...],
+                  fixed_si: dict[str, float], fixed_body) -> int:
+    """Check every combination of the extremes of the varying parameters against the
+    batch layer's rules; return the largest number of steps any point takes.
+
+    ``fixed_si`` holds the fixed numeric parameters in SI by canonical name and
+    ``fixed_body`` the fixed body (a preset name, a Body, or None when it varies). A
+    broken rule is a ValueError naming the first offending corner.
+    """
+    varying: list[tuple[str, str, list]] = []
+    for ax in grid_axes:
+        if ax.param == "body":
+            varying.append((ax.key, "body", list(ax.values)))
+        else:
+            si = ax.si
+            varying.append((ax.key, ax.param, sorted({float(si.min()), float(si.max())})))
+    for rp in random_params:
+        lo, hi = rp.bounds()
+        varying.append((rp.key, rp.param, [lo * rp.factor, hi * rp.factor]))
+    combos = list(itertools.product(*[v[2] for v in varying]))
+    fixed = dict(fixed_si)
+    if "t_end" not in fixed and all(param != "t_end" for _, param, _ in varying):
+        fixed["t_end"] = _STABILITY_T_END
+    columns = {k: np.full(len(combos), v) for k, v in fixed.items()}
+    body_column = None
+    for j, (_, param, _) in enumerate(varying):
+        values = [c[j] for c in combos]
+        if param == "body":
+            body_column = np.array(values)
+        else:
+            columns[param] = np.array(values, dtype=float)
+
+    def describe(i: int) -> str:
+        return ", ".join(f"{key}={_show(combos[i][j], param, key)}"
+                         for j, (key, param, _) in enumerate(varying))
+
+    def check(sel: slice) -> int:
+        bodies, kwargs = batch_inputs({k: v[sel] for k, v in columns.items()},
+                                      None if body_column is None else body_column[sel],
+                                      fixed_body)
+        return _max_steps(bodies, kwargs)
+
+    try:
+        return check(slice(None))
+    except ValueError:
+        # find the first offending corner to name it
+        for i in range(len(combos)):
+            try:
+                check(slice(i, i + 1))
+            except ValueError as exc:
+                raise ValueError(f"{exc} (at the sweep corner {describe(i)})") from None
+        raise
+
+
+def choose_tile_size(max_steps: int, size: int) -> int:
+    """Points per tile: about :data:`TILE_STEPS` trajectory-steps (``max_steps`` per
+    point) and at least 16 tiles over ``size`` points, in multiples of 32 from 256 to
+    65536."""
+    tile = min(TILE_STEPS / max_steps, size / 16)
+    return int(min(max(32 * math.ceil(tile / 32), 256), 65536))
+
+
+def _show(value, param: str, key: str) -> str:
+    if param == "body":
+        return repr(value)
+    try:
+        _, factor, cf = resolve(key, None, key)
+    except ValueError:
+        factor, cf = 1.0, ""
+    return f"{value / factor:g}" + (f" {cf}" if cf not in ("", "1") else "")

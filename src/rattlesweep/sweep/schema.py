@@ -1,0 +1,307 @@
+"""The configuration schema: checking a sweep's settings and bringing them to one normal
+form.
+
+The normal form is plain data (numbers, strings, lists, tables) in which equal sweeps
+look equal: axis values are floats, units equal to a parameter's default are left out, a
+body is a preset name or a :meth:`rattlesweep.Body.describe` table, and the defaults
+(the ``toy`` body, :data:`~rattlesweep.sweep.params.DEFAULTS`) are filled in. Every
+error is a ValueError naming the key (``axes.spin``, ``fixed.body``, ``repeats``).
+
+These checks look at one value at a time; the combinations of values a grid reaches are
+checked by :mod:`rattlesweep.sweep.corners`.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Mapping
+
+import numpy as np
+
+from ..batch import METHODS, check_band
+from ..body import PRESETS, Body
+from .grid import RandomParam
+from .params import BODY_PARAMS, DEFAULTS, PARAMS, check_values, resolve
+
+__all__ = ["CONFIG_KEYS", "axis_values", "body_from_table", "check_config_table",
+           "normalise_axis", "normalise_body", "normalise_config", "normalise_fixed",
+           "normalise_random"]
+
+CONFIG_KEYS = ("name", "axes", "fixed", "random", "repeats", "seed", "method",
+               "reversal_band", "tile_size")
+"""The keys a configuration table may have."""
+
+_RANGE_KEYS = {"start", "stop", "num", "units", "scale"}
+_VALUES_KEYS = {"values", "units"}
+_BODY_KEYS = {"a", "b", "c", "mass", "com", "inertia", "full_ellipsoid", "body_name", "name"}
+_BODY_REQUIRED = {"a", "b", "c", "mass", "com", "inertia"}
+
+
+def _is_number(x) -> bool:
+    return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool)
+
+
+def _is_int(x) -> bool:
+    return isinstance(x, (int, np.integer)) and not isinstance(x, bool)
+
+
+def _default_units(key: str) -> str:
+    param = PARAMS[key[:-4]] if key.endswith("_deg") and key[:-4] in PARAMS else PARAMS[key]
+    return "deg" if key.endswith("_deg") else next(iter(param.units))
+
+
+def _units_entry(key: str, units) -> dict:
+    if units is None or units == _default_units(key):
+        return {}
+    if not isinstance(units, str):
+        raise ValueError(f"units of {key!r} must be a string, got {units!r}")
+    return {"units": units}
+
+
+def normalise_body(value, where: str):
+    """A body value as a preset name or a plain-number description table; ``value`` is
+    a preset name, a :class:`~rattlesweep.Body` or a body table."""
+    if isinstance(value, str):
+        if value not in PRESETS:
+            raise ValueError(f"{where}: preset name {value!r} is unknown; choose one of "
+                             f"{sorted(PRESETS)}")
+        return value
+    if isinstance(value, Body):
+        return value.describe()
+    if isinstance(value, Mapping):
+        return body_from_table(value, where).describe()
+    raise ValueError(f"{where}: a body is a preset name, a Body, or a table with a, b, c, "
+                     f"mass, com, inertia; got {value!r}")
+
+
+def body_from_table(d: Mapping, where: str) -> Body:
+    """The :class:`~rattlesweep.Body` a body table describes (checked by ``Body``)."""
+    extra = set(d) - _BODY_KEYS
+    if extra:
+        raise ValueError(f"{where}: unknown body keys {sorted(extra)}; a body table has "
+                         f"{sorted(_BODY_KEYS - {'body_name'})}")
+    missing = _BODY_REQUIRED - set(d)
+    if missing:
+        raise ValueError(f"{where}: body table lacks {sorted(missing)}")
+    try:
+        return Body(d["a"], d["b"], d["c"], d["mass"], d["com"], d["inertia"],
+                    bool(d.get("full_ellipsoid", False)),
+                    name=str(d.get("name", d.get("body_name", "custom"))))
+    except ValueError as exc:
+        raise ValueError(f"{where}: {exc}") from None
+
+
+def normalise_axis(key: str, spec) -> dict:
+    """An axis as ``{"values": [...]}`` or ``{"start", "stop", "num"[, "scale"]}``, with
+    ``units`` when they are not the parameter's default; every value is checked."""
+    where = f"axes.{key}"
+    if key == "body":
+        return _normalise_body_axis(spec, where)
+    if isinstance(spec, (list, tuple, np.ndarray)):
+        spec = {"values": list(np.asarray(spec).tolist())}
+    if not isinstance(spec, Mapping):
+        raise ValueError(f"{where}: an axis is a list of values or a table "
+                         f"{{start, stop, num[, units, scale]}}; got {spec!r}")
+    param, factor, _ = resolve(key, spec.get("units"), where)
+    if "values" in spec:
+        out = _normalise_values(spec, where)
+    else:
+        out = _normalise_range(spec, where)
+    check_values(param, axis_values(out), factor, where)
+    return {**out, **_units_entry(key, spec.get("units"))}
+
+
+def _normalise_body_axis(spec, where: str) -> dict:
+    names = list(spec.get("values", [])) if isinstance(spec, Mapping) else list(spec)
+    if not names:
+        raise ValueError(f"{where}: axis is empty")
+    for name in names:
+        if not isinstance(name, str):
+            raise ValueError(f"{where}: a body axis lists preset names, got {name!r}")
+        normalise_body(name, where)
+    if len(set(names)) != len(names):
+        raise ValueError(f"{where}: axis has duplicate values {names}")
+    return {"values": names}
+
+
+def _normalise_values(spec: Mapping, where: str) -> dict:
+    keys = set(spec)
+    if keys - _VALUES_KEYS:
+        raise ValueError(f"{where}: unknown keys {sorted(keys - _VALUES_KEYS)} next to "
+                         f"'values' (allowed: values, units)")
+    values = spec["values"]
+    if isinstance(values, np.ndarray):
+        values = values.tolist()
+    if not isinstance(values, (list, tuple)) or not values:
+        raise ValueError(f"{where}: axis is empty")
+    if not all(_is_number(v) for v in values):
+        raise ValueError(f"{where}: values must be numbers, got {list(values)!r}")
+    values = [float(v) for v in values]
+    if any(math.isnan(v) for v in values):
+        raise ValueError(f"{where}: values must not be NaN")
+    if len(set(values)) != len(values):
+        raise ValueError(f"{where}: axis has duplicate values {values}")
+    return {"values": values}
+
+
+def _normalise_range(spec: Mapping, where: str) -> dict:
+    keys = set(spec)
+    if keys - _RANGE_KEYS or not {"start", "stop", "num"} <= keys:
+        raise ValueError(f"{where}: a range needs start, stop, num (and optionally units, "
+                         f"scale); got keys {sorted(keys)}")
+    start, stop, num = spec["start"], spec["stop"], spec["num"]
+    if not (_is_number(start) and _is_number(stop) and math.isfinite(start)
+            and math.isfinite(stop)):
+        raise ValueError(f"{where}: start and stop must be finite numbers, "
+                         f"got {start!r}, {stop!r}")
+    if not (_is_int(num) and num >= 1):
+        raise ValueError(f"{where}: num must be an integer >= 1, got {num!r}")
+    if num > 1 and not start < stop:
+        raise ValueError(f"{where}: range is inverted or empty: need start < stop, got "
+                         f"start={start!r}, stop={stop!r}")
+    scale = spec.get("scale", "linear")
+    if scale not in ("linear", "log"):
+        raise ValueError(f"{where}: scale must be 'linear' or 'log', got {scale!r}")
+    if scale == "log" and not start > 0:
+        raise ValueError(f"{where}: a log range needs start > 0, got {start!r}")
+    out = {"start": float(start), "stop": float(stop), "num": int(num)}
+    if scale != "linear":
+        out["scale"] = scale
+    return out
+
+
+def axis_values(spec: Mapping) -> np.ndarray:
+    """The values of a normalised numeric axis (user units)."""
+    if "values" in spec:
+        return np.asarray(spec["values"], dtype=float)
+    fn = np.geomspace if spec.get("scale") == "log" else np.linspace
+    return fn(spec["start"], spec["stop"], spec["num"])
+
+
+def normalise_fixed(key: str, value):
+    """A fixed value as a float, or ``{"value", "units"}`` when the units are not the
+    parameter's default; ``body`` as :func:`normalise_body`."""
+    where = f"fixed.{key}"
+    if key == "body":
+        return normalise_body(value, where)
+    units = None
+    if isinstance(value, Mapping):
+        if set(value) - {"value", "units"} or "value" not in value:
+            raise ValueError(f"{where}: a fixed value is a number or {{value, units}}, "
+                             f"got {dict(value)!r}")
+        value, units = value["value"], value.get("units")
+    param, factor, _ = resolve(key, units, where)
+    if not _is_number(value):
+        raise ValueError(f"{where}: must be a number, got {value!r}")
+    check_values(param, np.array([float(value)]), factor, where)
+    entry = _units_entry(key, units)
+    return {"value": float(value), **entry} if entry else float(value)
+
+
+def normalise_random(key: str, spec) -> dict:
+    """A random parameter as ``{"uniform": [low, high]}`` or ``{"normal": [mean, std]}``
+    (with ``units`` when not the default); every value it can draw is checked."""
+    where = f"random.{key}"
+    if key == "body" or not isinstance(spec, Mapping):
+        raise ValueError(f"{where}: a random parameter is a table {{uniform = [low, high]}} "
+                         f"or {{normal = [mean, std]}} (optionally with units); got {spec!r}")
+    kinds = [k for k in ("uniform", "normal") if k in spec]
+    if len(kinds) != 1 or set(spec) - {"uniform", "normal", "units"}:
+        raise ValueError(f"{where}: give exactly one of uniform = [low, high] or "
+                         f"normal = [mean, std], optionally with units; got {dict(spec)!r}")
+    kind = kinds[0]
+    pair = spec[kind]
+    if not (isinstance(pair, (list, tuple)) and len(pair) == 2 and all(map(_is_number, pair))
+            and all(math.isfinite(v) for v in pair)):
+        raise ValueError(f"{where}: {kind} needs two finite numbers, got {pair!r}")
+    a, b = float(pair[0]), float(pair[1])
+    if kind == "uniform" and not a < b:
+        raise ValueError(f"{where}: uniform range is inverted or empty: need low < high, "
+                         f"got {[a, b]}")
+    if kind == "normal" and not b > 0:
+        raise ValueError(f"{where}: normal std must be > 0, got {b!r}")
+    param, factor, _ = resolve(key, spec.get("units"), where)
+    rp = RandomParam(key, param.name, kind, a, b, factor, "", "")
+    check_values(param, np.array(rp.bounds()), factor, where)
+    return {kind: [a, b], **_units_entry(key, spec.get("units"))}
+
+
+def _check_each_parameter_once(axes: dict, fixed: dict, random: dict) -> set[str]:
+    """Raise if a parameter is given twice (``delta`` and ``delta_deg`` are the same);
+    return the canonical names given."""
+    seen: dict[str, str] = {}
+    for section, d in (("axes", axes), ("fixed", fixed), ("random", random)):
+        for key in d:
+            canon = key[:-4] if key.endswith("_deg") else key
+            if canon in seen:
+                raise ValueError(f"{section}.{key}: {canon!r} is already given in "
+                                 f"{seen[canon]}; give each parameter once")
+            seen[canon] = f"{section}.{key}"
+    shape_keys = [k for k in seen if k in BODY_PARAMS]
+    if shape_keys and "body" in seen:
+        raise ValueError(f"{seen['body']}: give either a body or the semi-ellipsoid "
+                         f"parameters {shape_keys}, not both")
+    return set(seen)
+
+
+def normalise_config(*, axes: Mapping, fixed: Mapping, random: Mapping, repeats: Any,
+                     seed: Any, method: Any, reversal_band: Any, tile_size: Any,
+                     name: Any) -> dict[str, Any]:
+    """The normal form of a configuration: a dict with every key of :data:`CONFIG_KEYS`,
+    scalars first (the order of the TOML file). ``tile_size`` stays None when not given
+    (:func:`rattlesweep.sweep.corners.choose_tile_size` chooses it).
+
+    ``fixed`` gains the parameters left out: the ``toy`` body when neither a body nor a
+    semi-ellipsoid parameter is given, and :data:`~rattlesweep.sweep.params.DEFAULTS`.
+    """
+    for label, m in (("axes", axes), ("fixed", fixed), ("random", random)):
+        if not isinstance(m, Mapping):
+            raise ValueError(f"{label} must be a mapping of parameter names, got {m!r}")
+    if not axes:
+        raise ValueError("axes: a sweep needs at least one axis")
+    axes_n = {str(k): normalise_axis(str(k), v) for k, v in axes.items()}
+    fixed_n = {str(k): normalise_fixed(str(k), v) for k, v in fixed.items()}
+    random_n = {str(k): normalise_random(str(k), v) for k, v in random.items()}
+
+    given = _check_each_parameter_once(axes_n, fixed_n, random_n)
+    if "body" not in given and not given & set(BODY_PARAMS):
+        fixed_n["body"] = "toy"
+    for k, v in DEFAULTS.items():
+        if k not in given:
+            fixed_n[k] = v
+
+    for label, v, ok, rule in (
+        ("repeats", repeats, _is_int(repeats) and repeats >= 1, "an integer >= 1"),
+        ("seed", seed, _is_int(seed) and 0 <= seed < 2**63, "an integer >= 0"),
+        ("tile_size", tile_size, tile_size is None or (_is_int(tile_size) and tile_size >= 1),
+         "an integer >= 1 (or None: automatic)"),
+        ("method", method, method in METHODS, f"one of {sorted(METHODS)}"),
+        ("name", name, isinstance(name, str), "a string"),
+    ):
+        if not ok:
+            raise ValueError(f"{label} must be {rule}, got {v!r}")
+    try:
+        band = check_band(reversal_band)
+    except (TypeError, ValueError):
+        raise ValueError(f"reversal_band must be in [0, 1) (a fraction of |initial "
+                         f"spin|), got {reversal_band!r}") from None
+    if repeats > 1 and not random_n:
+        raise ValueError(f"repeats = {repeats} needs at least one [random] parameter; "
+                         f"repeats of identical launches give identical results")
+    return {"name": name, "method": method, "reversal_band": band,
+            "tile_size": None if tile_size is None else int(tile_size),
+            "repeats": int(repeats), "seed": int(seed),
+            "axes": axes_n, "fixed": fixed_n, "random": random_n}
+
+
+def check_config_table(d) -> None:
+    """Raise ValueError unless ``d`` is a configuration table: a mapping with only
+    :data:`CONFIG_KEYS` and an ``axes`` entry."""
+    if not isinstance(d, Mapping):
+        raise ValueError(f"a sweep configuration is a table, got {d!r}")
+    unknown = set(d) - set(CONFIG_KEYS)
+    if unknown:
+        raise ValueError(f"unknown configuration keys {sorted(unknown)}; allowed: "
+                         f"{', '.join(CONFIG_KEYS)}")
+    if "axes" not in d:
+        raise ValueError("axes: a sweep needs an [axes] table with at least one axis")

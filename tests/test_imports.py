@@ -1,0 +1,61 @@
+"""Import costs: the package and a sweep specification load without the heavy libraries
+they do not use (dask, netCDF4, matplotlib)."""
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import rattlesweep as rs
+
+HEAVY = ("dask", "netCDF4", "matplotlib")
+SRC = str(Path(rs.__file__).resolve().parents[1])
+
+
+def _imported_after(code: str) -> dict[str, bool]:
+    """Run ``code`` in a fresh interpreter; which of HEAVY are imported afterwards."""
+    probe = textwrap.dedent(code) + textwrap.dedent(f"""
+        import json, sys
+        print(json.dumps({{m: m in sys.modules for m in {HEAVY!r}}}))
+    """)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [SRC, *filter(None, [os.environ.get("PYTHONPATH")])])}
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         env=env, check=True).stdout
+    return json.loads(out.splitlines()[-1])
+
+
+def test_import_rattlesweep_loads_no_heavy_library():
+    assert _imported_after("import rattlesweep") == {m: False for m in HEAVY}
+
+
+def test_making_and_writing_a_sweep_loads_no_heavy_library():
+    got = _imported_after("""
+        from rattlesweep import Sweep
+        s = Sweep(axes={"spin": [1.0, 2.0]}, fixed={"t_end": 1.0},
+                  random={"roll_deg": {"uniform": [0.1, 0.2]}}, repeats=2)
+        assert Sweep.from_toml(s.to_toml()) == s
+    """)
+    assert got == {m: False for m in HEAVY}
+
+
+def test_lazy_names_resolve_and_are_listed():
+    from rattlesweep import sweep
+    from rattlesweep.sweep import run
+
+    assert rs.Sweep is sweep.Sweep
+    assert rs.run_sweep is run.run_sweep and rs.resume is run.resume
+    assert sweep.run_sweep is run.run_sweep and sweep.resume is run.resume
+    assert rs.sweep is sweep
+    for name in rs.__all__:
+        assert name in dir(rs) and getattr(rs, name) is not None
+    for name in sweep.__all__:
+        assert name in dir(sweep) and getattr(sweep, name) is not None
+    try:
+        rs.no_such_name
+    except AttributeError as exc:
+        assert "no_such_name" in str(exc)
+    else:
+        raise AssertionError("an unknown attribute must raise AttributeError")
