@@ -39,7 +39,7 @@ import time
 
 from rattlesweep.batch import execute, prepare
 from rattlesweep.sweep import Sweep, run_sweep
-from rattlesweep.core.stepper import RK4
+from rattlesweep.core.workspace import RK4
 
 
 def grid_sweep(n_target: int, t_end: float, tile_size: int | None = None) -> Sweep:

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import rattlesweep as rs
-from rattlesweep.core.layout import BLOCK, STATUS_NAMES
+from rattlesweep.core.workspace import BLOCK, STATUS_NAMES
 
 from conftest import HALF_DEGREE
 
@@ -125,9 +125,9 @@ def test_no_allocation_in_the_time_loop(kl):
     allocates (stick, slip and recording paths, serial and parallel entries)."""
     from numba.core.runtime import _nrt_python, rtsys
 
-    from rattlesweep.batch import execute, prepare
-    from rattlesweep.core import layout as L
-    from rattlesweep.core.stepper import RK4
+    from rattlesweep.batch import prepare
+    from rattlesweep.core.workspace import O_SLIP_FRAC, RK4
+    from rattlesweep.engine import execute
 
     def allocations(t_end, parallel):
         # a rolling block and two that slip (mu = 0.02, 0.01): the stick, slip and
@@ -135,8 +135,8 @@ def test_no_allocation_in_the_time_loop(kl):
         prep = prepare(kl, spin=np.linspace(-8.0, 8.0, BLOCK), roll=math.radians(2.0),
                        mu=np.array([math.inf, 0.02, 0.01])[:, None], t_end=t_end)
         kw = dict(method=RK4, record_every=5, band=0.05, parallel=parallel)
-        obs = execute(prep, **kw)[0]  # compiles and warms up outside the count
-        slip = obs[L.O_SLIP_FRAC].reshape(3, BLOCK)
+        obs = execute(prep, **kw).observables  # compiles and warms up outside the count
+        slip = obs[O_SLIP_FRAC].reshape(3, BLOCK)
         assert slip[0].max() == 0.0 and (slip[1:].max(axis=1) > 0.0).all()
         before = rtsys.get_allocation_stats()
         execute(prep, **kw)

@@ -9,7 +9,8 @@ import pytest
 import rattlesweep as rs
 from rattlesweep import stability as st
 from rattlesweep.batch import prepare
-from rattlesweep.core import layout as L
+from rattlesweep.core.models import RATTLEBACK
+from rattlesweep.core.rattleback import layout as L
 from rattlesweep.core.stepper import rolling_derivative
 from rattlesweep.launch import quaternion_from_angles
 
@@ -33,14 +34,14 @@ def kernel_jacobian(body, spin, damping=0.0, h=1e-6):
     omega = np.stack([x[:, 2], x[:, 3], np.full(len(x), spin)], axis=1)
     prep = prepare(body, orientation=q, omega=omega, damping=damping, t_end=1.0)
     D = np.zeros_like(prep.Y)
-    rolling_derivative(prep.P, prep.Y, D)
+    rolling_derivative(RATTLEBACK, prep.P, prep.Y, D)
     Y = prep.Y.transpose(1, 0, 2).reshape(L.N_STATE, -1)[:, :len(x)]
     Dn = D.transpose(1, 0, 2).reshape(L.N_STATE, -1)[:, :len(x)]
     q, qd = Y[L.Q0:L.Q0 + 4], Dn[L.Q0:L.Q0 + 4]
     # γ̇ from the kernel's quaternion rate: γx = 2(q1 q3 − q0 q2), γy = 2(q2 q3 + q0 q1)
     gx_dot = 2 * (qd[1] * q[3] + q[1] * qd[3] - qd[0] * q[2] - q[0] * qd[2])
     gy_dot = 2 * (qd[2] * q[3] + q[2] * qd[3] + qd[0] * q[1] + q[0] * qd[1])
-    f = np.stack([gx_dot, gy_dot, Dn[L.W0], Dn[L.W1]])  # (4, 8)
+    f = np.stack([gx_dot, gy_dot, Dn[L.OMEGA_X], Dn[L.OMEGA_Y]])  # (4, 8)
     return (f[:, 0::2] - f[:, 1::2]) / (2 * h)
 
 

@@ -1,70 +1,83 @@
-"""Batches of launches through the kernel: broadcasting, validation, packing, results.
+"""Batches of rattleback launches: broadcasting, validation, packing, results.
 
 :func:`run_batch` is the array entry point. Every per-trajectory input (the body, the
 launch, the friction, the numerics) may be an array; all are broadcast together and the
 batch is flattened onto one ``trajectory`` dimension whose coordinates are the inputs.
+The steps are :func:`launch_inputs` (checks and broadcasting, no kernel),
+:func:`prepare` (the launch state and kernel blocks) and the shared batch layer
+(:mod:`rattlesweep.engine`).
 """
 
 from __future__ import annotations
 
-import contextlib
 import math
 from dataclasses import dataclass
 from typing import Any
 
-import numba
 import numpy as np
 import xarray as xr
 
-from . import __version__
+from . import engine
 from .body import Body, distinct_bodies
-from .core import layout as L
-from .core.stepper import (
-    EULER, RK4, contact_slip_velocity, integrate_parallel, integrate_serial,
-)
+from .core.models import RATTLEBACK
+from .core.rattleback import layout
+from .engine import Model, Prepared, check_band, check_method, check_record_every
 from .launch import check_unit_quaternion, quaternion_from_angles, tilt_limit_error, up_vector
 from .metadata import attrs_for
+from .validation import as_float_array, fail_where
 
-METHODS = {"rk4": RK4, "euler": EULER}
+__all__ = ["MODEL", "Inputs", "as_bodies", "launch_inputs", "max_steps", "prepare",
+           "run_batch"]
 
-_BODY_COORDS = ("a", "b", "c", "mass", "full_ellipsoid", "inertia_xx", "inertia_yy",
+MODEL = Model(
+    RATTLEBACK, layout,
+    observables=("first_reversal_time", "n_reversals", "initial_spin", "final_spin",
+                 "mean_final_spin", "max_tilt", "energy_initial", "energy_final",
+                 "energy_lost", "slip_fraction", "t_final", "steps", "status"),
+    derived={"energy_lost": (lambda v: v["energy_initial"] - v["energy_final"], "J",
+                             "energy_initial - energy_final")},
+    status_comment=("ok: ran to t_end; capsized: the rim reached the floor; lifted_off: "
+                    "the normal force went negative; non_finite: a state or input was "
+                    "NaN or inf. A stopped trajectory keeps its last valid state."),
+)
+"""The rattleback model as the batch layer sees it."""
+
+BODY_COLUMNS = ("a", "b", "c", "mass", "full_ellipsoid", "inertia_xx", "inertia_yy",
                 "inertia_zz", "inertia_xy", "inertia_xz", "inertia_yz")
 
-
-_FULL_COL = 13  # column of the full-ellipsoid flag in _body_row
-
-
-def _body_row(b: Body) -> list[float]:
-    """a, b, c, mass, com (3), I_xx, I_yy, I_zz, I_xy, I_xz, I_yz, full_ellipsoid."""
-    i = b.inertia
-    return [b.a, b.b, b.c, b.mass, *b.com, i[0, 0], i[1, 1], i[2, 2], i[0, 1], i[0, 2],
-            i[1, 2], float(b.full_ellipsoid)]
+VECTOR_COORDS = {
+    "quaternion_component": ["w", "x", "y", "z"],
+    "body_axis": ["x", "y", "z"],
+    "axis": ["X", "Y", "Z"],
+    "horizontal": ["X", "Y"],
+}
 
 
 @dataclass(frozen=True)
-class Prepared:
-    """A validated batch packed into kernel blocks (see :mod:`rattlesweep.core.layout`)."""
+class Inputs:
+    """Checked launch inputs, broadcast and flattened over n trajectories."""
 
-    P: np.ndarray  # (n_blocks, N_PARAM, BLOCK)
-    Y: np.ndarray  # (n_blocks, N_STATE, BLOCK)
-    nsteps: np.ndarray  # (n_blocks, BLOCK) int64; 0 for padding lanes
-    n: int  # trajectories
-    shape: tuple[int, ...]  # broadcast shape of the inputs
-    coords: dict[str, Any]  # name -> (dims, flat values)
+    shape: tuple[int, ...]
+    n: int
+    bodies: list  # the distinct bodies
+    index: np.ndarray  # (n,) index of each trajectory's body into ``bodies``
+    flat: dict[str, np.ndarray]  # scalar inputs, (n,) each, dt included
+    vectors: dict[str, np.ndarray]  # omega (n, 3), orientation (n, 4), velocity (n, 2)
+    nsteps: np.ndarray  # (n,) int64
+    quaternion: np.ndarray  # (n, 4) launch orientation, body to world
 
-
-def _fail(name: str, arr: np.ndarray, bad: np.ndarray, rule: str) -> None:
-    if np.any(bad):
-        idx = tuple(int(i) for i in np.argwhere(bad)[0])
-        where = f" at index {idx}" if arr.ndim else ""
-        raise ValueError(f"{name} {rule}; got {arr[idx]!r}{where}")
-
-
-def _as_float(name: str, value) -> np.ndarray:
-    try:
-        return np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number or an array of numbers, got {value!r}") from None
+    def body_columns(self) -> dict[str, np.ndarray]:
+        """Each trajectory's body parameters by name (``com`` is (n, 3))."""
+        rows = {
+            "a": [b.a for b in self.bodies], "b": [b.b for b in self.bodies],
+            "c": [b.c for b in self.bodies], "mass": [b.mass for b in self.bodies],
+            "com": [b.com for b in self.bodies],
+            "full_ellipsoid": [float(b.full_ellipsoid) for b in self.bodies],
+        }
+        for name, (r, c) in (("xx", (0, 0)), ("yy", (1, 1)), ("zz", (2, 2)), ("xy", (0, 1)),
+                             ("xz", (0, 2)), ("yz", (1, 2))):
+            rows[f"inertia_{name}"] = [b.inertia[r, c] for b in self.bodies]
+        return {k: np.array(v, dtype=float)[self.index] for k, v in rows.items()}
 
 
 def as_bodies(body, cls: type = Body) -> np.ndarray:
@@ -84,277 +97,125 @@ def as_bodies(body, cls: type = Body) -> np.ndarray:
     return arr
 
 
-def prepare(
+def launch_inputs(
     body, *, spin=None, omega=None, roll=0.0, pitch=0.0, yaw=0.0, orientation=None,
     velocity=None, mu=math.inf, mu_static=None, damping=0.0, g=9.81, dt=None, t_end,
-) -> Prepared:
-    """Validate and broadcast launch inputs and pack them for the kernel.
-
-    See :func:`run_batch` for the meaning and units of the arguments. Raises ValueError
-    naming the parameter, the value and the rule for any invalid input. Non-finite launch
-    values (spin, omega, angles, orientation, velocity) are not errors: those trajectories
-    get the status ``non_finite``.
-    """
+) -> Inputs:
+    """Check and broadcast launch inputs (see :func:`run_batch` for their meaning and
+    units), without the kernel. Raises ValueError naming the parameter, the value and
+    the rule for any invalid input. Non-finite launch values (spin, omega, angles,
+    orientation, velocity) are not errors: those trajectories get the status
+    ``non_finite``."""
     if spin is not None and omega is not None:
         raise ValueError("give either spin (about the vertical) or omega (body frame), not both")
     if orientation is not None and any(np.any(np.asarray(x) != 0) for x in (roll, pitch, yaw)):
         raise ValueError("give either orientation or roll/pitch/yaw, not both")
     if t_end is None:
         raise ValueError("t_end (s) is required")
-
-    bodies = as_bodies(body)
-    scalars = {
-        "roll": roll, "pitch": pitch, "yaw": yaw, "mu": mu,
-        "mu_static": mu if mu_static is None else mu_static,
-        "damping": damping, "g": g, "t_end": t_end,
-    }
+    scalars = {"roll": roll, "pitch": pitch, "yaw": yaw, "mu": mu,
+               "mu_static": mu if mu_static is None else mu_static,
+               "damping": damping, "g": g, "t_end": t_end}
     if omega is None:
         scalars["spin"] = 0.0 if spin is None else spin
     if dt is not None:
         scalars["dt"] = dt
-    scalars = {k: _as_float(k, v) for k, v in scalars.items()}
     vectors = {}
     for name, value, width in (("omega", omega, 3), ("orientation", orientation, 4),
                                ("velocity", velocity, 2)):
         if value is not None:
-            arr = _as_float(name, value)
+            arr = as_float_array(name, value)
             if arr.ndim == 0 or arr.shape[-1] != width:
                 raise ValueError(f"{name} must have a last axis of length {width}, "
                                  f"got shape {arr.shape}")
             vectors[name] = arr
-    try:
-        shape = np.broadcast_shapes(bodies.shape, *(v.shape for v in scalars.values()),
-                                    *(v.shape[:-1] for v in vectors.values()))
-    except ValueError:
-        shapes = {k: v.shape for k, v in {**scalars, **vectors}.items()}
-        raise ValueError(f"inputs cannot be broadcast together: shapes {shapes}, "
-                         f"body {bodies.shape}") from None
-
-    # --- parameter rules (launch state may be non-finite: flagged, not refused) ------
-    mu_k, mu_s = scalars["mu"], scalars["mu_static"]
-    _fail("mu", mu_k, ~(mu_k >= 0), "must be >= 0 (inf for pure rolling)")
-    _fail("mu_static", mu_s, ~(mu_s >= 0), "must be >= 0 (inf for pure rolling)")
-    bad = np.broadcast_to(mu_s, np.broadcast_shapes(mu_s.shape, mu_k.shape)) < mu_k
-    _fail("mu_static", np.broadcast_to(mu_s, bad.shape), bad, "must be >= mu")
-    d = scalars["damping"]
-    _fail("damping", d, ~(np.isfinite(d) & (d >= 0)), "must be finite and >= 0 (N m s)")
-    for name in ("g", "t_end") + (("dt",) if "dt" in scalars else ()):
-        v = scalars[name]
-        _fail(name, v, ~(np.isfinite(v) & (v > 0)), "must be finite and > 0")
-
-    n = int(np.prod(shape))
-    flat = {k: np.broadcast_to(v, shape).reshape(n) for k, v in scalars.items()}
-    flat_vec = {k: np.broadcast_to(v, shape + v.shape[-1:]).reshape(n, v.shape[-1])
-                for k, v in vectors.items()}
-    flat_bodies = np.broadcast_to(bodies, shape).reshape(n)
-
-    # bodies: parameters per distinct body object
+    arrays = {k: as_float_array(k, v) for k, v in scalars.items()}
+    engine.check_common(arrays)
+    d = arrays["damping"]
+    fail_where("damping", d, ~(np.isfinite(d) & (d >= 0)), "must be finite and >= 0 (N m s)")
+    shape, n, flat_bodies, flat, flat_vec = engine.broadcast_inputs(as_bodies(body), arrays,
+                                                                    vectors)
     table, index = distinct_bodies(flat_bodies)
-    body_rows = np.array([_body_row(b) for b in table])[index]
-
     if "dt" not in flat:
-        # one default per distinct (body, g), not per trajectory
-        keys, inverse = np.unique(np.stack([index.astype(float), flat["g"]]), axis=1,
-                                  return_inverse=True)
-        per_key = np.array([table[int(i)].default_dt(float(gv)) for i, gv in keys.T])
-        flat["dt"] = per_key[inverse.reshape(-1)]
-    nsteps = np.ceil(flat["t_end"] / flat["dt"] * (1.0 - 1e-12)).astype(np.int64)
-    nsteps = np.maximum(nsteps, 1)
-
-    # --- initial state ------------------------------------------------------------------
+        flat["dt"] = engine.default_dts(table, index, flat["g"])
     if "orientation" in flat_vec:
         q = flat_vec["orientation"].copy()
         check_unit_quaternion(q)
     else:
         q = quaternion_from_angles(flat["roll"], flat["pitch"], flat["yaw"])
-    up = up_vector(q)
-    tilt_limit_error(up[:, 2], body_rows[:, _FULL_COL] > 0.5)
-    if "omega" in flat_vec:
-        w = flat_vec["omega"]
-    else:
-        w = flat["spin"][:, None] * up  # rotation about the world vertical
+    full = np.array([b.full_ellipsoid for b in table], dtype=bool)[index]
+    tilt_limit_error(up_vector(q)[:, 2], full)
+    return Inputs(shape, n, table, index, flat, flat_vec,
+                  engine.steps_for(flat["t_end"], flat["dt"]), q)
 
-    n_blocks = -(-n // L.BLOCK)
-    n_pad = n_blocks * L.BLOCK
-    P = np.empty((L.N_PARAM, n_pad))
-    Y = np.zeros((L.N_STATE, n_pad))
-    steps = np.zeros(n_pad, dtype=np.int64)
 
-    def fill(arr, row, values):
-        arr[row, :n] = values
-        arr[row, n:] = values[0]  # padding lanes copy a valid trajectory and take 0 steps
+def max_steps(body, **kwargs) -> int:
+    """The largest number of steps a trajectory of these launches takes (checks every
+    input as :func:`launch_inputs` does, without the kernel)."""
+    return int(launch_inputs(body, **kwargs).nsteps.max())
 
-    for row, col in ((L.A2, 0), (L.B2, 1), (L.C2, 2)):
-        fill(P, row, body_rows[:, col] ** 2)
-    for row, col in zip((L.MASS, L.GX, L.GY, L.GZ, L.IXX, L.IYY, L.IZZ, L.IXY, L.IXZ, L.IYZ,
-                         L.FULL), range(3, _FULL_COL + 1)):
-        fill(P, row, body_rows[:, col])
-    fill(P, L.MU_K, flat["mu"])
-    fill(P, L.MU_S, flat["mu_static"])
-    fill(P, L.DAMP, flat["damping"])
-    fill(P, L.GRAV, flat["g"])
-    fill(P, L.DT, flat["dt"])
-    fill(P, L.EPS_U, 1e-6 * flat["g"] * flat["dt"])
-    for k in range(4):
-        fill(Y, L.Q0 + k, q[:, k])
-    for k in range(3):
-        fill(Y, L.W0 + k, w[:, k])
-    steps[:n] = nsteps
 
-    blocked = lambda a: np.ascontiguousarray(a.reshape(a.shape[0], n_blocks, L.BLOCK)
-                                             .transpose(1, 0, 2))
-    P, Y = blocked(P), blocked(Y)
-    # velocity of G: rolling (material contact point at rest) unless given
-    U = np.zeros((n_blocks, 2, L.BLOCK))
-    contact_slip_velocity(P, Y, U)
-    rolling = -U.transpose(1, 0, 2).reshape(2, n_pad)[:, :n]
-    if "velocity" in flat_vec:
-        v = flat_vec["velocity"].T
-        sliding = np.isfinite(v).all(axis=0) & np.any(v != rolling, axis=0)
-        _fail("velocity", flat_vec["velocity"],
-              sliding & np.isinf(flat["mu_static"]),
-              "makes a sliding launch, which needs a finite mu_static")
-    else:
-        v = rolling
-    Vrows = np.empty((2, n_pad))
-    Vrows[:, :n] = v
-    Vrows[:, n:] = v[:, :1]
-    Y[:, L.VX, :] = Vrows[0].reshape(n_blocks, L.BLOCK)
-    Y[:, L.VY, :] = Vrows[1].reshape(n_blocks, L.BLOCK)
+def _launch_state(inputs: Inputs) -> dict[str, np.ndarray]:
+    """The launch state by row name; G's velocity is set in :func:`prepare`."""
+    q, vec = inputs.quaternion, inputs.vectors
+    w = vec["omega"] if "omega" in vec else inputs.flat["spin"][:, None] * up_vector(q)
+    return {"quaternion": q, "omega": w, "position": np.zeros((inputs.n, 2)),
+            "velocity": np.zeros((inputs.n, 2))}
 
-    # --- coordinates: every input, per trajectory --------------------------------------
-    dim = "trajectory"
+
+def _coords(inputs: Inputs, columns: dict[str, np.ndarray], velocity) -> dict[str, Any]:
+    """Every input, per trajectory: name -> (dims, values)."""
+    dim, flat, vec = "trajectory", inputs.flat, inputs.vectors
     coords: dict[str, Any] = {}
-    if "orientation" in flat_vec:
-        coords["orientation"] = ((dim, "quaternion_component"), flat_vec["orientation"])
+    if "orientation" in vec:
+        coords["orientation"] = ((dim, "quaternion_component"), vec["orientation"])
     else:
         for k in ("roll", "pitch", "yaw"):
             coords[k] = (dim, flat[k])
-    if "omega" in flat_vec:
-        coords["launch_omega"] = ((dim, "body_axis"), flat_vec["omega"])
+    if "omega" in vec:
+        coords["launch_omega"] = ((dim, "body_axis"), vec["omega"])
     else:
         coords["launch_spin"] = (dim, flat["spin"])
-    if "velocity" in flat_vec:
-        coords["launch_velocity"] = ((dim, "horizontal"), flat_vec["velocity"])
+    if velocity is not None:
+        coords["launch_velocity"] = ((dim, "horizontal"), velocity)
     for k in ("mu", "mu_static", "damping", "g", "dt", "t_end"):
         coords[k] = (dim, flat[k])
-    for k, col in zip(_BODY_COORDS, (0, 1, 2, 3, _FULL_COL, 7, 8, 9, 10, 11, 12)):
-        coords[k] = (dim, body_rows[:, col])
-    coords["com"] = ((dim, "body_axis"), body_rows[:, 4:7])
-    coords["body_name"] = (dim, np.array([b.name for b in table])[index])
-    return Prepared(P, Y, steps.reshape(n_blocks, L.BLOCK), n, tuple(shape), coords)
+    for k in BODY_COLUMNS:
+        coords[k] = (dim, columns[k])
+    coords["com"] = ((dim, "body_axis"), columns["com"])
+    coords["body_name"] = (dim, np.array([b.name for b in inputs.bodies])[inputs.index])
+    return coords
 
 
-@contextlib.contextmanager
-def _numba_threads(threads: int | None):
-    if threads is None:
-        yield
-        return
-    limit = numba.config.NUMBA_NUM_THREADS
-    if not (isinstance(threads, (int, np.integer)) and 1 <= threads <= limit):
-        raise ValueError(f"threads must be an integer from 1 to {limit}, got {threads!r}")
-    old = numba.get_num_threads()
-    numba.set_num_threads(int(threads))
-    try:
-        yield
-    finally:
-        numba.set_num_threads(old)
+def prepare(body, **kwargs) -> Prepared:
+    """Check, broadcast and pack launches for the kernel; arguments as for
+    :func:`run_batch`."""
+    inputs = launch_inputs(body, **kwargs)
+    n = inputs.n
+    columns = {**inputs.body_columns(), **inputs.flat}
+    state = _launch_state(inputs)
+    prep = engine.prepared(MODEL, columns, engine.pack(layout.STATE, state, n),
+                           inputs.nsteps, n, inputs.shape, {})
+    # G's velocity: rolling (material contact point at rest) unless given
+    rolling = -engine.contact_slip_velocity(MODEL, prep.P, prep.Y)[:, :n]
+    given = inputs.vectors.get("velocity")
+    if given is not None:
+        v = given.T
+        sliding = np.isfinite(v).all(axis=0) & np.any(v != rolling, axis=0)
+        fail_where("velocity", given, sliding & np.isinf(inputs.flat["mu_static"]),
+                   "makes a sliding launch, which needs a finite mu_static")
+    else:
+        v = rolling
+    state["velocity"] = v.T
+    return Prepared(MODEL, prep.P, engine.pack(layout.STATE, state, n), prep.nsteps, n,
+                    inputs.shape, _coords(inputs, columns, given))
 
 
-def check_method(method: str) -> int:
-    try:
-        return METHODS[method]
-    except (KeyError, TypeError):
-        raise ValueError(f"method must be one of {sorted(METHODS)}, got {method!r}") from None
-
-
-def check_record_every(record_every) -> int | None:
-    if record_every is None:
-        return None
-    if not (isinstance(record_every, (int, np.integer)) and record_every >= 1):
-        raise ValueError(f"record_every must be a positive integer or None, got {record_every!r}")
-    return int(record_every)
-
-
-def check_band(reversal_band) -> float:
-    band = float(reversal_band)
-    if not (0.0 <= band < 1.0):
-        raise ValueError(f"reversal_band must be in [0, 1) (a fraction of |initial spin|), "
-                         f"got {reversal_band!r}")
-    return band
-
-
-def execute(prep: Prepared, *, method: int, record_every: int | None, band: float,
-            parallel: bool = True, threads: int | None = None):
-    """Run a prepared batch. Returns (observables (N_OBS, n), records (n, n_rec, N_REC)
-    or None, final state (N_STATE, n))."""
-    n_blocks = prep.P.shape[0]
-    n_rec = 0 if record_every is None else int(prep.nsteps.max()) // record_every + 1
-    REC = np.empty((n_blocks, n_rec, L.N_REC, L.BLOCK))
-    O = np.empty((n_blocks, L.N_OBS, L.BLOCK))
-    Y = prep.Y.copy()
-    entry = integrate_parallel if parallel else integrate_serial
-    with _numba_threads(threads):
-        entry(prep.P, Y, prep.nsteps, method, record_every or 1, band, O, REC)
-    unblock = lambda a: a.transpose(1, 0, 2).reshape(a.shape[1], -1)[:, :prep.n]
-    rec = None
-    if n_rec:
-        rec = REC.transpose(0, 3, 1, 2).reshape(n_blocks * L.BLOCK, n_rec, L.N_REC)[:prep.n]
-    return unblock(O), rec, unblock(Y)
-
-
-def observables_dataset(obs: np.ndarray, dim: str | None) -> dict[str, xr.DataArray]:
-    """Per-run observables as labelled DataArrays over ``dim`` (or scalars for None)."""
-    dims = (dim,) if dim else ()
-    pick = (lambda row: obs[row]) if dim else (lambda row: obs[row, 0])
-    out = {
-        "first_reversal_time": pick(L.O_FIRST_REV),
-        "n_reversals": pick(L.O_N_REV).astype(np.int64),
-        "initial_spin": pick(L.O_SPIN0),
-        "final_spin": pick(L.O_FINAL_SPIN),
-        "mean_final_spin": pick(L.O_MEAN_FINAL_SPIN),
-        "max_tilt": pick(L.O_MAX_TILT),
-        "energy_initial": pick(L.O_E0),
-        "energy_final": pick(L.O_E_END),
-        "energy_lost": pick(L.O_E0) - pick(L.O_E_END),
-        "slip_fraction": pick(L.O_SLIP_FRAC),
-        "t_final": pick(L.O_T_END),
-        "steps": pick(L.O_STEPS).astype(np.int64),
-        "status": pick(L.O_STATUS).astype(np.int8),
-    }
-    return {k: xr.DataArray(v, dims=dims, attrs=attrs_for(k)) for k, v in out.items()}
-
-
-def series_dataset(rec: np.ndarray, dims: tuple[str, ...]) -> dict[str, xr.DataArray]:
-    """Recorded time series (..., n_rec, N_REC) as labelled DataArrays."""
-    def var(name, values, extra=()):
-        return xr.DataArray(values, dims=dims + extra, attrs=attrs_for(name))
-
-    u = rec[..., [L.R_UX, L.R_UY]]
-    return {
-        "spin": var("spin", rec[..., L.R_SPIN]),
-        "energy": var("energy", rec[..., L.R_ENERGY]),
-        "tilt": var("tilt", rec[..., L.R_TILT]),
-        "slipping": var("slipping", rec[..., L.R_SLIP]),
-        "normal_force": var("normal_force", rec[..., L.R_N]),
-        "slip_speed": var("slip_speed", np.hypot(u[..., 0], u[..., 1])),
-        "slip_velocity": var("slip_velocity", u, ("horizontal",)),
-        "friction_force": var("friction_force", rec[..., [L.R_FX, L.R_FY]], ("horizontal",)),
-        "friction_impulse": var("friction_impulse", rec[..., [L.R_JX, L.R_JY]],
-                                ("horizontal",)),
-        "quaternion": var("quaternion", rec[..., L.R_Q0:L.R_Q0 + 4], ("quaternion_component",)),
-        "omega": var("omega", rec[..., L.R_W0:L.R_W0 + 3], ("body_axis",)),
-        "position": var("position", rec[..., L.R_PX:L.R_PX + 3], ("axis",)),
-        "velocity": var("velocity", rec[..., L.R_VX:L.R_VX + 3], ("axis",)),
-    }
-
-
-VECTOR_COORDS = {
-    "quaternion_component": ["w", "x", "y", "z"],
-    "body_axis": ["x", "y", "z"],
-    "axis": ["X", "Y", "Z"],
-    "horizontal": ["X", "Y"],
-}
+def check_single_step(prep: Prepared) -> None:
+    """Records need one time step and one end time for the whole batch."""
+    for name in ("dt", "t_end"):
+        values = prep.coords[name][1]
+        if np.any(values != values[0]):
+            raise ValueError(f"record_every needs a single {name} for the whole batch")
 
 
 def run_batch(
@@ -409,41 +270,20 @@ def run_batch(
                    orientation=orientation, velocity=velocity, mu=mu, mu_static=mu_static,
                    damping=damping, g=g, dt=dt, t_end=t_end)
     if rec_every is not None:
-        for name in ("dt", "t_end"):
-            values = prep.coords[name][1]
-            if np.any(values != values[0]):
-                raise ValueError(f"record_every needs a single {name} for the whole batch")
-    obs, rec, _ = execute(prep, method=m, record_every=rec_every, band=band,
-                          parallel=parallel, threads=threads)
-    data = observables_dataset(obs, "trajectory")
+        check_single_step(prep)
+    raw = engine.execute(prep, method=m, record_every=rec_every, band=band,
+                         parallel=parallel, threads=threads)
+    data = engine.observables_dataset(MODEL, raw.observables, "trajectory")
     coords: dict[str, Any] = {"trajectory": np.arange(prep.n)}
-    if rec is not None:
-        data.update(series_dataset(rec, ("trajectory", "time")))
+    if raw.records is not None:
+        data.update(engine.series_dataset(MODEL, raw.records, ("trajectory", "time")))
         dt0 = float(prep.coords["dt"][1][0])
-        coords["time"] = ("time", np.arange(rec.shape[1]) * record_every * dt0,
+        coords["time"] = ("time", np.arange(raw.records.shape[1]) * rec_every * dt0,
                           attrs_for("time"))
     ds = xr.Dataset(data, coords=coords)
-    for name, (dims, values) in prep.coords.items():
-        attrs = attrs_for(name) if name != "body_name" else {"long_name": "body name"}
-        ds = ds.assign_coords({name: (dims, values, attrs)})
+    ds = ds.assign_coords({name: (dims, values, attrs_for(name))
+                           for name, (dims, values) in prep.coords.items()})
     ds = ds.assign_coords({k: v for k, v in VECTOR_COORDS.items() if k in ds.dims})
-    ds.attrs.update(run_attrs(method, rec_every, band))
+    ds.attrs.update(engine.run_attrs(method, rec_every, band))
     ds.attrs["batch_shape"] = list(prep.shape)
     return ds
-
-
-def run_attrs(method: str, record_every: int | None, band: float) -> dict:
-    """Global attributes common to every result."""
-    return {
-        "title": "rattlesweep rattleback simulation",
-        "source": f"rattlesweep {__version__}",
-        "rattlesweep_version": __version__,
-        "numba_version": numba.__version__,
-        "numpy_version": np.__version__,
-        "method": method,
-        "record_every": -1 if record_every is None else record_every,
-        "reversal_band": band,
-        "Conventions": "CF-1.8",
-        "references": "S. Jones and H. E. M. Hunt, Am. J. Phys. 87, 699 (2019), "
-                      "doi:10.1119/1.5115498",
-    }

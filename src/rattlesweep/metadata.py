@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
-from .core.layout import STATUS_NAMES
+from .core.workspace import STATUS_NAMES
+
+__all__ = ["STATUS_ATTRS", "VARIABLE_ATTRS", "attrs_for", "flag_attrs"]
+
 
 def flag_attrs(long_name: str, names, comment: str) -> dict:
     """CF attributes of a categorical variable whose values 0, 1, ... mean ``names``."""
@@ -79,5 +82,7 @@ def attrs_for(name: str) -> dict:
     """CF attributes of a variable or coordinate."""
     if name == "status":
         return dict(STATUS_ATTRS)
+    if name == "body_name":
+        return {"long_name": "body name"}
     units, long_name = VARIABLE_ATTRS[name]
     return {"units": units, "long_name": long_name}

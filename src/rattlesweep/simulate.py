@@ -9,13 +9,14 @@ import warnings
 import numpy as np
 import xarray as xr
 
-from .batch import (
-    VECTOR_COORDS, check_band, check_method, check_record_every, execute,
-    observables_dataset, prepare, run_attrs, series_dataset,
-)
+from . import engine
+from .batch import MODEL, VECTOR_COORDS, prepare
 from .body import Body
-from .core import layout as L
+from .core.workspace import O_STATUS, O_T_END, OK, STATUS_NAMES
+from .engine import check_band, check_method, check_record_every
 from .metadata import attrs_for
+
+__all__ = ["simulate"]
 
 _MAX_DEFAULT_SAMPLES = 10_000
 
@@ -65,16 +66,17 @@ def simulate(
     nsteps = int(prep.nsteps[0, 0])
     if rec_every is None:
         rec_every = max(1, -(-nsteps // _MAX_DEFAULT_SAMPLES))
-    obs, rec, _ = execute(prep, method=m, record_every=rec_every, band=band, parallel=False)
+    raw = engine.execute(prep, method=m, record_every=rec_every, band=band, parallel=False)
+    obs, rec = raw.observables, raw.records
 
     dt_used = float(prep.coords["dt"][1][0])
-    data = series_dataset(rec[0], ("time",))
-    data.update(observables_dataset(obs, None))
+    data = engine.series_dataset(MODEL, rec[0], ("time",))
+    data.update(engine.observables_dataset(MODEL, obs, None))
     ds = xr.Dataset(data, coords={
         "time": ("time", np.arange(rec.shape[1]) * rec_every * dt_used, attrs_for("time")),
     })
     ds = ds.assign_coords({k: v for k, v in VECTOR_COORDS.items() if k in ds.dims})
-    ds.attrs.update(run_attrs(method, rec_every, band))
+    ds.attrs.update(engine.run_attrs(method, rec_every, band))
     for name, (dims, values) in prep.coords.items():
         value = values[0]
         if name == "body_name":
@@ -89,10 +91,10 @@ def simulate(
         "dt_used": dt_used, "method": method, "record_every": rec_every,
         "reversal_band": band,
     })
-    status = int(obs[L.O_STATUS, 0])
-    if status != L.OK:
+    status = int(obs[O_STATUS, 0])
+    if status != OK:
         warnings.warn(
-            f"simulation stopped at t = {obs[L.O_T_END, 0]:.6g} s with status "
-            f"{L.STATUS_NAMES[status]!r}", RuntimeWarning, stacklevel=2,
+            f"simulation stopped at t = {obs[O_T_END, 0]:.6g} s with status "
+            f"{STATUS_NAMES[status]!r}", RuntimeWarning, stacklevel=2,
         )
     return ds

@@ -1,6 +1,19 @@
 """Numba kernels: plain float and array functions, no Python objects.
 
-``layout`` names the rows of the structure-of-arrays blocks, ``geometry`` the contact
-geometry, ``dynamics`` the stick/slip right-hand side, ``stepper`` the time loop and
-its entry points. ``jit`` holds the compile policy every kernel uses.
+Where things live:
+
+* ``workspace`` – the block workspace every model shares: ``BLOCK``, the accessor
+  ``at(region, row, j)``, the shared rows (contact outputs, switching state, time-loop
+  bookkeeping, common parameters, observables), status codes and method numbers;
+* ``rows`` – the declarative row tables (name, units, long name, packing) every layout
+  is built from;
+* ``stepper`` – the one time loop and its entry points, for every model;
+* ``switching`` – the Coulomb stick/slip decisions (MODEL.md section 4);
+* ``stages`` – the RK4 stage arithmetic fused into each model's derivative loop;
+* ``models`` – the hooks the stepper calls, chosen per model at compile time;
+* ``rattleback/`` – the 3-D model: ``layout`` (its rows), ``geometry`` (contact
+  geometry, impulses; MODEL.md section 3), ``dynamics`` (the equations of motion),
+  ``model`` (what it supplies to the stepper);
+* ``planar/`` – the rocking semi-ellipse of MODEL.md section 8, with the same modules;
+* ``jit`` – the compile policy every kernel uses.
 """

@@ -20,15 +20,14 @@ behaviour:
   workspace with NumPy, so they are compiled with :data:`allocating_kernel` (or
   :data:`parallel_kernel`) and use numba's reference-counting runtime (NRT). Every helper
   they call only reads and writes arrays it is given, and is compiled without NRT
-  (``_nrt=False``), so it takes no references. With NRT, each helper call increments and
-  decrements its array arguments' reference counts with atomic instructions. On the
-  thread's own workspace that costs little, but :func:`~rattlesweep.core.stepper.finish_lane`
-  did it on the observables array, whose count the parallel entry point's threads share:
-  they contended for that cache line once per trajectory. Without NRT in the helpers, 65 536
-  launches of 184 steps on 2 threads ran 2.5-4 % faster per core; one thread, no
-  measurable change. Such a helper cannot allocate an array or return one it was not
-  given: numba refuses to compile either without NRT. The option is set explicitly on
-  both kinds, because a function that leaves it unset inherits its caller's.
+  (``_nrt=False``), so it takes no references: with NRT each helper call would increment
+  and decrement its array arguments' reference counts with atomic instructions, and the
+  threads of the parallel entry point would contend for the shared observables array's
+  count. Such a helper cannot allocate an array or return one it was not given: numba
+  refuses to compile either without NRT. The option is set explicitly on both kinds,
+  because a function that leaves it unset inherits its caller's.
+* The model hooks of :mod:`.models` are numba overloads compiled with
+  :data:`JIT_OPTIONS`, the helpers' options.
 
 Numba's on-disk cache is keyed on each kernel's own source file, not on these options:
 after editing this module, delete the ``*.nbi``/``*.nbc`` files under ``__pycache__``.
@@ -40,11 +39,17 @@ import functools
 
 import numba
 
+__all__ = [
+    "FASTMATH", "JIT_OPTIONS", "allocating_kernel", "inline_kernel", "kernel",
+    "parallel_kernel",
+]
+
 FASTMATH = {"nsz"}  # see the module docstring for what is left out, and why
 
-kernel = functools.partial(
-    numba.njit, nogil=True, cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False
-)
+JIT_OPTIONS = dict(nogil=True, cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
+"""Options of every helper kernel (and of the model hooks' overloads)."""
+
+kernel = functools.partial(numba.njit, **JIT_OPTIONS)
 """Decorator for helpers and scalar functions: no NRT, so no allocation (see above)."""
 
 allocating_kernel = functools.partial(

@@ -9,10 +9,10 @@ import warnings
 import numpy as np
 import xarray as xr
 
-from ..batch import check_method, check_record_every
-from ..core import planar as K
-from ..core.layout import OK, STATUS_NAMES
-from .batch import execute_planar, observables, planar_run_attrs, prepare_planar, series
+from .. import engine
+from ..core.workspace import O_STATUS, O_T_END, OK, STATUS_NAMES
+from ..engine import check_method, check_record_every
+from .batch import MODEL, planar_run_attrs, prepare_planar
 from .body import PlanarBody
 from .metadata import attrs_for
 
@@ -59,16 +59,17 @@ def simulate_planar(
     nsteps = int(prep.nsteps[0, 0])
     if rec_every is None:
         rec_every = max(1, -(-nsteps // _MAX_DEFAULT_SAMPLES))
-    obs, rec, _ = execute_planar(prep, method=m, record_every=rec_every, parallel=False)
+    raw = engine.execute(prep, method=m, record_every=rec_every, parallel=False)
+    obs, rec = raw.observables, raw.records
 
-    dt_used = float(prep.coords["dt"][0])
-    data = series(rec[0], ("time",))
-    data.update(observables(obs, None))
+    dt_used = float(prep.coords["dt"][1][0])
+    data = engine.series_dataset(MODEL, rec[0], ("time",))
+    data.update(engine.observables_dataset(MODEL, obs, None))
     ds = xr.Dataset(data, coords={
         "time": ("time", np.arange(rec.shape[1]) * rec_every * dt_used, attrs_for("time")),
     })
     ds.attrs.update(planar_run_attrs(method, rec_every))
-    for name, values in prep.coords.items():
+    for name, (_, values) in prep.coords.items():
         if name == "body_name":
             ds.attrs[name] = str(values[0])
             continue
@@ -79,9 +80,9 @@ def simulate_planar(
         "launch": {k: (None if v is None else float(v)) for k, v in inputs.items()},
         "dt_used": dt_used, "method": method, "record_every": rec_every,
     })
-    status = int(obs[K.O_STATUS, 0])
+    status = int(obs[O_STATUS, 0])
     if status != OK:
         warnings.warn(
-            f"simulation stopped at t = {obs[K.O_T_END, 0]:.6g} s with status "
+            f"simulation stopped at t = {obs[O_T_END, 0]:.6g} s with status "
             f"{STATUS_NAMES[status]!r}", RuntimeWarning, stacklevel=2)
     return ds

@@ -27,7 +27,7 @@ _STABILITY_T_END = 1.0
 
 
 def _max_steps(bodies, kwargs) -> int:
-    return int(batch.prepare(bodies, **kwargs).nsteps.max())
+    return batch.max_steps(bodies, **kwargs)
 
 
 def check_corners(grid_axes: tuple[Axis, ...], random_params: tuple[RandomParam, ...],

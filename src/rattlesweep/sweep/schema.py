@@ -18,7 +18,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..batch import METHODS, check_band
+from ..core.workspace import METHODS
+from ..engine import check_band
 from ..body import PRESETS, Body
 from .grid import RandomParam
 from .params import BODY_PARAMS, DEFAULTS, PARAMS, check_values, resolve

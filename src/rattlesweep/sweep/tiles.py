@@ -12,7 +12,9 @@ import netCDF4
 import numpy as np
 import xarray as xr
 
-from ..batch import check_method, execute, observables_dataset, prepare
+from .. import engine
+from ..batch import MODEL, prepare
+from ..engine import check_method
 from ..io import NETCDF_LOCK, write_netcdf
 from ..metadata import attrs_for
 from .outcomes import OUTCOME_ATTRS, classify
@@ -64,9 +66,9 @@ def compute_tile(sweep: Sweep, tile: int, tiles_dir: str) -> dict:
     start, stop = sweep.tile_range(tile)
     bodies, kwargs = sweep.points(start, stop)
     prep = prepare(bodies, **kwargs)
-    obs, _, _ = execute(prep, method=check_method(sweep.method), record_every=None,
+    raw = engine.execute(prep, method=check_method(sweep.method), record_every=None,
                         band=sweep.reversal_band, parallel=False)
-    data = observables_dataset(obs, "point")
+    data = engine.observables_dataset(MODEL, raw.observables, "point")
     ds = xr.Dataset({k: data[k] for k in RESULT_VARS})
     ds["outcome"] = ("point", classify(ds.status.values, ds.n_reversals.values,
                                        ds.mean_final_spin.values, ds.initial_spin.values,

@@ -13,72 +13,31 @@ import math
 
 import numba
 
+from ..jit import inline_kernel, kernel
+from ..stages import first_stage, put_derivative
+from ..workspace import (
+    BLOCK, EPS_U, GRAV, MU_K, OFF_P, OFF_S, OFF_X, S_MODE, S_UHX, S_UHY, STAGE_2, STAGE_3,
+    STAGE_4, STAGE_FIRST, STAGE_START, X_FX, X_FY, X_N, X_UX, X_UY, at,
+)
 from .geometry import adjugate_solve, cross
-from .jit import inline_kernel, kernel
 from .layout import (
-    A2, B2, BLOCK, C2, DAMP, DT, EPS_U, E_CVM, E_HALF_DT, E_JXX, E_JXY, E_JXZ, E_JYY, E_JYZ, E_JZZ,
-    E_SIXTH_DT, GRAV, GX, GY, GZ, G_DET, G_INV_Q, G_INV_S, G_N0, G_R0, G_R1, G_R2, G_U0, G_U1, G_U2,
-    G_UHX, G_UHY, G_UX, G_UY, G_WW0, G_WW1, G_WW2, G_X0, G_X1, G_X2, IXX, IXY, IXZ, IYY, IYZ, IZZ,
-    MASS, MU_K, OFF_A, OFF_E, OFF_G, OFF_P, OFF_S, OFF_T, OFF_X, OFF_Y, PX, PY, Q0, Q1, Q2, Q3,
-    S_MODE, S_UHX, S_UHY, VX, VY, W0, W1, W2, X_FX, X_FY, X_N, X_UX, X_UY,
+    A2, ALPHA_X, ALPHA_Y, ALPHA_Z, B2, C2, COM_X, COM_Y, COM_Z, DAMPING, DAMPING_PM, DET,
+    INV_QQ, INV_SIGMA, I_XX, I_XY, I_XZ, I_YY, I_YZ, I_ZZ, J_XX, J_XY, J_XZ, J_YY, J_YZ,
+    J_ZZ, MASS, NORMAL_PM, OFF_A, OFF_E, OFF_G, OFF_T, OFF_Y, OMEGA_X, OMEGA_Y, OMEGA_Z,
+    POS_X, POS_Y, Q0, Q1, Q2, Q3, RHO_X, RHO_Y, RHO_Z, SLIP_X, SLIP_Y, UHAT_X, UHAT_Y, UP_X,
+    UP_Y, UP_Z, VEL_X, VEL_Y, WW_X, WW_Y, WW_Z,
 )
 
-
-STAGE_START = 0
-STAGE_FIRST = 1
-STAGE_2 = 2
-STAGE_3 = 3
-STAGE_4 = 4
+__all__ = ["derive_parameters", "eval_block"]
 
 
 @kernel
 def derive_parameters(W, j):
     """Fill lane j's derived parameters (region E) from its parameters (region P)."""
-    m = W[(OFF_P + MASS) * BLOCK + j]
-    for src, dst in ((IXX, E_JXX), (IYY, E_JYY), (IZZ, E_JZZ), (IXY, E_JXY), (IXZ, E_JXZ),
-                     (IYZ, E_JYZ), (DAMP, E_CVM)):
-        W[(OFF_E + dst) * BLOCK + j] = W[(OFF_P + src) * BLOCK + j] / m
-    h = W[(OFF_P + DT) * BLOCK + j]
-    W[(OFF_E + E_HALF_DT) * BLOCK + j] = 0.5 * h
-    W[(OFF_E + E_SIXTH_DT) * BLOCK + j] = h / 6.0
-
-
-@kernel
-def first_stage(stage):
-    """True for the stages that evaluate the step-start state, region Y."""
-    return stage == STAGE_START or stage == STAGE_FIRST
-
-
-@kernel
-def put_derivative(W, j, row, stage, dk, stage_state):
-    """Use lane j's derivative component ``dk``, of state row k, as ``stage`` asks (see
-    :func:`eval_block`); ``row`` = k·BLOCK + j, and ``stage_state`` says whether the
-    stage state T has row k.
-
-    Called with the row as a number that depends on j, not as the literal k: numba
-    compiles a function once per combination of literal arguments, and a literal k
-    would make eleven copies of each stage's variant (seconds of compile time). The
-    compiled calls are inlined into the lane loop all the same.
-    """
-    a = OFF_A * BLOCK + row
-    t = OFF_T * BLOCK + row
-    y = OFF_Y * BLOCK + row
-    if first_stage(stage):
-        W[a] = dk
-        if stage_state:
-            W[t] = W[y] + W[(OFF_E + E_HALF_DT) * BLOCK + j] * dk
-    elif stage == STAGE_2:
-        W[a] += 2.0 * dk
-        if stage_state:
-            W[t] = W[y] + W[(OFF_E + E_HALF_DT) * BLOCK + j] * dk
-    elif stage == STAGE_3:
-        W[a] += 2.0 * dk
-        if stage_state:
-            W[t] = W[y] + W[(OFF_P + DT) * BLOCK + j] * dk
-    else:
-        y_old = W[y]
-        W[y] = y_old + W[(OFF_E + E_SIXTH_DT) * BLOCK + j] * (W[a] + dk)
-        W[a] = y_old  # A is free now: it keeps the old state, for a step that fails
+    m = W[at(OFF_P, MASS, j)]
+    for src, dst in ((I_XX, J_XX), (I_YY, J_YY), (I_ZZ, J_ZZ), (I_XY, J_XY), (I_XZ, J_XZ),
+                     (I_YZ, J_YZ), (DAMPING, DAMPING_PM)):
+        W[at(OFF_E, dst, j)] = W[at(OFF_P, src, j)] / m
 
 
 @kernel
@@ -162,13 +121,10 @@ def contact_kinematics(W, slip_velocity, state):
     numba.literally(slip_velocity)
     numba.literally(state)
     for j in range(BLOCK):
-        y = state * BLOCK + j
-        o = OFF_G * BLOCK + j
-        p = OFF_P * BLOCK + j
-        q0 = W[y + Q0 * BLOCK]
-        q1 = W[y + Q1 * BLOCK]
-        q2 = W[y + Q2 * BLOCK]
-        q3 = W[y + Q3 * BLOCK]
+        q0 = W[at(state, Q0, j)]
+        q1 = W[at(state, Q1, j)]
+        q2 = W[at(state, Q2, j)]
+        q3 = W[at(state, Q3, j)]
         q00 = q0 * q0
         q11 = q1 * q1
         q22 = q2 * q2
@@ -177,28 +133,25 @@ def contact_kinematics(W, slip_velocity, state):
         u0 = 2.0 * (q1 * q3 - q0 * q2)
         u1 = 2.0 * (q2 * q3 + q0 * q1)
         u2 = (q00 + q33) - (q11 + q22)
-        sig = math.sqrt(u0 * u0 * W[p + A2 * BLOCK] + u1 * u1 * W[p + B2 * BLOCK]
-                        + u2 * u2 * W[p + C2 * BLOCK])
+        sig = math.sqrt(u0 * u0 * W[at(OFF_P, A2, j)] + u1 * u1 * W[at(OFF_P, B2, j)]
+                        + u2 * u2 * W[at(OFF_P, C2, j)])
         inv = 1.0 / (qq * sig)
-        W[o + G_U0 * BLOCK] = u0
-        W[o + G_U1 * BLOCK] = u1
-        W[o + G_U2 * BLOCK] = u2
-        W[o + G_INV_Q * BLOCK] = inv * sig  # 1/|q|²
-        W[o + G_INV_S * BLOCK] = inv * qq  # 1/σ̃
+        W[at(OFF_G, UP_X, j)] = u0
+        W[at(OFF_G, UP_Y, j)] = u1
+        W[at(OFF_G, UP_Z, j)] = u2
+        W[at(OFF_G, INV_QQ, j)] = inv * sig  # 1/|q|²
+        W[at(OFF_G, INV_SIGMA, j)] = inv * qq  # 1/σ̃
     for j in range(BLOCK):
-        p = OFF_P * BLOCK + j
-        y = state * BLOCK + j
-        o = OFF_G * BLOCK + j
-        w0 = W[y + W0 * BLOCK]
-        w1 = W[y + W1 * BLOCK]
-        w2 = W[y + W2 * BLOCK]
-        a2 = W[p + A2 * BLOCK]
-        b2 = W[p + B2 * BLOCK]
-        c2 = W[p + C2 * BLOCK]
-        u0 = W[o + G_U0 * BLOCK]
-        u1 = W[o + G_U1 * BLOCK]
-        u2 = W[o + G_U2 * BLOCK]
-        inv_s = W[o + G_INV_S * BLOCK]
+        w0 = W[at(state, OMEGA_X, j)]
+        w1 = W[at(state, OMEGA_Y, j)]
+        w2 = W[at(state, OMEGA_Z, j)]
+        a2 = W[at(OFF_P, A2, j)]
+        b2 = W[at(OFF_P, B2, j)]
+        c2 = W[at(OFF_P, C2, j)]
+        u0 = W[at(OFF_G, UP_X, j)]
+        u1 = W[at(OFF_G, UP_Y, j)]
+        u2 = W[at(OFF_G, UP_Z, j)]
+        inv_s = W[at(OFF_G, INV_SIGMA, j)]
         ai0 = a2 * inv_s  # A/σ̃
         ai1 = b2 * inv_s
         ai2 = c2 * inv_s
@@ -211,27 +164,27 @@ def contact_kinematics(W, slip_velocity, state):
         ds0 = sp0 * f - ai0 * du0
         ds1 = sp1 * f - ai1 * du1
         ds2 = sp2 * f - ai2 * du2
-        r0 = sp0 - W[p + GX * BLOCK]
-        r1 = sp1 - W[p + GY * BLOCK]
-        r2 = sp2 - W[p + GZ * BLOCK]
+        r0 = sp0 - W[at(OFF_P, COM_X, j)]
+        r1 = sp1 - W[at(OFF_P, COM_Y, j)]
+        r2 = sp2 - W[at(OFF_P, COM_Z, j)]
         wr0, wr1, wr2 = cross(w0, w1, w2, r0, r1, r2)
         ww0, ww1, ww2 = cross(w0, w1, w2, wr0 + ds0, wr1 + ds1, wr2 + ds2)
-        W[o + G_R0 * BLOCK] = r0
-        W[o + G_R1 * BLOCK] = r1
-        W[o + G_R2 * BLOCK] = r2
-        W[o + G_WW0 * BLOCK] = ww0
-        W[o + G_WW1 * BLOCK] = ww1
-        W[o + G_WW2 * BLOCK] = ww2
+        W[at(OFF_G, RHO_X, j)] = r0
+        W[at(OFF_G, RHO_Y, j)] = r1
+        W[at(OFF_G, RHO_Z, j)] = r2
+        W[at(OFF_G, WW_X, j)] = ww0
+        W[at(OFF_G, WW_Y, j)] = ww1
+        W[at(OFF_G, WW_Z, j)] = ww2
         if slip_velocity:
             # slip velocity of the material contact point, world horizontal: v_G + R(ω × ρ)
-            q0 = W[y + Q0 * BLOCK]
-            q1 = W[y + Q1 * BLOCK]
-            q2 = W[y + Q2 * BLOCK]
-            q3 = W[y + Q3 * BLOCK]
-            inv_q = W[o + G_INV_Q * BLOCK]
+            q0 = W[at(state, Q0, j)]
+            q1 = W[at(state, Q1, j)]
+            q2 = W[at(state, Q2, j)]
+            q3 = W[at(state, Q3, j)]
+            inv_q = W[at(OFF_G, INV_QQ, j)]
             e00, e01, e02, e10, e11, e12 = horizontal_rows(q0, q1, q2, q3)
-            W[o + G_UX * BLOCK] = W[y + VX * BLOCK] + (e00 * wr0 + e01 * wr1 + e02 * wr2) * inv_q
-            W[o + G_UY * BLOCK] = W[y + VY * BLOCK] + (e10 * wr0 + e11 * wr1 + e12 * wr2) * inv_q
+            W[at(OFF_G, SLIP_X, j)] = W[at(state, VEL_X, j)] + (e00 * wr0 + e01 * wr1 + e02 * wr2) * inv_q
+            W[at(OFF_G, SLIP_Y, j)] = W[at(state, VEL_Y, j)] + (e10 * wr0 + e11 * wr1 + e12 * wr2) * inv_q
 
 
 @kernel
@@ -248,32 +201,27 @@ def accelerations(W, slip_possible, state):
     numba.literally(slip_possible)
     numba.literally(state)
     for j in range(BLOCK):
-        p = OFF_P * BLOCK + j
-        e = OFF_E * BLOCK + j
-        y = state * BLOCK + j
-        o = OFF_G * BLOCK + j
-        sw = OFF_S * BLOCK + j
-        w0 = W[y + W0 * BLOCK]
-        w1 = W[y + W1 * BLOCK]
-        w2 = W[y + W2 * BLOCK]
-        r0 = W[o + G_R0 * BLOCK]
-        r1 = W[o + G_R1 * BLOCK]
-        r2 = W[o + G_R2 * BLOCK]
-        ww0 = W[o + G_WW0 * BLOCK]
-        ww1 = W[o + G_WW1 * BLOCK]
-        ww2 = W[o + G_WW2 * BLOCK]
-        u0 = W[o + G_U0 * BLOCK]
-        u1 = W[o + G_U1 * BLOCK]
-        u2 = W[o + G_U2 * BLOCK]
-        inv_q = W[o + G_INV_Q * BLOCK]
-        g = W[p + GRAV * BLOCK]
-        jxx = W[e + E_JXX * BLOCK]
-        jyy = W[e + E_JYY * BLOCK]
-        jzz = W[e + E_JZZ * BLOCK]
-        jxy = W[e + E_JXY * BLOCK]
-        jxz = W[e + E_JXZ * BLOCK]
-        jyz = W[e + E_JYZ * BLOCK]
-        cvm = W[e + E_CVM * BLOCK]
+        w0 = W[at(state, OMEGA_X, j)]
+        w1 = W[at(state, OMEGA_Y, j)]
+        w2 = W[at(state, OMEGA_Z, j)]
+        r0 = W[at(OFF_G, RHO_X, j)]
+        r1 = W[at(OFF_G, RHO_Y, j)]
+        r2 = W[at(OFF_G, RHO_Z, j)]
+        ww0 = W[at(OFF_G, WW_X, j)]
+        ww1 = W[at(OFF_G, WW_Y, j)]
+        ww2 = W[at(OFF_G, WW_Z, j)]
+        u0 = W[at(OFF_G, UP_X, j)]
+        u1 = W[at(OFF_G, UP_Y, j)]
+        u2 = W[at(OFF_G, UP_Z, j)]
+        inv_q = W[at(OFF_G, INV_QQ, j)]
+        g = W[at(OFF_P, GRAV, j)]
+        jxx = W[at(OFF_E, J_XX, j)]
+        jyy = W[at(OFF_E, J_YY, j)]
+        jzz = W[at(OFF_E, J_ZZ, j)]
+        jxy = W[at(OFF_E, J_XY, j)]
+        jxz = W[at(OFF_E, J_XZ, j)]
+        jyz = W[at(OFF_E, J_YZ, j)]
+        cvm = W[at(OFF_E, DAMPING_PM, j)]
 
         jw0 = jxx * w0 + jxy * w1 + jxz * w2
         jw1 = jxy * w0 + jyy * w1 + jyz * w2
@@ -299,24 +247,24 @@ def accelerations(W, slip_possible, state):
         m21 = m12
         t0, t1, t2 = cross(r0, r1, r2, gq * u0 - ww0, gq * u1 - ww1, gq * u2 - ww2)
         if slip_possible:
-            slip = W[sw + S_MODE * BLOCK] > 0.5
-            ux = W[o + G_UX * BLOCK]
-            uy = W[o + G_UY * BLOCK]
+            slip = W[at(OFF_S, S_MODE, j)] > 0.5
+            ux = W[at(OFF_G, SLIP_X, j)]
+            uy = W[at(OFF_G, SLIP_Y, j)]
             uu = math.sqrt(ux * ux + uy * uy)
-            if uu > W[p + EPS_U * BLOCK]:
+            if uu > W[at(OFF_P, EPS_U, j)]:
                 uhx = ux / uu
                 uhy = uy / uu
             else:
-                uhx = W[sw + S_UHX * BLOCK]
-                uhy = W[sw + S_UHY * BLOCK]
-            W[o + G_UHX * BLOCK] = uhx
-            W[o + G_UHY * BLOCK] = uhy
-            mu = W[p + MU_K * BLOCK] if slip else 0.0  # a stick lane may carry mu = inf
+                uhx = W[at(OFF_S, S_UHX, j)]
+                uhy = W[at(OFF_S, S_UHY, j)]
+            W[at(OFF_G, UHAT_X, j)] = uhx
+            W[at(OFF_G, UHAT_Y, j)] = uhy
+            mu = W[at(OFF_P, MU_K, j)] if slip else 0.0  # a stick lane may carry mu = inf
             # û in body components: R̃ᵀ (û_x, û_y, 0) / |q|²
-            q0 = W[y + Q0 * BLOCK]
-            q1 = W[y + Q1 * BLOCK]
-            q2 = W[y + Q2 * BLOCK]
-            q3 = W[y + Q3 * BLOCK]
+            q0 = W[at(state, Q0, j)]
+            q1 = W[at(state, Q1, j)]
+            q2 = W[at(state, Q2, j)]
+            q3 = W[at(state, Q3, j)]
             e00, e01, e02, e10, e11, e12 = horizontal_rows(q0, q1, q2, q3)
             ub0 = (e00 * uhx + e10 * uhy) * inv_q
             ub1 = (e01 * uhx + e11 * uhy) * inv_q
@@ -340,17 +288,17 @@ def accelerations(W, slip_possible, state):
         x0, x1, x2, det = adjugate_solve(m00, m01, m02, m10, m11, m12, m20, m21, m22,
                                          t0 - gy0 - cvm * w0, t1 - gy1 - cvm * w1,
                                          t2 - gy2 - cvm * w2)
-        W[o + G_X0 * BLOCK] = x0
-        W[o + G_X1 * BLOCK] = x1
-        W[o + G_X2 * BLOCK] = x2
-        W[o + G_DET * BLOCK] = det
+        W[at(OFF_G, ALPHA_X, j)] = x0
+        W[at(OFF_G, ALPHA_Y, j)] = x1
+        W[at(OFF_G, ALPHA_Z, j)] = x2
+        W[at(OFF_G, DET, j)] = det
 
 
 @kernel
 def divide_out(W, normal):
     """Phase 3 of :func:`eval_block`: finish Cramer's rule, ω̇ = adj(M) b / det M, in
     place, and, if ``normal`` (a literal), the normal force per unit mass,
-    N/m = g − n̂·w − l·ω̇ with l = ρ × n̂, into G_N0.
+    N/m = g − n̂·w − l·ω̇ with l = ρ × n̂, into NORMAL_PM.
 
     Its own loop: the division's latency overlaps across lanes instead of lengthening
     another loop's chain. The normal force is here rather than in
@@ -360,25 +308,24 @@ def divide_out(W, normal):
     """
     numba.literally(normal)
     for j in range(BLOCK):
-        o = OFF_G * BLOCK + j
-        inv_det = 1.0 / W[o + G_DET * BLOCK]
-        x0 = W[o + G_X0 * BLOCK] * inv_det
-        x1 = W[o + G_X1 * BLOCK] * inv_det
-        x2 = W[o + G_X2 * BLOCK] * inv_det
-        W[o + G_X0 * BLOCK] = x0
-        W[o + G_X1 * BLOCK] = x1
-        W[o + G_X2 * BLOCK] = x2
+        inv_det = 1.0 / W[at(OFF_G, DET, j)]
+        x0 = W[at(OFF_G, ALPHA_X, j)] * inv_det
+        x1 = W[at(OFF_G, ALPHA_Y, j)] * inv_det
+        x2 = W[at(OFF_G, ALPHA_Z, j)] * inv_det
+        W[at(OFF_G, ALPHA_X, j)] = x0
+        W[at(OFF_G, ALPHA_Y, j)] = x1
+        W[at(OFF_G, ALPHA_Z, j)] = x2
         if normal:
-            inv_q = W[o + G_INV_Q * BLOCK]
-            n0 = W[o + G_U0 * BLOCK] * inv_q
-            n1 = W[o + G_U1 * BLOCK] * inv_q
-            n2 = W[o + G_U2 * BLOCK] * inv_q
-            l0, l1, l2 = cross(W[o + G_R0 * BLOCK], W[o + G_R1 * BLOCK], W[o + G_R2 * BLOCK],
+            inv_q = W[at(OFF_G, INV_QQ, j)]
+            n0 = W[at(OFF_G, UP_X, j)] * inv_q
+            n1 = W[at(OFF_G, UP_Y, j)] * inv_q
+            n2 = W[at(OFF_G, UP_Z, j)] * inv_q
+            l0, l1, l2 = cross(W[at(OFF_G, RHO_X, j)], W[at(OFF_G, RHO_Y, j)], W[at(OFF_G, RHO_Z, j)],
                                n0, n1, n2)
-            W[o + G_N0 * BLOCK] = (
-                (W[(OFF_P + GRAV) * BLOCK + j]
-                 - (n0 * W[o + G_WW0 * BLOCK] + n1 * W[o + G_WW1 * BLOCK]
-                    + n2 * W[o + G_WW2 * BLOCK]))
+            W[at(OFF_G, NORMAL_PM, j)] = (
+                (W[at(OFF_P, GRAV, j)]
+                 - (n0 * W[at(OFF_G, WW_X, j)] + n1 * W[at(OFF_G, WW_Y, j)]
+                    + n2 * W[at(OFF_G, WW_Z, j)]))
                 - (l0 * x0 + l1 * x1 + l2 * x2))
 
 
@@ -391,33 +338,30 @@ def friction_lane(W, j, slip_possible, stage, q0, q1, q2, q3):
     them, and its result never goes to memory."""
     outputs = stage == STAGE_START
     normal_output = outputs or stage == STAGE_FIRST
-    p = OFF_P * BLOCK + j
-    o = OFF_G * BLOCK + j
-    x = OFF_X * BLOCK + j
-    nm = W[o + G_N0 * BLOCK]  # N/m, after divide_out
-    inv_q = W[o + G_INV_Q * BLOCK]
+    nm = W[at(OFF_G, NORMAL_PM, j)]  # N/m, after divide_out
+    inv_q = W[at(OFF_G, INV_QQ, j)]
     # stick: F/m = a_G + g n̂ with a_G = −(ω̇ × ρ + w); its world-horizontal part
-    e0, e1, e2 = cross(W[o + G_X0 * BLOCK], W[o + G_X1 * BLOCK], W[o + G_X2 * BLOCK],
-                       W[o + G_R0 * BLOCK], W[o + G_R1 * BLOCK], W[o + G_R2 * BLOCK])
-    e0 = -(e0 + W[o + G_WW0 * BLOCK])
-    e1 = -(e1 + W[o + G_WW1 * BLOCK])
-    e2 = -(e2 + W[o + G_WW2 * BLOCK])
+    e0, e1, e2 = cross(W[at(OFF_G, ALPHA_X, j)], W[at(OFF_G, ALPHA_Y, j)], W[at(OFF_G, ALPHA_Z, j)],
+                       W[at(OFF_G, RHO_X, j)], W[at(OFF_G, RHO_Y, j)], W[at(OFF_G, RHO_Z, j)])
+    e0 = -(e0 + W[at(OFF_G, WW_X, j)])
+    e1 = -(e1 + W[at(OFF_G, WW_Y, j)])
+    e2 = -(e2 + W[at(OFF_G, WW_Z, j)])
     e00, e01, e02, e10, e11, e12 = horizontal_rows(q0, q1, q2, q3)
     fx = (e00 * e0 + e01 * e1 + e02 * e2) * inv_q
     fy = (e10 * e0 + e11 * e1 + e12 * e2) * inv_q
     if slip_possible:
-        if W[(OFF_S + S_MODE) * BLOCK + j] > 0.5:  # slip: F/m = −μ_k (N/m) û
-            mu_n = -W[p + MU_K * BLOCK] * nm
-            fx = mu_n * W[o + G_UHX * BLOCK]
-            fy = mu_n * W[o + G_UHY * BLOCK]
+        if W[at(OFF_S, S_MODE, j)] > 0.5:  # slip: F/m = −μ_k (N/m) û
+            mu_n = -W[at(OFF_P, MU_K, j)] * nm
+            fx = mu_n * W[at(OFF_G, UHAT_X, j)]
+            fy = mu_n * W[at(OFF_G, UHAT_Y, j)]
     if normal_output:
-        W[x + X_N * BLOCK] = W[p + MASS * BLOCK] * nm
+        W[at(OFF_X, X_N, j)] = W[at(OFF_P, MASS, j)] * nm
     if outputs:
-        m = W[p + MASS * BLOCK]
-        W[x + X_FX * BLOCK] = m * fx
-        W[x + X_FY * BLOCK] = m * fy
-        W[x + X_UX * BLOCK] = W[o + G_UX * BLOCK]
-        W[x + X_UY * BLOCK] = W[o + G_UY * BLOCK]
+        m = W[at(OFF_P, MASS, j)]
+        W[at(OFF_X, X_FX, j)] = m * fx
+        W[at(OFF_X, X_FY, j)] = m * fy
+        W[at(OFF_X, X_UX, j)] = W[at(OFF_G, SLIP_X, j)]
+        W[at(OFF_X, X_UY, j)] = W[at(OFF_G, SLIP_Y, j)]
     return fx, fy
 
 
@@ -429,26 +373,24 @@ def store_derivative(W, slip_possible, stage):
     numba.literally(stage)
     state = OFF_Y if first_stage(stage) else OFF_T
     for j in range(BLOCK):
-        y = state * BLOCK + j
-        o = OFF_G * BLOCK + j
-        q0 = W[y + Q0 * BLOCK]
-        q1 = W[y + Q1 * BLOCK]
-        q2 = W[y + Q2 * BLOCK]
-        q3 = W[y + Q3 * BLOCK]
+        q0 = W[at(state, Q0, j)]
+        q1 = W[at(state, Q1, j)]
+        q2 = W[at(state, Q2, j)]
+        q3 = W[at(state, Q3, j)]
         fx, fy = friction_lane(W, j, slip_possible, stage, q0, q1, q2, q3)
-        h0 = 0.5 * W[y + W0 * BLOCK]
-        h1 = 0.5 * W[y + W1 * BLOCK]
-        h2 = 0.5 * W[y + W2 * BLOCK]
-        put_derivative(W, j, Q0 * BLOCK + j, stage, -(q1 * h0 + q2 * h1 + q3 * h2), True)
-        put_derivative(W, j, Q1 * BLOCK + j, stage, q0 * h0 + q2 * h2 - q3 * h1, True)
-        put_derivative(W, j, Q2 * BLOCK + j, stage, q0 * h1 + q3 * h0 - q1 * h2, True)
-        put_derivative(W, j, Q3 * BLOCK + j, stage, q0 * h2 + q1 * h1 - q2 * h0, True)
+        h0 = 0.5 * W[at(state, OMEGA_X, j)]
+        h1 = 0.5 * W[at(state, OMEGA_Y, j)]
+        h2 = 0.5 * W[at(state, OMEGA_Z, j)]
+        put_derivative(W, j, Q0 * BLOCK + j, stage, -(q1 * h0 + q2 * h1 + q3 * h2), True, OFF_Y, OFF_T, OFF_A)
+        put_derivative(W, j, Q1 * BLOCK + j, stage, q0 * h0 + q2 * h2 - q3 * h1, True, OFF_Y, OFF_T, OFF_A)
+        put_derivative(W, j, Q2 * BLOCK + j, stage, q0 * h1 + q3 * h0 - q1 * h2, True, OFF_Y, OFF_T, OFF_A)
+        put_derivative(W, j, Q3 * BLOCK + j, stage, q0 * h2 + q1 * h1 - q2 * h0, True, OFF_Y, OFF_T, OFF_A)
         # ω̇, after divide_out
-        put_derivative(W, j, W0 * BLOCK + j, stage, W[o + G_X0 * BLOCK], True)
-        put_derivative(W, j, W1 * BLOCK + j, stage, W[o + G_X1 * BLOCK], True)
-        put_derivative(W, j, W2 * BLOCK + j, stage, W[o + G_X2 * BLOCK], True)
+        put_derivative(W, j, OMEGA_X * BLOCK + j, stage, W[at(OFF_G, ALPHA_X, j)], True, OFF_Y, OFF_T, OFF_A)
+        put_derivative(W, j, OMEGA_Y * BLOCK + j, stage, W[at(OFF_G, ALPHA_Y, j)], True, OFF_Y, OFF_T, OFF_A)
+        put_derivative(W, j, OMEGA_Z * BLOCK + j, stage, W[at(OFF_G, ALPHA_Z, j)], True, OFF_Y, OFF_T, OFF_A)
         # no stage reads the position of G, so no stage state has one
-        put_derivative(W, j, PX * BLOCK + j, stage, W[y + VX * BLOCK], False)
-        put_derivative(W, j, PY * BLOCK + j, stage, W[y + VY * BLOCK], False)
-        put_derivative(W, j, VX * BLOCK + j, stage, fx, True)
-        put_derivative(W, j, VY * BLOCK + j, stage, fy, True)
+        put_derivative(W, j, POS_X * BLOCK + j, stage, W[at(state, VEL_X, j)], False, OFF_Y, OFF_T, OFF_A)
+        put_derivative(W, j, POS_Y * BLOCK + j, stage, W[at(state, VEL_Y, j)], False, OFF_Y, OFF_T, OFF_A)
+        put_derivative(W, j, VEL_X * BLOCK + j, stage, fx, True, OFF_Y, OFF_T, OFF_A)
+        put_derivative(W, j, VEL_Y * BLOCK + j, stage, fy, True, OFF_Y, OFF_T, OFF_A)

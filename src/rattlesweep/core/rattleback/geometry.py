@@ -9,11 +9,15 @@ from __future__ import annotations
 
 import math
 
-from .jit import inline_kernel, kernel
+from ..jit import inline_kernel, kernel
+from ..workspace import GRAV, OFF_P, at
 from .layout import (
-    A2, B2, BLOCK, C2, GRAV, GX, GY, GZ, IXX, IXY, IXZ, IYY, IYZ, IZZ, MASS, OFF_P,
-    Q0, Q1, Q2, Q3, VX, VY, W0, W1, W2,
+    A2, B2, C2, COM_X, COM_Y, COM_Z, I_XX, I_XY, I_XZ, I_YY, I_YZ, I_ZZ, MASS, OMEGA_X,
+    OMEGA_Y, OMEGA_Z, Q0, Q1, Q2, Q3, VEL_X, VEL_Y,
 )
+
+__all__ = ["adjugate_solve", "contact_point", "cross", "energy_terms",
+           "plastic_contact_impulse", "rotation", "solve3"]
 
 
 @kernel
@@ -65,41 +69,39 @@ def energy_terms(W, off, j):
     E = ½ m |v_G|² + ½ ωᵀ I ω + m g z_G, with z_G = −ρ·n̂ and v_G,z = −n̂·(ω × ρ): the
     material point at P has no vertical velocity in stick and in slip alike.
     """
-    p = OFF_P * BLOCK + j
-    y = off * BLOCK + j
-    q0 = W[y + Q0 * BLOCK]
-    q1 = W[y + Q1 * BLOCK]
-    q2 = W[y + Q2 * BLOCK]
-    q3 = W[y + Q3 * BLOCK]
+    q0 = W[at(off, Q0, j)]
+    q1 = W[at(off, Q1, j)]
+    q2 = W[at(off, Q2, j)]
+    q3 = W[at(off, Q3, j)]
     s = 2.0 / (q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
     n0 = s * (q1 * q3 - q0 * q2)
     n1 = s * (q2 * q3 + q0 * q1)
     n2 = 1.0 - s * (q1 * q1 + q2 * q2)
     sp0, sp1, sp2, _ = contact_point(
-        W[p + A2 * BLOCK], W[p + B2 * BLOCK], W[p + C2 * BLOCK], n0, n1, n2
+        W[at(OFF_P, A2, j)], W[at(OFF_P, B2, j)], W[at(OFF_P, C2, j)], n0, n1, n2
     )
-    r0 = sp0 - W[p + GX * BLOCK]
-    r1 = sp1 - W[p + GY * BLOCK]
-    r2 = sp2 - W[p + GZ * BLOCK]
-    w0 = W[y + W0 * BLOCK]
-    w1 = W[y + W1 * BLOCK]
-    w2 = W[y + W2 * BLOCK]
+    r0 = sp0 - W[at(OFF_P, COM_X, j)]
+    r1 = sp1 - W[at(OFF_P, COM_Y, j)]
+    r2 = sp2 - W[at(OFF_P, COM_Z, j)]
+    w0 = W[at(off, OMEGA_X, j)]
+    w1 = W[at(off, OMEGA_Y, j)]
+    w2 = W[at(off, OMEGA_Z, j)]
     c0, c1, c2 = cross(w0, w1, w2, r0, r1, r2)
     vz = -(n0 * c0 + n1 * c1 + n2 * c2)
     zg = -(r0 * n0 + r1 * n1 + r2 * n2)
-    m = W[p + MASS * BLOCK]
-    ixy = W[p + IXY * BLOCK]
-    ixz = W[p + IXZ * BLOCK]
-    iyz = W[p + IYZ * BLOCK]
-    iw0 = W[p + IXX * BLOCK] * w0 + ixy * w1 + ixz * w2
-    iw1 = ixy * w0 + W[p + IYY * BLOCK] * w1 + iyz * w2
-    iw2 = ixz * w0 + iyz * w1 + W[p + IZZ * BLOCK] * w2
-    vx = W[y + VX * BLOCK]
-    vy = W[y + VY * BLOCK]
+    m = W[at(OFF_P, MASS, j)]
+    ixy = W[at(OFF_P, I_XY, j)]
+    ixz = W[at(OFF_P, I_XZ, j)]
+    iyz = W[at(OFF_P, I_YZ, j)]
+    iw0 = W[at(OFF_P, I_XX, j)] * w0 + ixy * w1 + ixz * w2
+    iw1 = ixy * w0 + W[at(OFF_P, I_YY, j)] * w1 + iyz * w2
+    iw2 = ixz * w0 + iyz * w1 + W[at(OFF_P, I_ZZ, j)] * w2
+    vx = W[at(off, VEL_X, j)]
+    vy = W[at(off, VEL_Y, j)]
     e = (
         0.5 * m * (vx * vx + vy * vy + vz * vz)
         + 0.5 * (w0 * iw0 + w1 * iw1 + w2 * iw2)
-        + m * W[p + GRAV * BLOCK] * zg
+        + m * W[at(OFF_P, GRAV, j)] * zg
     )
     return e, zg, vz
 
@@ -157,22 +159,20 @@ def plastic_contact_impulse(W, off, j, ux, uy):
 
     Returns the world-horizontal components of R J (N s).
     """
-    p = OFF_P * BLOCK + j
-    y = off * BLOCK + j
     r00, r01, r02, r10, r11, r12, n0, n1, n2 = rotation(
-        W[y + Q0 * BLOCK], W[y + Q1 * BLOCK], W[y + Q2 * BLOCK], W[y + Q3 * BLOCK])
+        W[at(off, Q0, j)], W[at(off, Q1, j)], W[at(off, Q2, j)], W[at(off, Q3, j)])
     sp0, sp1, sp2, _ = contact_point(
-        W[p + A2 * BLOCK], W[p + B2 * BLOCK], W[p + C2 * BLOCK], n0, n1, n2)
-    r0 = sp0 - W[p + GX * BLOCK]
-    r1 = sp1 - W[p + GY * BLOCK]
-    r2 = sp2 - W[p + GZ * BLOCK]
-    inv_m = 1.0 / W[p + MASS * BLOCK]
-    ixx = W[p + IXX * BLOCK]
-    iyy = W[p + IYY * BLOCK]
-    izz = W[p + IZZ * BLOCK]
-    ixy = W[p + IXY * BLOCK]
-    ixz = W[p + IXZ * BLOCK]
-    iyz = W[p + IYZ * BLOCK]
+        W[at(OFF_P, A2, j)], W[at(OFF_P, B2, j)], W[at(OFF_P, C2, j)], n0, n1, n2)
+    r0 = sp0 - W[at(OFF_P, COM_X, j)]
+    r1 = sp1 - W[at(OFF_P, COM_Y, j)]
+    r2 = sp2 - W[at(OFF_P, COM_Z, j)]
+    inv_m = 1.0 / W[at(OFF_P, MASS, j)]
+    ixx = W[at(OFF_P, I_XX, j)]
+    iyy = W[at(OFF_P, I_YY, j)]
+    izz = W[at(OFF_P, I_ZZ, j)]
+    ixy = W[at(OFF_P, I_XY, j)]
+    ixz = W[at(OFF_P, I_XZ, j)]
+    iyz = W[at(OFF_P, I_YZ, j)]
     # K e_k = e_k/m − ρ × I⁻¹(ρ × e_k), column by column (scalars: no allocation here,
     # this runs inside the time loop)
     k00, k10, k20 = impulse_column(r0, r1, r2, ixx, iyy, izz, ixy, ixz, iyz, inv_m, 0)
@@ -185,11 +185,11 @@ def plastic_contact_impulse(W, off, j, ux, uy):
     j0, j1, j2 = solve3(k00, k01, k02, k10, k11, k12, k20, k21, k22, -u0, -u1, -u2)
     t0, t1, t2 = cross(r0, r1, r2, j0, j1, j2)
     dw0, dw1, dw2 = solve3(ixx, ixy, ixz, ixy, iyy, iyz, ixz, iyz, izz, t0, t1, t2)
-    W[y + W0 * BLOCK] += dw0
-    W[y + W1 * BLOCK] += dw1
-    W[y + W2 * BLOCK] += dw2
+    W[at(off, OMEGA_X, j)] += dw0
+    W[at(off, OMEGA_Y, j)] += dw1
+    W[at(off, OMEGA_Z, j)] += dw2
     jx = r00 * j0 + r01 * j1 + r02 * j2
     jy = r10 * j0 + r11 * j1 + r12 * j2
-    W[y + VX * BLOCK] += jx * inv_m
-    W[y + VY * BLOCK] += jy * inv_m
+    W[at(off, VEL_X, j)] += jx * inv_m
+    W[at(off, VEL_Y, j)] += jy * inv_m
     return jx, jy

@@ -1,0 +1,215 @@
+"""The one place that knows every model: the hooks the shared stepper calls, each chosen
+at compile time from the literal model number.
+
+The stepper's kernels take the model as a literal integer argument (:data:`RATTLEBACK`
+or :data:`PLANAR`, ``numba.literally``), so each model gets its own compiled copy of
+the one stepper source. The functions below are numba overloads that pick the model's
+implementation while typing: only the chosen model's code is compiled into a copy (an
+``if model == ...`` inside a kernel would compile both branches), and the call inlines
+as a direct call. Each hook's contract is its stub's docstring; each model implements
+it in its ``model`` and ``dynamics`` modules.
+"""
+
+from __future__ import annotations
+
+from numba import types
+from numba.core.errors import TypingError
+from numba.extending import overload
+
+from .jit import JIT_OPTIONS
+from .planar import dynamics as planar_dynamics
+from .planar import layout as planar_layout
+from .planar import model as planar_model
+from .rattleback import dynamics as rattleback_dynamics
+from .rattleback import layout as rattleback_layout
+from .rattleback import model as rattleback_model
+
+__all__ = ["MODEL_NAMES", "PLANAR", "RATTLEBACK"]
+
+RATTLEBACK = 0
+PLANAR = 1
+MODEL_NAMES = ("rattleback", "planar")
+
+
+def _pick(model, rattleback, planar):
+    if not isinstance(model, types.IntegerLiteral):
+        raise TypingError("the model must be a literal integer (numba.literally)")
+    if model.literal_value == RATTLEBACK:
+        return rattleback
+    if model.literal_value == PLANAR:
+        return planar
+    raise TypingError(f"unknown model {model.literal_value}")
+
+
+def _hook(stub, inline="never"):
+    """Register ``stub`` as an overloaded hook; its typer is the decorated function."""
+    return lambda typer: overload(stub, prefer_literal=True, inline=inline,
+                                  jit_options=_OPTIONS)(typer)
+
+
+# the overloads are compiled into their callers, which are cached themselves
+_OPTIONS = {k: v for k, v in JIT_OPTIONS.items() if k != "cache"}
+
+
+# --- layout constants -------------------------------------------------------------------
+def state_regions(model):
+    """(OFF_Y, OFF_T, OFF_A, N_STATE, N_WORK) of the model's workspace."""
+
+
+@_hook(state_regions, inline="always")
+def _state_regions(model):
+    rb, pl = rattleback_layout, planar_layout
+    return _pick(model,
+                 lambda model: (rb.OFF_Y, rb.OFF_T, rb.OFF_A, rb.N_STATE, rb.N_WORK),
+                 lambda model: (pl.OFF_Y, pl.OFF_T, pl.OFF_A, pl.N_STATE, pl.N_WORK))
+
+
+# --- the right-hand side and the Euler step -------------------------------------------
+def evaluate(W, model, slip_possible, stage):
+    """The right-hand side of every lane used as ``stage`` asks (:mod:`.stages`), with
+    the contact outputs (region X) at the first stages. Both flags are literals;
+    ``slip_possible=False`` promises that every lane sticks."""
+
+
+@_hook(evaluate)
+def _evaluate(W, model, slip_possible, stage):
+    return _pick(
+        model,
+        lambda W, model, slip_possible, stage: rattleback_dynamics.eval_block(
+            W, slip_possible, stage),
+        lambda W, model, slip_possible, stage: planar_dynamics.eval_block(
+            W, slip_possible, stage))
+
+
+def euler_step(W, model):
+    """Semi-implicit Euler from region Y with the derivative in A, in place; the old
+    state left in A."""
+
+
+@_hook(euler_step)
+def _euler_step(W, model):
+    return _pick(model, lambda W, model: rattleback_model.euler_step(W),
+                 lambda W, model: planar_dynamics.euler_step(W))
+
+
+# --- per-lane hooks -------------------------------------------------------------------
+def derive(W, model, j):
+    """Fill lane j's derived parameters from its parameters."""
+
+
+@_hook(derive)
+def _derive(W, model, j):
+    return _pick(model, lambda W, model, j: rattleback_dynamics.derive_parameters(W, j),
+                 lambda W, model, j: None)
+
+
+def start_lane(W, model, j):
+    """Prepare a finite launch state; True when it starts capsized."""
+
+
+@_hook(start_lane)
+def _start_lane(W, model, j):
+    return _pick(model, lambda W, model, j: rattleback_model.start_lane(W, j),
+                 lambda W, model, j: planar_model.start_lane(W, j))
+
+
+def check_step(W, model, j):
+    """(non-finite, capsized) of lane j's new state, after any renormalisation."""
+
+
+@_hook(check_step, inline="always")
+def _check_step(W, model, j):
+    return _pick(model, lambda W, model, j: rattleback_model.check_step(W, j),
+                 lambda W, model, j: planar_model.check_step(W, j))
+
+
+def spin_and_watch(W, model, j):
+    """(spin about the vertical (rad/s), watched quantity) of lane j's state."""
+
+
+@_hook(spin_and_watch, inline="always")
+def _spin_and_watch(W, model, j):
+    return _pick(model, lambda W, model, j: rattleback_model.spin_and_watch(W, j),
+                 lambda W, model, j: planar_model.spin_and_watch(W, j))
+
+
+def spin(W, model, j):
+    """Spin about the vertical of lane j's state, rad/s (0 where there is none)."""
+
+
+@_hook(spin)
+def _spin(W, model, j):
+    return _pick(model, lambda W, model, j: rattleback_model.spin(W, j),
+                 lambda W, model, j: planar_model.spin(W, j))
+
+
+def watch(W, model, j):
+    """The watched quantity of lane j's state, whose smallest value is an observable."""
+
+
+@_hook(watch)
+def _watch(W, model, j):
+    return _pick(model, lambda W, model, j: rattleback_model.watch(W, j),
+                 lambda W, model, j: planar_model.watch(W, j))
+
+
+def energy(W, model, j):
+    """Mechanical energy of lane j's state, J."""
+
+
+@_hook(energy)
+def _energy(W, model, j):
+    return _pick(model, lambda W, model, j: rattleback_model.energy(W, j),
+                 lambda W, model, j: planar_model.energy(W, j))
+
+
+def roll_start(W, model, j):
+    """Set the velocity of lane j so that its contact point is at rest."""
+
+
+@_hook(roll_start)
+def _roll_start(W, model, j):
+    return _pick(model, lambda W, model, j: rattleback_model.roll_start(W, j),
+                 lambda W, model, j: planar_model.roll_start(W, j))
+
+
+def stick_impulse(W, model, j):
+    """Apply the plastic impulse that stops lane j's slipping contact point; returns its
+    horizontal components (N s)."""
+
+
+@_hook(stick_impulse)
+def _stick_impulse(W, model, j):
+    return _pick(model, lambda W, model, j: rattleback_model.stick_impulse(W, j),
+                 lambda W, model, j: planar_model.stick_impulse(W, j))
+
+
+def park(W, model, j):
+    """Give a lane that is no longer stepped a harmless state."""
+
+
+@_hook(park)
+def _park(W, model, j):
+    return _pick(model, lambda W, model, j: rattleback_model.park(W, j),
+                 lambda W, model, j: planar_model.park(W, j))
+
+
+def finish(W, model, j, O, launched):
+    """Write the model's own observables of lane j into O."""
+
+
+@_hook(finish)
+def _finish(W, model, j, O, launched):
+    return _pick(model,
+                 lambda W, model, j, O, launched: rattleback_model.finish(W, j, O, launched),
+                 lambda W, model, j, O, launched: planar_model.finish(W, j, O, launched))
+
+
+def record(W, model, j, out):
+    """Write lane j's recorded series into out."""
+
+
+@_hook(record)
+def _record(W, model, j, out):
+    return _pick(model, lambda W, model, j, out: rattleback_model.record(W, j, out),
+                 lambda W, model, j, out: planar_model.record(W, j, out))

@@ -1,0 +1,1 @@
+"""The planar rocking semi-ellipse's kernels (MODEL.md section 8)."""

@@ -1,0 +1,146 @@
+"""Rows of the rattleback model (MODEL.md sections 2-4): its parameters, state, scratch,
+recorded series and observables, and where its regions sit in the block workspace.
+
+Each table is the single source of truth for its rows: the constants below are read off
+it, the batch layer packs inputs and labels results from it (:mod:`rattlesweep.batch`),
+and the CF attributes of results come from it.
+"""
+
+from __future__ import annotations
+
+from ..rows import Row, Rows, check_regions
+from ..workspace import COMMON_PARAMS, N_SHARED, N_SHARED_OBS, OFF_P
+
+# --- per-trajectory parameters, rows of P (after the shared ones) --------------------
+PARAMS = Rows(
+    "rattleback parameters",
+    *COMMON_PARAMS,
+    Row("a2", "m2", "squared semi-axis along body x", pack=lambda f: f["a"] ** 2),
+    Row("b2", "m2", "squared semi-axis along body y", pack=lambda f: f["b"] ** 2),
+    Row("c2", "m2", "squared semi-axis along body z", pack=lambda f: f["c"] ** 2),
+    Row("mass", "kg", "mass", pack=lambda f: f["mass"]),
+    Row("com", "m", "centre of mass G from the centre of the flat face, body frame", 3,
+        "body_axis", pack=lambda f: f["com"]),
+    Row("inertia_xx", "kg m2", "I_xx about G", pack=lambda f: f["inertia_xx"]),
+    Row("inertia_yy", "kg m2", "I_yy about G", pack=lambda f: f["inertia_yy"]),
+    Row("inertia_zz", "kg m2", "I_zz about G", pack=lambda f: f["inertia_zz"]),
+    Row("inertia_xy", "kg m2", "I_xy about G", pack=lambda f: f["inertia_xy"]),
+    Row("inertia_xz", "kg m2", "I_xz about G", pack=lambda f: f["inertia_xz"]),
+    Row("inertia_yz", "kg m2", "I_yz about G", pack=lambda f: f["inertia_yz"]),
+    Row("damping", "N m s", "viscous torque coefficient", pack=lambda f: f["damping"]),
+    Row("full_ellipsoid", "1", "1 for a full ellipsoid (no rim, never capsizes)",
+        pack=lambda f: f["full_ellipsoid"]),
+)
+A2 = PARAMS.start("a2")
+B2 = PARAMS.start("b2")
+C2 = PARAMS.start("c2")
+MASS = PARAMS.start("mass")
+COM_X = PARAMS.start("com")
+COM_Y = COM_X + 1
+COM_Z = COM_X + 2
+I_XX = PARAMS.start("inertia_xx")
+I_YY = PARAMS.start("inertia_yy")
+I_ZZ = PARAMS.start("inertia_zz")
+I_XY = PARAMS.start("inertia_xy")
+I_XZ = PARAMS.start("inertia_xz")
+I_YZ = PARAMS.start("inertia_yz")
+DAMPING = PARAMS.start("damping")
+FULL = PARAMS.start("full_ellipsoid")
+N_PARAM = PARAMS.size
+
+# --- per-trajectory parameters derived in the block set-up, rows of E ----------------
+# The right-hand side works per unit mass: the inertia and damping divided by the mass.
+J_XX, J_YY, J_ZZ, J_XY, J_XZ, J_YZ = range(6)  # inertia about G / mass, m^2
+DAMPING_PM = 6  # damping / mass, m^2/s
+N_DERIVED = 7
+
+# --- integrated state, rows of Y -------------------------------------------------------
+STATE = Rows(
+    "rattleback state",
+    Row("quaternion", "1", "orientation quaternion (w, x, y, z), body to world", 4,
+        "quaternion_component"),
+    Row("omega", "rad s-1", "angular velocity, body components", 3, "body_axis"),
+    Row("position", "m", "horizontal position of G, world frame", 2, "horizontal"),
+    Row("velocity", "m s-1", "horizontal velocity of G, world frame", 2, "horizontal"),
+)
+Q0 = STATE.start("quaternion")
+Q1, Q2, Q3 = Q0 + 1, Q0 + 2, Q0 + 3
+OMEGA_X = STATE.start("omega")
+OMEGA_Y, OMEGA_Z = OMEGA_X + 1, OMEGA_X + 2
+POS_X = STATE.start("position")
+POS_Y = POS_X + 1
+VEL_X = STATE.start("velocity")
+VEL_Y = VEL_X + 1
+N_STATE = STATE.size
+
+# --- intermediate results of one right-hand-side evaluation, rows of G ------------------
+# The evaluation runs as several loops over the lanes (geometry, dynamics, division,
+# derivative), handing these rows from one to the next: short loop bodies let the
+# processor overlap the long dependency chains (a square root and two divisions) of
+# neighbouring lanes.
+RHO_X, RHO_Y, RHO_Z = 0, 1, 2  # ρ, from G to the contact point, body, m
+WW_X, WW_Y, WW_Z = 3, 4, 5  # w = ω × (ω × ρ + ṡ_P), body, m/s^2
+UP_X, UP_Y, UP_Z = 6, 7, 8  # world up-vector in body components, times |q|^2
+INV_QQ = 9  # 1/|q|^2
+SLIP_X, SLIP_Y = 10, 11  # slip velocity of the material contact point, world, m/s
+UHAT_X, UHAT_Y = 12, 13  # slip direction used for friction, world
+ALPHA_X, ALPHA_Y, ALPHA_Z = 14, 15, 16  # angular acceleration, rad/s^2 (first times DET)
+DET = 17  # determinant of the 3×3 system for the angular acceleration
+NORMAL_PM = 18  # N/m, normal force per unit mass, m/s^2
+INV_SIGMA = 19  # 1/σ̃, 1/m
+N_SCRATCH = 20
+
+# --- the block workspace: the shared regions, then this model's ------------------------
+OFF_E = OFF_P + N_PARAM  # derived parameters
+OFF_Y = OFF_E + N_DERIVED  # state at the start of the step; the new state after it
+OFF_T = OFF_Y + N_STATE  # stage state of the inner RK4 stages (no position rows used)
+OFF_A = OFF_T + N_STATE  # RK4 accumulator; the old state after a step
+OFF_G = OFF_A + N_STATE  # right-hand-side intermediates
+N_WORK = OFF_G + N_SCRATCH
+check_regions("rattleback workspace", {
+    "shared": (0, N_SHARED), "model parameters": (N_SHARED, N_PARAM - COMMON_PARAMS.size),
+    "E": (OFF_E, N_DERIVED),
+    "Y": (OFF_Y, N_STATE), "T": (OFF_T, N_STATE), "A": (OFF_A, N_STATE),
+    "G": (OFF_G, N_SCRATCH)}, N_WORK)
+
+# --- recorded time series, rows of the record array ------------------------------------
+RECORD = Rows(
+    "rattleback record",
+    Row("quaternion", "1", "orientation quaternion (w, x, y, z), body to world", 4,
+        "quaternion_component"),
+    Row("omega", "rad s-1", "angular velocity, body components", 3, "body_axis"),
+    Row("position", "m", "position of the centre of mass, world frame", 3, "axis"),
+    Row("velocity", "m s-1", "velocity of the centre of mass, world frame", 3, "axis"),
+    Row("spin", "rad s-1", "vertical angular velocity n = omega . Z"),
+    Row("tilt", "rad", "tilt of the body z axis from the vertical"),
+    Row("energy", "J", "mechanical energy"),
+    Row("normal_force", "N", "normal contact force"),
+    Row("friction_force", "N", "horizontal friction force on the body, world frame", 2,
+        "horizontal"),
+    Row("slip_velocity", "m s-1",
+        "horizontal velocity of the material contact point, world frame", 2, "horizontal"),
+    Row("slipping", "1", "1 while the contact slips, 0 while it sticks"),
+    Row("friction_impulse", "N s", "horizontal friction impulse of re-sticking since the "
+        "previous sample, world frame", 2, "horizontal"),
+)
+R_QUATERNION = RECORD.start("quaternion")
+R_OMEGA = RECORD.start("omega")
+R_POSITION = RECORD.start("position")
+R_VELOCITY = RECORD.start("velocity")
+R_SPIN = RECORD.start("spin")
+R_TILT = RECORD.start("tilt")
+R_ENERGY = RECORD.start("energy")
+R_NORMAL = RECORD.start("normal_force")
+R_FRICTION = RECORD.start("friction_force")
+R_SLIP_VELOCITY = RECORD.start("slip_velocity")
+R_SLIPPING = RECORD.start("slipping")
+R_IMPULSE = RECORD.start("friction_impulse")
+N_REC = RECORD.size
+
+# --- observables of this model, rows of O after the shared ones ------------------------
+OBSERVABLES = Rows(
+    "rattleback observables",
+    Row("max_tilt", "rad", "largest tilt of the body z axis from the vertical"),
+)
+O_MAX_TILT = N_SHARED_OBS + OBSERVABLES.start("max_tilt")
+N_OBS = N_SHARED_OBS + OBSERVABLES.size

@@ -1,0 +1,200 @@
+"""The block workspace: the rows every model shares, and how kernels address them.
+
+Every per-trajectory array the kernel sees has shape ``(n_blocks, n_rows, BLOCK)``: the
+last axis runs over the ``BLOCK`` lanes (trajectories) of a block, so each row is a
+contiguous vector the compiler steps with SIMD instructions. ``BLOCK`` is a compile-time
+constant, which gives the lane loops a known trip count (no scalar remainder loop) and
+makes a lane's arithmetic independent of its position in the batch.
+
+Inside the time loop a block lives in one flat float64 workspace ``W`` of
+``n_work * BLOCK`` elements; row ``r`` of the region at offset ``OFF`` starts at
+``(OFF + r) * BLOCK``. With one base pointer and compile-time offsets LLVM can prove that
+a store never aliases a later load of another row, so the lane loops vectorise without
+runtime alias checks (separate arrays would each need such checks, and LLVM gives up
+past a handful). Every kernel addresses the workspace one way: ``W[at(OFF, row, j)]``.
+
+The regions at the start of the workspace have the same rows and offsets in every
+model, so that the stepper (:mod:`.stepper`) and the switching rules
+(:mod:`.switching`) are written once: contact outputs (X), switching state (S),
+time-loop bookkeeping (K), step fractions (H) and the first rows of the parameters (P).
+Each model's layout appends its own parameter rows and its regions for derived
+parameters, state, stage state, the RK4 accumulator and scratch.
+"""
+
+from __future__ import annotations
+
+from .jit import kernel
+from .rows import Row, Rows
+
+__all__ = [
+    "BLOCK", "at", "STATUS_NAMES", "OK", "CAPSIZED", "LIFTED_OFF", "NON_FINITE", "RK4",
+    "EULER", "METHODS",
+]
+
+BLOCK = 32
+"""Lanes per block. A multiple of the SIMD width (4 doubles for AVX2, 8 for AVX-512)."""
+
+
+@kernel
+def at(region, row, j):
+    """Index into the workspace of lane ``j`` of row ``row`` of the region at ``region``."""
+    return (region + row) * BLOCK + j
+
+
+# --- statuses and methods ---------------------------------------------------------------
+STATUS_NAMES = ("ok", "capsized", "lifted_off", "non_finite")
+OK, CAPSIZED, LIFTED_OFF, NON_FINITE = range(4)
+
+METHODS = ("rk4", "euler")
+RK4, EULER = range(2)
+
+# --- the RK4 stages of one right-hand-side evaluation (see stages.put_derivative) ------
+STAGE_START = 0  # step-start state, every contact output
+STAGE_FIRST = 1  # step-start state, the normal force only
+STAGE_2 = 2
+STAGE_3 = 3
+STAGE_4 = 4
+
+# --- contact outputs of an evaluation at the step-start state, rows of region X --------
+# Horizontal vectors are world (X, Y); a planar model leaves the Y components zero.
+CONTACT = Rows(
+    "contact outputs",
+    Row("normal_force", "N", "normal contact force"),
+    Row("friction_force", "N", "horizontal friction force on the body", 2, "horizontal"),
+    Row("slip_velocity", "m s-1", "horizontal velocity of the material contact point", 2,
+        "horizontal"),
+)
+X_N = CONTACT.start("normal_force")
+X_FX = CONTACT.start("friction_force")
+X_FY = X_FX + 1
+X_UX = CONTACT.start("slip_velocity")
+X_UY = X_UX + 1
+
+# --- switching state of each lane, rows of region S ----------------------------------
+SWITCH = Rows(
+    "switching state",
+    Row("slipping", "1", "contact mode: 0 stick, 1 slip"),
+    Row("slip_direction", "1", "last known slip direction (unit)", 2, "horizontal"),
+    Row("step_slip_velocity", "m s-1", "slip velocity at the start of the step", 2,
+        "horizontal"),
+    Row("previous_slip_speed", "m s-1", "slip speed at the end of the previous step"),
+    Row("impulse_tally", "N s", "re-stick friction impulses since the last sample", 2,
+        "horizontal"),
+)
+S_MODE = SWITCH.start("slipping")
+S_UHX = SWITCH.start("slip_direction")
+S_UHY = S_UHX + 1
+S_USX = SWITCH.start("step_slip_velocity")
+S_USY = S_USX + 1
+S_UPREV = SWITCH.start("previous_slip_speed")
+S_JX = SWITCH.start("impulse_tally")
+S_JY = S_JX + 1
+
+# --- time-loop bookkeeping of each lane, rows of region K ----------------------------
+# Float rows of the workspace rather than separate arrays, so the once-per-step passes
+# over them vectorise like the right-hand side. Each pass that selects lanes for scalar
+# work marks them in a row of its own (the MARK_ rows, 1.0 selected, 0.0 not).
+BOOK = Rows(
+    "bookkeeping",
+    Row("running", "1", "1 while the lane is stepped"),
+    Row("open", "1", "1 until the lane's results are written out"),
+    Row("stop", "1", "last step index with a valid state"),
+    Row("window_start", "1", "first step whose new state counts in the final-spin window"),
+    Row("band", "rad s-1", "reversal band as a spin: band * |spin(0)|"),
+    Row("side", "1", "sign of the spin's current side (0: no reversal tracking)"),
+    Row("t_cross", "s", "last zero crossing of the spin"),
+    Row("t_candidate", "s", "crossing instant if the spin crossed zero in this step"),
+    Row("spin_previous", "rad s-1", "spin after the previous step"),
+    Row("n_reversals", "1", "spin reversals so far"),
+    Row("first_reversal", "s", "first reversal time, NaN while none"),
+    Row("window_sum", "rad s-1", "sum of the spin over the final window"),
+    Row("window_count", "1", "steps in the final window so far"),
+    Row("watch_low", "1", "smallest value so far of the model's watched quantity"),
+    Row("slip_steps", "1", "steps taken slipping"),
+    Row("end_status", "1", "status a lane marked by MARK_END ends with"),
+    Row("mark_switch", "1", "marked by a switching pass"),
+    Row("mark_end", "1", "marked by an end-of-run pass"),
+    Row("mark_cross", "1", "the spin crossed zero in this step"),
+    Row("mark_beyond", "1", "the spin went beyond the band on the other side"),
+)
+K_RUN = BOOK.start("running")
+K_OPEN = BOOK.start("open")
+K_STOP = BOOK.start("stop")
+K_WIN0 = BOOK.start("window_start")
+K_BAND = BOOK.start("band")
+K_SIDE = BOOK.start("side")
+K_T_CROSS = BOOK.start("t_cross")
+K_T_CAND = BOOK.start("t_candidate")
+K_SPIN_PREV = BOOK.start("spin_previous")
+K_N_REV = BOOK.start("n_reversals")
+K_FIRST_REV = BOOK.start("first_reversal")
+K_WIN_SUM = BOOK.start("window_sum")
+K_WIN_CNT = BOOK.start("window_count")
+K_WATCH_LOW = BOOK.start("watch_low")
+K_SLIP_STEPS = BOOK.start("slip_steps")
+K_END_STATUS = BOOK.start("end_status")
+K_MARK_SWITCH = BOOK.start("mark_switch")
+K_MARK_END = BOOK.start("mark_end")
+K_MARK_CROSS = BOOK.start("mark_cross")
+K_MARK_BEYOND = BOOK.start("mark_beyond")
+
+# --- fractions of the time step, rows of region H (set from DT in the block set-up) ---
+H_HALF_DT = 0  # dt / 2, s
+H_SIXTH_DT = 1  # dt / 6, s (a division the last RK4 stage would otherwise take every step)
+N_FRACTIONS = 2
+
+# --- the parameter rows every model starts its parameters with, rows of region P -----
+COMMON_PARAMS = Rows(
+    "common parameters",
+    Row("dt", "s", "time step", pack=lambda f: f["dt"]),
+    Row("mu", "1", "kinetic friction coefficient", pack=lambda f: f["mu"]),
+    Row("mu_static", "1", "static friction coefficient", pack=lambda f: f["mu_static"]),
+    Row("g", "m s-2", "gravitational acceleration", pack=lambda f: f["g"]),
+    Row("slip_speed_floor", "m s-1",
+        "slip speed below which the stored slip direction is used",
+        pack=lambda f: 1e-6 * f["g"] * f["dt"]),
+)
+DT = COMMON_PARAMS.start("dt")
+MU_K = COMMON_PARAMS.start("mu")
+MU_S = COMMON_PARAMS.start("mu_static")
+GRAV = COMMON_PARAMS.start("g")
+EPS_U = COMMON_PARAMS.start("slip_speed_floor")
+
+OFF_X = 0
+OFF_S = OFF_X + CONTACT.size
+OFF_K = OFF_S + SWITCH.size
+OFF_H = OFF_K + BOOK.size
+OFF_P = OFF_H + N_FRACTIONS
+N_SHARED = OFF_P + COMMON_PARAMS.size
+"""Rows of the shared regions; a model's own rows follow."""
+
+# --- per-run observables every model reports, rows of O (a model may append more) -----
+OBSERVABLES = Rows(
+    "observables",
+    Row("status", "1", "trajectory status"),
+    Row("steps", "1", "number of steps taken"),
+    Row("t_final", "s", "time reached (earlier than t_end when the trajectory stopped)"),
+    Row("energy_initial", "J", "mechanical energy at t = 0"),
+    Row("energy_final", "J", "mechanical energy at the end of the run"),
+    Row("slip_fraction", "1", "fraction of steps spent slipping"),
+    Row("watch_low", "1", "smallest value of the model's watched quantity"),
+    Row("initial_spin", "rad s-1", "vertical angular velocity at t = 0"),
+    Row("final_spin", "rad s-1", "vertical angular velocity at the end of the run"),
+    Row("mean_final_spin", "rad s-1",
+        "mean vertical angular velocity over the last 10% of the run"),
+    Row("first_reversal_time", "s", "time of the first spin reversal (NaN when none)"),
+    Row("n_reversals", "1", "number of spin reversals"),
+)
+O_STATUS = OBSERVABLES.start("status")
+O_STEPS = OBSERVABLES.start("steps")
+O_T_END = OBSERVABLES.start("t_final")
+O_E0 = OBSERVABLES.start("energy_initial")
+O_E_END = OBSERVABLES.start("energy_final")
+O_SLIP_FRAC = OBSERVABLES.start("slip_fraction")
+O_WATCH_LOW = OBSERVABLES.start("watch_low")
+O_SPIN0 = OBSERVABLES.start("initial_spin")
+O_FINAL_SPIN = OBSERVABLES.start("final_spin")
+O_MEAN_FINAL_SPIN = OBSERVABLES.start("mean_final_spin")
+O_FIRST_REV = OBSERVABLES.start("first_reversal_time")
+O_N_REV = OBSERVABLES.start("n_reversals")
+N_SHARED_OBS = OBSERVABLES.size

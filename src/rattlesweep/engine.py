@@ -1,0 +1,307 @@
+"""The batch layer every model shares: inputs broadcast and checked, packed into kernel
+blocks, run, and labelled as an xarray Dataset.
+
+A model is described once by a :class:`Model`: its kernel number, its row tables
+(:mod:`rattlesweep.core.rattleback.layout`, :mod:`rattlesweep.core.planar.layout`) and
+which observables and series its results carry. The model's own batch module
+(:mod:`rattlesweep.batch`, :mod:`rattlesweep.planar.batch`) turns its launch arguments
+into flat per-trajectory inputs and a launch state, and hands them here.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from dataclasses import dataclass, field
+from types import ModuleType
+from typing import Any, Callable, Mapping
+
+import numba
+import numpy as np
+import xarray as xr
+
+from ._version import __version__
+from .core import stepper
+from .core.workspace import BLOCK, METHODS, OBSERVABLES, STATUS_NAMES
+from .metadata import flag_attrs
+from .validation import as_float_array, fail_where
+
+__all__ = [
+    "Model", "Prepared", "Raw", "broadcast_inputs", "check_band", "check_common",
+    "check_method", "check_record_every", "execute", "observables_dataset", "pack",
+    "run_attrs", "series_dataset", "steps_for", "numba_threads",
+]
+
+STATUS_COMMENT = ("ok: ran to t_end; capsized: the body tipped onto its rim or edge; "
+                  "lifted_off: the normal force went negative; non_finite: a state or "
+                  "input was NaN or inf. A stopped trajectory keeps its last valid state.")
+
+_DTYPES = {"status": np.int8, "steps": np.int64, "n_reversals": np.int64}
+
+
+@dataclass(frozen=True)
+class Model:
+    """What the batch layer needs to know of a model.
+
+    ``number`` is the kernel's model number (:mod:`rattlesweep.core.models`); ``layout``
+    the model's layout module (``PARAMS``, ``STATE``, ``RECORD``, ``OBSERVABLES``,
+    ``N_OBS``); ``observables`` the names of the per-run results, in order, each a row
+    of the shared or the model's observables or a key of ``derived``: (function of the
+    observables before it by name, units, long name); ``status_comment`` explains the
+    status flags.
+    """
+
+    number: int
+    layout: ModuleType
+    observables: tuple[str, ...]
+    derived: Mapping[str, tuple[Callable[[Mapping[str, np.ndarray]], np.ndarray], str, str]
+                     ] = field(default_factory=dict)
+    status_comment: str = STATUS_COMMENT
+
+    def observable_row(self, name: str) -> int:
+        if name in OBSERVABLES:
+            return OBSERVABLES.start(name)
+        return OBSERVABLES.size + self.layout.OBSERVABLES.start(name)
+
+    def attrs(self, name: str) -> dict:
+        """CF attributes of a result variable of this model."""
+        if name == "status":
+            return status_attrs(self.status_comment)
+        if name in self.derived:
+            return {"units": self.derived[name][1], "long_name": self.derived[name][2]}
+        for rows in (self.layout.OBSERVABLES, OBSERVABLES, self.layout.RECORD):
+            if name in rows:
+                row = rows[name]
+                return {"units": row.units, "long_name": row.long_name}
+        raise KeyError(name)
+
+
+def status_attrs(comment: str = STATUS_COMMENT) -> dict:
+    return flag_attrs("trajectory status", STATUS_NAMES, comment)
+
+
+@dataclass(frozen=True)
+class Prepared:
+    """A validated batch packed into kernel blocks."""
+
+    model: Model
+    P: np.ndarray  # (n_blocks, n_param, BLOCK)
+    Y: np.ndarray  # (n_blocks, n_state, BLOCK)
+    nsteps: np.ndarray  # (n_blocks, BLOCK) int64; 0 for padding lanes
+    n: int  # trajectories
+    shape: tuple[int, ...]  # broadcast shape of the inputs
+    coords: dict[str, Any]  # name -> (dims, flat values), every input per trajectory
+
+
+@dataclass(frozen=True)
+class Raw:
+    """What a kernel run returns, per trajectory: observables (n_obs, n), records
+    (n, n_rec, n_record) or None, final state (n_state, n)."""
+
+    observables: np.ndarray
+    records: np.ndarray | None
+    final_state: np.ndarray
+
+
+# --- inputs ---------------------------------------------------------------------------
+def broadcast_inputs(bodies: np.ndarray, scalars: Mapping[str, Any],
+                     vectors: Mapping[str, np.ndarray] | None = None):
+    """Broadcast bodies (object array), scalar inputs and vector inputs (broadcast on
+    their leading axes) together. Returns (shape, n, flat bodies, flat scalars, flat
+    vectors)."""
+    vectors = vectors or {}
+    arrays = {k: as_float_array(k, v) for k, v in scalars.items()}
+    try:
+        shape = np.broadcast_shapes(bodies.shape, *(v.shape for v in arrays.values()),
+                                    *(v.shape[:-1] for v in vectors.values()))
+    except ValueError:
+        shapes = {k: v.shape for k, v in {**arrays, **vectors}.items()}
+        raise ValueError(f"inputs cannot be broadcast together: shapes {shapes}, "
+                         f"body {bodies.shape}") from None
+    n = int(np.prod(shape))
+    flat = {k: np.broadcast_to(v, shape).reshape(n) for k, v in arrays.items()}
+    flat_vec = {k: np.broadcast_to(v, shape + v.shape[-1:]).reshape(n, v.shape[-1])
+                for k, v in vectors.items()}
+    return tuple(shape), n, np.broadcast_to(bodies, shape).reshape(n), flat, flat_vec
+
+
+def check_common(arrays: Mapping[str, np.ndarray]) -> None:
+    """The rules of the inputs every model has: friction, g, t_end and (when given) dt."""
+    mu_k, mu_s = arrays["mu"], arrays["mu_static"]
+    fail_where("mu", mu_k, ~(mu_k >= 0), "must be >= 0 (inf for pure rolling)")
+    fail_where("mu_static", mu_s, ~(mu_s >= 0), "must be >= 0 (inf for pure rolling)")
+    bad = np.broadcast_to(mu_s, np.broadcast_shapes(mu_s.shape, mu_k.shape)) < mu_k
+    fail_where("mu_static", np.broadcast_to(mu_s, bad.shape), bad, "must be >= mu")
+    for name in ("g", "t_end") + (("dt",) if "dt" in arrays else ()):
+        v = arrays[name]
+        fail_where(name, v, ~(np.isfinite(v) & (v > 0)), "must be finite and > 0")
+
+
+def steps_for(t_end: np.ndarray, dt: np.ndarray) -> np.ndarray:
+    """Steps each trajectory takes: ceil(t_end/dt), at least 1."""
+    return np.maximum(np.ceil(t_end / dt * (1.0 - 1e-12)), 1).astype(np.int64)
+
+
+def default_dts(table: list, index: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """Each trajectory's default time step, computed once per distinct (body, g)."""
+    keys, inverse = np.unique(np.stack([index.astype(float), g]), axis=1, return_inverse=True)
+    per_key = np.array([table[int(i)].default_dt(float(gv)) for i, gv in keys.T])
+    return per_key[inverse.reshape(-1)]
+
+
+# --- packing --------------------------------------------------------------------------
+def _blocked(rows: np.ndarray, n: int) -> np.ndarray:
+    """(n_rows, n) → (n_blocks, n_rows, BLOCK); padding lanes copy the first
+    trajectory (they take no steps)."""
+    n_blocks = -(-n // BLOCK)
+    out = np.empty((rows.shape[0], n_blocks * BLOCK))
+    out[:, :n] = rows
+    out[:, n:] = rows[:, :1]
+    return np.ascontiguousarray(out.reshape(rows.shape[0], n_blocks, BLOCK).transpose(1, 0, 2))
+
+
+def pack(table, columns: Mapping[str, np.ndarray], n: int) -> np.ndarray:
+    """The rows of a parameter or state table as kernel blocks: each row from its
+    ``pack`` function of the flat per-trajectory ``columns``, or, without one, the
+    column of its name."""
+    rows = np.empty((table.size, n))
+    for row in table:
+        values = np.asarray(row.pack(columns) if row.pack else columns[row.name], dtype=float)
+        rows[table.slice(row.name)] = values.reshape(n, row.width).T
+    return _blocked(rows, n)
+
+
+def unblock(arr: np.ndarray, n: int) -> np.ndarray:
+    """(n_blocks, n_rows, BLOCK) → (n_rows, n)."""
+    return arr.transpose(1, 0, 2).reshape(arr.shape[1], -1)[:, :n]
+
+
+def prepared(model: Model, columns: Mapping[str, np.ndarray], Y: np.ndarray,
+             nsteps: np.ndarray, n: int, shape, coords) -> Prepared:
+    """A :class:`Prepared` batch: parameters packed from ``columns``, the launch state Y
+    already in blocks."""
+    steps = np.zeros(Y.shape[0] * BLOCK, dtype=np.int64)
+    steps[:n] = nsteps
+    return Prepared(model, pack(model.layout.PARAMS, columns, n), Y,
+                    steps.reshape(-1, BLOCK), n, tuple(shape), coords)
+
+
+def contact_slip_velocity(model: Model, P: np.ndarray, Y: np.ndarray) -> np.ndarray:
+    """(2, n_pad) slip velocity of each lane's launch state, from the kernel's own
+    arithmetic (so that a rolling launch starts with u = 0 exactly)."""
+    U = np.zeros((P.shape[0], 2, BLOCK))
+    stepper.contact_slip_velocity(model.number, P, Y, U)
+    return U.transpose(1, 0, 2).reshape(2, -1)
+
+
+# --- running --------------------------------------------------------------------------
+@contextlib.contextmanager
+def numba_threads(threads: int | None):
+    """Run the block with numba's thread count set to ``threads`` (None: unchanged)."""
+    if threads is None:
+        yield
+        return
+    limit = numba.config.NUMBA_NUM_THREADS
+    if not (isinstance(threads, (int, np.integer)) and 1 <= threads <= limit):
+        raise ValueError(f"threads must be an integer from 1 to {limit}, got {threads!r}")
+    old = numba.get_num_threads()
+    numba.set_num_threads(int(threads))
+    try:
+        yield
+    finally:
+        numba.set_num_threads(old)
+
+
+def check_method(method: str) -> int:
+    try:
+        return METHODS.index(method)
+    except (ValueError, TypeError):
+        raise ValueError(f"method must be one of {sorted(METHODS)}, got {method!r}") from None
+
+
+def check_record_every(record_every) -> int | None:
+    if record_every is None:
+        return None
+    if not (isinstance(record_every, (int, np.integer)) and not isinstance(record_every, bool)
+            and record_every >= 1):
+        raise ValueError(f"record_every must be a positive integer or None, got {record_every!r}")
+    return int(record_every)
+
+
+def check_band(reversal_band) -> float:
+    band = float(reversal_band)
+    if not (0.0 <= band < 1.0):
+        raise ValueError(f"reversal_band must be in [0, 1) (a fraction of |initial spin|), "
+                         f"got {reversal_band!r}")
+    return band
+
+
+def execute(prep: Prepared, *, method: int, record_every: int | None, band: float = 0.0,
+            parallel: bool = True, threads: int | None = None) -> Raw:
+    """Run a prepared batch through the kernel."""
+    layout = prep.model.layout
+    n_blocks = prep.P.shape[0]
+    n_rec = 0 if record_every is None else int(prep.nsteps.max()) // record_every + 1
+    REC = np.empty((n_blocks, n_rec, layout.N_REC, BLOCK))
+    O = np.empty((n_blocks, layout.N_OBS, BLOCK))
+    Y = prep.Y.copy()
+    entry = stepper.integrate_parallel if parallel else stepper.integrate_serial
+    with numba_threads(threads):
+        entry(prep.model.number, prep.P, Y, prep.nsteps, method, record_every or 1, band,
+              O, REC)
+    rec = None
+    if n_rec:
+        rec = REC.transpose(0, 3, 1, 2).reshape(n_blocks * BLOCK, n_rec, layout.N_REC)[:prep.n]
+    return Raw(unblock(O, prep.n), rec, unblock(Y, prep.n))
+
+
+# --- results --------------------------------------------------------------------------
+def observables_dataset(model: Model, obs: np.ndarray, dim: str | None
+                        ) -> dict[str, xr.DataArray]:
+    """Per-run observables (n_obs, n) as labelled DataArrays over ``dim`` (scalars for
+    None)."""
+    pick = (lambda row: obs[row]) if dim else (lambda row: obs[row, 0])
+    values: dict[str, np.ndarray] = {}
+    for name in model.observables:
+        if name in model.derived:
+            values[name] = model.derived[name][0](values)
+        else:
+            values[name] = pick(model.observable_row(name)).astype(_DTYPES.get(name, float))
+    dims = (dim,) if dim else ()
+    return {k: xr.DataArray(v, dims=dims, attrs=model.attrs(k)) for k, v in values.items()}
+
+
+def series_dataset(model: Model, rec: np.ndarray, dims: tuple[str, ...]
+                   ) -> dict[str, xr.DataArray]:
+    """Recorded time series (..., n_rec, n_record) as labelled DataArrays, one per row of
+    the model's record table, plus ``slip_speed``, the magnitude of ``slip_velocity``."""
+    out = {}
+    for row in model.layout.RECORD:
+        values = rec[..., model.layout.RECORD.slice(row.name)]
+        extra = (row.dim,) if row.width > 1 else ()
+        out[row.name] = xr.DataArray(values if extra else values[..., 0], dims=dims + extra,
+                                     attrs={"units": row.units, "long_name": row.long_name})
+    u = out["slip_velocity"].values
+    speed = np.hypot(u[..., 0], u[..., 1]) if u.ndim > len(dims) else np.abs(u)
+    out["slip_speed"] = xr.DataArray(speed, dims=dims, attrs={
+        "units": "m s-1", "long_name": "speed of the material contact point"})
+    return out
+
+
+def run_attrs(method: str, record_every: int | None, band: float | None) -> dict:
+    """Global attributes common to every result (``band`` None: no reversal tracking)."""
+    attrs = {
+        "title": "rattlesweep rattleback simulation",
+        "source": f"rattlesweep {__version__}",
+        "rattlesweep_version": __version__,
+        "numba_version": numba.__version__,
+        "numpy_version": np.__version__,
+        "method": method,
+        "record_every": -1 if record_every is None else record_every,
+        "reversal_band": band,
+        "Conventions": "CF-1.8",
+        "references": "S. Jones and H. E. M. Hunt, Am. J. Phys. 87, 699 (2019), "
+                      "doi:10.1119/1.5115498",
+    }
+    if band is None:
+        del attrs["reversal_band"]
+    return attrs
