@@ -37,7 +37,8 @@ import textwrap
 import time
 
 
-from rattlesweep.batch import execute, prepare
+from rattlesweep.batch import prepare
+from rattlesweep.engine import execute
 from rattlesweep.sweep import Sweep, run_sweep
 from rattlesweep.core.workspace import RK4
 

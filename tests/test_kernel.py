@@ -155,3 +155,20 @@ def test_no_allocation_in_the_time_loop(kl):
     finally:
         if not enabled:
             _nrt_python.memsys_disable_stats()
+
+
+def test_cached_kernels_are_dropped_when_any_kernel_source_changes(tmp_path):
+    """numba keys a cached kernel on its own file only; a stepper compiled with an older
+    model must not be loaded after the model's file changed."""
+    from rattlesweep.core.jit import drop_stale_cache
+
+    (tmp_path / "model.py").write_text("x = 1\n")
+    cache = tmp_path / "__pycache__"
+    cache.mkdir()
+    kernel_file = cache / "stepper.advance_block-1.py311.nbi"
+    kernel_file.write_bytes(b"old")
+    assert drop_stale_cache(tmp_path) and not kernel_file.exists()
+    kernel_file.write_bytes(b"new")  # compiled from the current sources
+    assert not drop_stale_cache(tmp_path) and kernel_file.exists()
+    (tmp_path / "model.py").write_text("x = 2\n")
+    assert drop_stale_cache(tmp_path) and not kernel_file.exists()

@@ -49,6 +49,17 @@ def test_contact_point_is_on_the_surface_and_on_the_floor(slipping_run):
     assert np.ptp(x) > 0.02
 
 
+def test_recorded_contact_point_is_the_one_post_processing_finds(slipping_run):
+    # the kernel's series against contact_dataset's, computed independently in NumPy
+    # from the recorded quaternion and position
+    c = contact_dataset(slipping_run)
+    recorded = slipping_run.contact_point.transpose("time", "horizontal").values
+    np.testing.assert_allclose(recorded, c.contact_floor.transpose("time", "horizontal").values,
+                               rtol=0, atol=1e-12)
+    assert np.ptp(recorded[:, 0]) > 0.01  # it moves: the check is not of constants
+    assert slipping_run.contact_point.attrs["units"] == "m"
+
+
 def test_friction_moment_accounts_for_the_vertical_angular_momentum(kl):
     """Without damping friction is the only vertical moment about G. Rolling: the
     trapezoid sum of the couple converges to ΔL_z at second order. Slipping: the

@@ -29,19 +29,26 @@ behaviour:
 * The model hooks of :mod:`.models` are numba overloads compiled with
   :data:`JIT_OPTIONS`, the helpers' options.
 
-Numba's on-disk cache is keyed on each kernel's own source file, not on these options:
-after editing this module, delete the ``*.nbi``/``*.nbc`` files under ``__pycache__``.
+Numba's on-disk cache is keyed on each kernel's own source file only, but the stepper's
+cached machine code contains every model hook it calls from other files: after an edit
+of a model, numba would load a stepper compiled with the old one. So
+:func:`drop_stale_cache` runs when this package is imported: when any source file of
+``rattlesweep.core`` changed since the cache was written, it deletes the package's
+cached kernels, and they are compiled afresh.
 """
 
 from __future__ import annotations
 
 import functools
+import hashlib
+import os
+from pathlib import Path
 
 import numba
 
 __all__ = [
-    "FASTMATH", "JIT_OPTIONS", "allocating_kernel", "inline_kernel", "kernel",
-    "parallel_kernel",
+    "FASTMATH", "JIT_OPTIONS", "allocating_kernel", "drop_stale_cache", "inline_kernel",
+    "kernel", "parallel_kernel",
 ]
 
 FASTMATH = {"nsz"}  # see the module docstring for what is left out, and why
@@ -69,3 +76,32 @@ parallel_kernel = functools.partial(
     parallel=True, _nrt=True,
 )
 """Decorator for the one entry point that spreads blocks over numba threads."""
+
+
+def drop_stale_cache(root: Path = Path(__file__).parent) -> bool:
+    """Delete the cached kernels (``*.nbi``/``*.nbc`` under ``__pycache__``) of the
+    package at ``root`` unless they were written from its current sources; True when it
+    deleted them. A read-only installation is left as it is."""
+    digest = hashlib.sha256()
+    for path in sorted(root.rglob("*.py")):
+        digest.update(path.relative_to(root).as_posix().encode())
+        digest.update(path.read_bytes())
+    stamp = root / "__pycache__" / "kernel-sources.sha256"
+    try:
+        if stamp.read_text() == digest.hexdigest():
+            return False
+    except OSError:
+        pass
+    try:
+        for cached in root.rglob("__pycache__/*.nb[ic]"):
+            cached.unlink(missing_ok=True)
+        stamp.parent.mkdir(exist_ok=True)
+        tmp = stamp.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_text(digest.hexdigest())
+        tmp.replace(stamp)
+    except OSError:
+        return False
+    return True
+
+
+drop_stale_cache()

@@ -7,7 +7,9 @@ from __future__ import annotations
 import math
 
 from ..jit import inline_kernel, kernel
-from ..workspace import BLOCK, GRAV, K_WATCH_LOW, OFF_K, OFF_P, OFF_S, OFF_X, S_MODE, X_FX, X_N, X_UX, at
+from ..workspace import (
+    GRAV, K_WATCH_LOW, OFF_K, OFF_P, OFF_S, OFF_X, S_MODE, X_FX, X_N, X_UX, at,
+)
 from .dynamics import contact_impulse, energy as planar_energy, shape
 from .layout import (
     A2, AB2, B2, DEPTH, INERTIA, MASS, N_STATE, OFF_T, OFF_Y, O_FINAL_ANGLE, O_FINAL_RATE,

@@ -2,8 +2,8 @@
 
 One function, :func:`eval_block`, evaluates the time derivative of every lane of a block
 in a few short straight loops over the lanes. The contact mode of each lane (stick or
-slip) is an input, held through the stages of a step; stick and slip share one 3×3 solve, with the
-matrix and right-hand side chosen per lane, so the loops have no data-dependent branches
+slip) is an input, held through the stages of a step; stick and slip share one 3×3
+solve, with the matrix and right-hand side chosen per lane, so the loops have no data-dependent branches
 and LLVM vectorises them across lanes.
 """
 
@@ -16,8 +16,8 @@ import numba
 from ..jit import inline_kernel, kernel
 from ..stages import first_stage, put_derivative
 from ..workspace import (
-    BLOCK, EPS_U, GRAV, MU_K, OFF_P, OFF_S, OFF_X, S_MODE, S_UHX, S_UHY, STAGE_2, STAGE_3,
-    STAGE_4, STAGE_FIRST, STAGE_START, X_FX, X_FY, X_N, X_UX, X_UY, at,
+    BLOCK, EPS_U, GRAV, MU_K, OFF_P, OFF_S, OFF_X, S_MODE, S_UHX, S_UHY, STAGE_FIRST,
+    STAGE_START, X_FX, X_FY, X_N, X_UX, X_UY, at,
 )
 from .geometry import adjugate_solve, cross
 from .layout import (
@@ -183,8 +183,10 @@ def contact_kinematics(W, slip_velocity, state):
             q3 = W[at(state, Q3, j)]
             inv_q = W[at(OFF_G, INV_QQ, j)]
             e00, e01, e02, e10, e11, e12 = horizontal_rows(q0, q1, q2, q3)
-            W[at(OFF_G, SLIP_X, j)] = W[at(state, VEL_X, j)] + (e00 * wr0 + e01 * wr1 + e02 * wr2) * inv_q
-            W[at(OFF_G, SLIP_Y, j)] = W[at(state, VEL_Y, j)] + (e10 * wr0 + e11 * wr1 + e12 * wr2) * inv_q
+            W[at(OFF_G, SLIP_X, j)] = (W[at(state, VEL_X, j)]
+                                       + (e00 * wr0 + e01 * wr1 + e02 * wr2) * inv_q)
+            W[at(OFF_G, SLIP_Y, j)] = (W[at(state, VEL_Y, j)]
+                                       + (e10 * wr0 + e11 * wr1 + e12 * wr2) * inv_q)
 
 
 @kernel
@@ -320,8 +322,8 @@ def divide_out(W, normal):
             n0 = W[at(OFF_G, UP_X, j)] * inv_q
             n1 = W[at(OFF_G, UP_Y, j)] * inv_q
             n2 = W[at(OFF_G, UP_Z, j)] * inv_q
-            l0, l1, l2 = cross(W[at(OFF_G, RHO_X, j)], W[at(OFF_G, RHO_Y, j)], W[at(OFF_G, RHO_Z, j)],
-                               n0, n1, n2)
+            l0, l1, l2 = cross(W[at(OFF_G, RHO_X, j)], W[at(OFF_G, RHO_Y, j)],
+                               W[at(OFF_G, RHO_Z, j)], n0, n1, n2)
             W[at(OFF_G, NORMAL_PM, j)] = (
                 (W[at(OFF_P, GRAV, j)]
                  - (n0 * W[at(OFF_G, WW_X, j)] + n1 * W[at(OFF_G, WW_Y, j)]
@@ -341,8 +343,9 @@ def friction_lane(W, j, slip_possible, stage, q0, q1, q2, q3):
     nm = W[at(OFF_G, NORMAL_PM, j)]  # N/m, after divide_out
     inv_q = W[at(OFF_G, INV_QQ, j)]
     # stick: F/m = a_G + g n̂ with a_G = −(ω̇ × ρ + w); its world-horizontal part
-    e0, e1, e2 = cross(W[at(OFF_G, ALPHA_X, j)], W[at(OFF_G, ALPHA_Y, j)], W[at(OFF_G, ALPHA_Z, j)],
-                       W[at(OFF_G, RHO_X, j)], W[at(OFF_G, RHO_Y, j)], W[at(OFF_G, RHO_Z, j)])
+    e0, e1, e2 = cross(W[at(OFF_G, ALPHA_X, j)], W[at(OFF_G, ALPHA_Y, j)],
+                       W[at(OFF_G, ALPHA_Z, j)], W[at(OFF_G, RHO_X, j)],
+                       W[at(OFF_G, RHO_Y, j)], W[at(OFF_G, RHO_Z, j)])
     e0 = -(e0 + W[at(OFF_G, WW_X, j)])
     e1 = -(e1 + W[at(OFF_G, WW_Y, j)])
     e2 = -(e2 + W[at(OFF_G, WW_Z, j)])
@@ -381,16 +384,27 @@ def store_derivative(W, slip_possible, stage):
         h0 = 0.5 * W[at(state, OMEGA_X, j)]
         h1 = 0.5 * W[at(state, OMEGA_Y, j)]
         h2 = 0.5 * W[at(state, OMEGA_Z, j)]
-        put_derivative(W, j, Q0 * BLOCK + j, stage, -(q1 * h0 + q2 * h1 + q3 * h2), True, OFF_Y, OFF_T, OFF_A)
-        put_derivative(W, j, Q1 * BLOCK + j, stage, q0 * h0 + q2 * h2 - q3 * h1, True, OFF_Y, OFF_T, OFF_A)
-        put_derivative(W, j, Q2 * BLOCK + j, stage, q0 * h1 + q3 * h0 - q1 * h2, True, OFF_Y, OFF_T, OFF_A)
-        put_derivative(W, j, Q3 * BLOCK + j, stage, q0 * h2 + q1 * h1 - q2 * h0, True, OFF_Y, OFF_T, OFF_A)
+        put_derivative(W, j, Q0 * BLOCK + j, stage, -(q1 * h0 + q2 * h1 + q3 * h2), True,
+                       OFF_Y, OFF_T, OFF_A)
+        put_derivative(W, j, Q1 * BLOCK + j, stage, q0 * h0 + q2 * h2 - q3 * h1, True,
+                       OFF_Y, OFF_T, OFF_A)
+        put_derivative(W, j, Q2 * BLOCK + j, stage, q0 * h1 + q3 * h0 - q1 * h2, True,
+                       OFF_Y, OFF_T, OFF_A)
+        put_derivative(W, j, Q3 * BLOCK + j, stage, q0 * h2 + q1 * h1 - q2 * h0, True,
+                       OFF_Y, OFF_T, OFF_A)
         # ω̇, after divide_out
-        put_derivative(W, j, OMEGA_X * BLOCK + j, stage, W[at(OFF_G, ALPHA_X, j)], True, OFF_Y, OFF_T, OFF_A)
-        put_derivative(W, j, OMEGA_Y * BLOCK + j, stage, W[at(OFF_G, ALPHA_Y, j)], True, OFF_Y, OFF_T, OFF_A)
-        put_derivative(W, j, OMEGA_Z * BLOCK + j, stage, W[at(OFF_G, ALPHA_Z, j)], True, OFF_Y, OFF_T, OFF_A)
+        put_derivative(W, j, OMEGA_X * BLOCK + j, stage, W[at(OFF_G, ALPHA_X, j)], True,
+                       OFF_Y, OFF_T, OFF_A)
+        put_derivative(W, j, OMEGA_Y * BLOCK + j, stage, W[at(OFF_G, ALPHA_Y, j)], True,
+                       OFF_Y, OFF_T, OFF_A)
+        put_derivative(W, j, OMEGA_Z * BLOCK + j, stage, W[at(OFF_G, ALPHA_Z, j)], True,
+                       OFF_Y, OFF_T, OFF_A)
         # no stage reads the position of G, so no stage state has one
-        put_derivative(W, j, POS_X * BLOCK + j, stage, W[at(state, VEL_X, j)], False, OFF_Y, OFF_T, OFF_A)
-        put_derivative(W, j, POS_Y * BLOCK + j, stage, W[at(state, VEL_Y, j)], False, OFF_Y, OFF_T, OFF_A)
-        put_derivative(W, j, VEL_X * BLOCK + j, stage, fx, True, OFF_Y, OFF_T, OFF_A)
-        put_derivative(W, j, VEL_Y * BLOCK + j, stage, fy, True, OFF_Y, OFF_T, OFF_A)
+        put_derivative(W, j, POS_X * BLOCK + j, stage, W[at(state, VEL_X, j)], False,
+                       OFF_Y, OFF_T, OFF_A)
+        put_derivative(W, j, POS_Y * BLOCK + j, stage, W[at(state, VEL_Y, j)], False,
+                       OFF_Y, OFF_T, OFF_A)
+        put_derivative(W, j, VEL_X * BLOCK + j, stage, fx, True,
+                       OFF_Y, OFF_T, OFF_A)
+        put_derivative(W, j, VEL_Y * BLOCK + j, stage, fy, True,
+                       OFF_Y, OFF_T, OFF_A)

@@ -122,6 +122,7 @@ RECORD = Rows(
     Row("slipping", "1", "1 while the contact slips, 0 while it sticks"),
     Row("friction_impulse", "N s", "horizontal friction impulse of re-sticking since the "
         "previous sample, world frame", 2, "horizontal"),
+    Row("contact_point", "m", "contact point on the floor, world frame", 2, "horizontal"),
 )
 R_QUATERNION = RECORD.start("quaternion")
 R_OMEGA = RECORD.start("omega")
@@ -135,6 +136,7 @@ R_FRICTION = RECORD.start("friction_force")
 R_SLIP_VELOCITY = RECORD.start("slip_velocity")
 R_SLIPPING = RECORD.start("slipping")
 R_IMPULSE = RECORD.start("friction_impulse")
+R_CONTACT = RECORD.start("contact_point")
 N_REC = RECORD.size
 
 # --- observables of this model, rows of O after the shared ones ------------------------

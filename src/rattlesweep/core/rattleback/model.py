@@ -12,13 +12,13 @@ import math
 
 from ..jit import inline_kernel, kernel
 from ..workspace import (
-    BLOCK, H_HALF_DT, H_SIXTH_DT, OFF_H, OFF_K, OFF_P, OFF_S, OFF_X, DT, K_WATCH_LOW, S_JX,
-    S_JY, S_MODE, X_FX, X_FY, X_N, X_UX, X_UY, at,
+    BLOCK, DT, K_WATCH_LOW, OFF_K, OFF_P, OFF_S, OFF_X, S_JX, S_JY, S_MODE, X_FX, X_FY, X_N,
+    X_UX, X_UY, at,
 )
-from .geometry import energy_terms, plastic_contact_impulse
+from .geometry import contact_point, energy_terms, plastic_contact_impulse, rotation
 from .layout import (
-    FULL, N_STATE, OFF_A, OFF_T, OFF_Y, O_MAX_TILT, OMEGA_X, OMEGA_Y, OMEGA_Z, POS_X, POS_Y,
-    Q0, Q1, Q2, Q3, R_ENERGY, R_FRICTION, R_IMPULSE, R_NORMAL, R_OMEGA, R_POSITION,
+    A2, B2, C2, COM_X, COM_Y, COM_Z, FULL, N_STATE, OFF_A, OFF_T, OFF_Y, O_MAX_TILT, OMEGA_X, OMEGA_Y, OMEGA_Z, POS_X, POS_Y,
+    Q0, Q1, Q2, Q3, R_CONTACT, R_ENERGY, R_FRICTION, R_IMPULSE, R_NORMAL, R_OMEGA, R_POSITION,
     R_QUATERNION, R_SLIP_VELOCITY, R_SLIPPING, R_SPIN, R_TILT, R_VELOCITY, VEL_X, VEL_Y,
 )
 
@@ -218,3 +218,19 @@ def record(W, j, out):
     out[R_SLIPPING] = W[at(OFF_S, S_MODE, j)]
     out[R_IMPULSE] = W[at(OFF_S, S_JX, j)]
     out[R_IMPULSE + 1] = W[at(OFF_S, S_JY, j)]
+    out[R_CONTACT], out[R_CONTACT + 1] = floor_contact(W, j)
+
+
+@kernel
+def floor_contact(W, j):
+    """World-horizontal position (m) of lane j's contact point on the floor: G plus
+    R ρ, with ρ from G to the contact point (MODEL.md section 3)."""
+    r00, r01, r02, r10, r11, r12, n0, n1, n2 = rotation(
+        W[at(OFF_Y, Q0, j)], W[at(OFF_Y, Q1, j)], W[at(OFF_Y, Q2, j)], W[at(OFF_Y, Q3, j)])
+    s0, s1, s2, _ = contact_point(W[at(OFF_P, A2, j)], W[at(OFF_P, B2, j)],
+                                  W[at(OFF_P, C2, j)], n0, n1, n2)
+    rho0 = s0 - W[at(OFF_P, COM_X, j)]
+    rho1 = s1 - W[at(OFF_P, COM_Y, j)]
+    rho2 = s2 - W[at(OFF_P, COM_Z, j)]
+    return (W[at(OFF_Y, POS_X, j)] + r00 * rho0 + r01 * rho1 + r02 * rho2,
+            W[at(OFF_Y, POS_Y, j)] + r10 * rho0 + r11 * rho1 + r12 * rho2)
