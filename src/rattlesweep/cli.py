@@ -12,6 +12,8 @@ from pathlib import Path
 
 from .body import PRESETS, Body
 
+__all__ = ["build_parser", "main"]
+
 
 def _command(argv: list[str] | None) -> str:
     return "rattlesweep " + shlex.join(sys.argv[1:] if argv is None else argv)

@@ -15,6 +15,8 @@ import xarray as xr
 from .launch import rotation_matrices
 from .metadata import attrs_for
 
+__all__ = ["CONTACT_ATTRS", "RUN_SERIES", "check_run", "body_geometry", "contact_dataset"]
+
 CONTACT_ATTRS = {
     "contact_body": ("m", "contact point on the body, body frame (origin at the centre of "
                      "the flat face)"),

@@ -27,8 +27,9 @@ from .validation import as_float_array, fail_where
 
 __all__ = [
     "Model", "Prepared", "Raw", "broadcast_inputs", "check_band", "check_common",
-    "check_method", "check_record_every", "execute", "observables_dataset", "pack",
-    "run_attrs", "series_dataset", "steps_for", "numba_threads",
+    "check_method", "check_record_every", "contact_slip_velocity", "default_dts", "execute",
+    "numba_threads", "observables_dataset", "pack", "prepared", "run_attrs",
+    "series_dataset", "status_attrs", "steps_for", "unblock",
 ]
 
 STATUS_COMMENT = ("ok: ran to t_end; capsized: the body tipped onto its rim or edge; "

@@ -9,6 +9,8 @@ from pathlib import Path
 
 import xarray as xr
 
+__all__ = ["NETCDF_LOCK", "write_netcdf"]
+
 NETCDF_LOCK = threading.RLock()
 """Serialises netCDF/HDF5 calls made by rattlesweep: the HDF5 library is not thread-safe
 (concurrent writes crash it), and sweep tiles finish on several threads at once."""

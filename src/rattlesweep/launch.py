@@ -20,6 +20,11 @@ import math
 
 import numpy as np
 
+__all__ = [
+    "quaternion_from_angles", "rotation_matrices", "up_vector", "check_unit_quaternion",
+    "tilt_limit_error",
+]
+
 
 def quaternion_from_angles(roll, pitch, yaw) -> np.ndarray:
     """Unit quaternions (..., 4) = q_z(yaw) ⊗ q_y(pitch) ⊗ q_x(roll), angles in rad."""

@@ -1,4 +1,7 @@
-"""CF metadata (units, long names, flags) shared by every result rattlesweep writes."""
+"""CF metadata (units, long names, flags) of the inputs and coordinates of rattleback
+results. The attributes of what the kernel computes (observables, recorded series) come
+from the model's row tables (:mod:`rattlesweep.core.rattleback.layout`) through
+:meth:`rattlesweep.engine.Model.attrs`."""
 
 from __future__ import annotations
 
@@ -20,34 +23,6 @@ STATUS_ATTRS = flag_attrs(
     "keeps its last valid state.")
 
 VARIABLE_ATTRS = {
-    # per-run observables
-    "first_reversal_time": ("s", "time of the first spin reversal (NaN when none)"),
-    "n_reversals": ("1", "number of spin reversals"),
-    "initial_spin": ("rad s-1", "vertical angular velocity at t = 0"),
-    "final_spin": ("rad s-1", "vertical angular velocity at the end of the run"),
-    "mean_final_spin": ("rad s-1", "mean vertical angular velocity over the last 10% of the run"),
-    "max_tilt": ("rad", "largest tilt of the body z axis from the vertical"),
-    "energy_initial": ("J", "mechanical energy at t = 0"),
-    "energy_final": ("J", "mechanical energy at the end of the run"),
-    "energy_lost": ("J", "energy_initial - energy_final"),
-    "slip_fraction": ("1", "fraction of steps spent slipping"),
-    "t_final": ("s", "time reached (earlier than t_end when the trajectory stopped)"),
-    "steps": ("1", "number of steps taken"),
-    # time series
-    "spin": ("rad s-1", "vertical angular velocity n = omega . Z"),
-    "energy": ("J", "mechanical energy"),
-    "tilt": ("rad", "tilt of the body z axis from the vertical"),
-    "slipping": ("1", "1 while the contact slips, 0 while it sticks"),
-    "normal_force": ("N", "normal contact force"),
-    "friction_force": ("N", "horizontal friction force on the body, world frame"),
-    "friction_impulse": ("N s", "horizontal friction impulse of re-sticking since the "
-                         "previous sample, world frame"),
-    "slip_velocity": ("m s-1", "horizontal velocity of the material contact point, world frame"),
-    "slip_speed": ("m s-1", "speed of the material contact point"),
-    "quaternion": ("1", "orientation quaternion (w, x, y, z), body to world"),
-    "omega": ("rad s-1", "angular velocity, body components"),
-    "position": ("m", "position of the centre of mass, world frame"),
-    "velocity": ("m s-1", "velocity of the centre of mass, world frame"),
     "time": ("s", "time"),
     # inputs
     "roll": ("rad", "initial roll about body x"),

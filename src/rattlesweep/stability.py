@@ -39,6 +39,11 @@ import xarray as xr
 from .body import Body, distinct_bodies
 from .metadata import flag_attrs
 
+__all__ = [
+    "MODE_NAMES", "MODE_ATTRS", "body_arrays", "linearisation", "trace_identity",
+    "eigen", "zero_spin_frequencies", "small_spin_growth_rates", "stability_dataset",
+]
+
 MODE_NAMES = ("stable", "neutral", "pitch_unstable", "roll_unstable")
 MODE_ATTRS = flag_attrs(
     "linear stability of steady upright spin", MODE_NAMES,

@@ -1,9 +1,12 @@
-"""CF metadata (units, long names) of the planar results; status flags are shared with
-the 3-D engine (:data:`rattlesweep.metadata.STATUS_ATTRS`)."""
+"""CF metadata (units, long names) of the inputs of planar results; the attributes of
+what the kernel computes come from :mod:`rattlesweep.core.planar.layout`, and the status
+flags are shared with the 3-D engine (:data:`rattlesweep.metadata.STATUS_ATTRS`)."""
 
 from __future__ import annotations
 
 from ..metadata import STATUS_ATTRS
+
+__all__ = ["STATUS_COMMENT", "VARIABLE_ATTRS", "attrs_for"]
 
 STATUS_COMMENT = (
     "ok: ran to t_end; capsized: |angle| reached pi/2, a corner of the flat edge touched "
@@ -12,30 +15,7 @@ STATUS_COMMENT = (
 )
 
 VARIABLE_ATTRS = {
-    # per-run observables
-    "energy_initial": ("J", "mechanical energy at t = 0"),
-    "energy_final": ("J", "mechanical energy at the end of the run"),
-    "energy_lost": ("J", "energy_initial - energy_final"),
-    "slip_fraction": ("1", "fraction of steps spent slipping"),
-    "max_angle": ("rad", "largest |rocking angle|"),
-    "final_angle": ("rad", "rocking angle at the end of the run"),
-    "final_rate": ("rad s-1", "rocking rate at the end of the run"),
-    "t_final": ("s", "time reached (earlier than t_end when the trajectory stopped)"),
-    "steps": ("1", "number of steps taken"),
-    # time series
     "time": ("s", "time"),
-    "angle": ("rad", "rocking angle theta, counter-clockwise"),
-    "rate": ("rad s-1", "rocking rate d(theta)/dt"),
-    "x_G": ("m", "horizontal position of the centre of mass"),
-    "y_G": ("m", "height of the centre of mass above the floor, h(theta)"),
-    "velocity_x": ("m s-1", "horizontal velocity of the centre of mass"),
-    "velocity_y": ("m s-1", "vertical velocity of the centre of mass, h'(theta) d(theta)/dt"),
-    "slip_velocity": ("m s-1", "horizontal velocity of the material contact point"),
-    "slip_speed": ("m s-1", "speed of the material contact point"),
-    "normal_force": ("N", "normal contact force"),
-    "friction_force": ("N", "horizontal friction force on the body"),
-    "energy": ("J", "mechanical energy (floor at zero potential)"),
-    "slipping": ("1", "1 while the contact slips, 0 while it sticks"),
     # inputs
     "launch_angle": ("rad", "initial rocking angle"),
     "launch_rate": ("rad s-1", "initial rocking rate"),

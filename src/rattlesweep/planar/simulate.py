@@ -16,6 +16,8 @@ from .batch import MODEL, planar_run_attrs, prepare_planar
 from .body import PlanarBody
 from .metadata import attrs_for
 
+__all__ = ["simulate_planar"]
+
 _MAX_DEFAULT_SAMPLES = 10_000
 
 

@@ -10,6 +10,8 @@ import numpy as np
 import xarray as xr
 from matplotlib.figure import Figure
 
+__all__ = ["WRITERS", "animate"]
+
 WRITERS = {".gif": "pillow", ".mp4": "ffmpeg"}
 
 

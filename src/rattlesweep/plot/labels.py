@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import xarray as xr
 
+__all__ = ["axis_label"]
+
 
 def axis_label(da: xr.DataArray, fallback: str) -> str:
     """``long_name [units]`` of a variable (no brackets for dimensionless ones)."""

@@ -8,6 +8,11 @@ from matplotlib.figure import Figure
 
 from .labels import axis_label as _label
 
+__all__ = [
+    "OUTCOME_COLOURS", "reversal_map", "mpl_cmap", "reversed_fraction", "stability_map",
+    "reversal_vs_growth",
+]
+
 
 OUTCOME_COLOURS = {
     "no_reversal": "#d9d9d9", "reversed": "#1f77b4", "several_reversals": "#17becf",

@@ -11,6 +11,11 @@ from matplotlib.figure import Figure
 
 from .labels import axis_label
 
+__all__ = [
+    "RATTLEBACK_PANELS", "PLANAR_PANELS", "SLIP_SHADE", "spin_history", "time_series",
+    "contact_path",
+]
+
 RATTLEBACK_PANELS = ("spin", "tilt", "energy", "slip_speed", "normal_force")
 PLANAR_PANELS = ("angle", "rate", "energy", "slip_velocity", "normal_force")
 SLIP_SHADE = "#fdd9a0"

@@ -16,16 +16,13 @@ from .. import engine
 from ..batch import MODEL, prepare
 from ..engine import check_method
 from ..io import NETCDF_LOCK, write_netcdf
-from ..metadata import attrs_for
 from .outcomes import OUTCOME_ATTRS, classify
 from .spec import Sweep
 
 __all__ = ["CANCEL", "RESULT_VARS", "compute_tile", "extra_vars", "read_tile",
            "tile_is_valid", "tile_path", "variable_attrs"]
 
-RESULT_VARS = ("first_reversal_time", "n_reversals", "initial_spin", "final_spin",
-               "mean_final_spin", "max_tilt", "energy_initial", "energy_final",
-               "energy_lost", "slip_fraction", "t_final", "steps", "status")
+RESULT_VARS = MODEL.observables
 """Kernel observables kept for every point, besides ``outcome``."""
 
 CANCEL = threading.Event()
@@ -53,7 +50,7 @@ def variable_attrs(sweep: Sweep, name: str) -> dict:
         if rp.key == name:
             return {"units": rp.units, "long_name": f"{rp.long_name} (random draw, "
                     f"{rp.kind} {rp.a:g}, {rp.b:g})"}
-    return attrs_for(name)
+    return MODEL.attrs(name)
 
 
 def compute_tile(sweep: Sweep, tile: int, tiles_dir: str) -> dict:

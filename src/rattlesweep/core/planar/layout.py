@@ -9,6 +9,8 @@ from __future__ import annotations
 from ..rows import Row, Rows, check_regions
 from ..workspace import COMMON_PARAMS, N_SHARED, N_SHARED_OBS, OFF_P
 
+__all__ = ["PARAMS", "STATE", "RECORD", "OBSERVABLES"]
+
 # --- per-trajectory parameters, rows of P (after the shared ones) --------------------
 PARAMS = Rows(
     "planar parameters",
