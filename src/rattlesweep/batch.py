@@ -45,14 +45,6 @@ MODEL = Model(
 BODY_COLUMNS = ("a", "b", "c", "mass", "full_ellipsoid", "inertia_xx", "inertia_yy",
                 "inertia_zz", "inertia_xy", "inertia_xz", "inertia_yz")
 
-VECTOR_COORDS = {
-    "quaternion_component": ["w", "x", "y", "z"],
-    "body_axis": ["x", "y", "z"],
-    "axis": ["X", "Y", "Z"],
-    "horizontal": ["X", "Y"],
-}
-
-
 @dataclass(frozen=True)
 class Inputs:
     """Checked launch inputs, broadcast and flattened over n trajectories."""
@@ -273,17 +265,5 @@ def run_batch(
         check_single_step(prep)
     raw = engine.execute(prep, method=m, record_every=rec_every, band=band,
                          parallel=parallel, threads=threads)
-    data = engine.observables_dataset(MODEL, raw.observables, "trajectory")
-    coords: dict[str, Any] = {"trajectory": np.arange(prep.n)}
-    if raw.records is not None:
-        data.update(engine.series_dataset(MODEL, raw.records, ("trajectory", "time")))
-        dt0 = float(prep.coords["dt"][1][0])
-        coords["time"] = ("time", np.arange(raw.records.shape[1]) * rec_every * dt0,
-                          attrs_for("time"))
-    ds = xr.Dataset(data, coords=coords)
-    ds = ds.assign_coords({name: (dims, values, attrs_for(name))
-                           for name, (dims, values) in prep.coords.items()})
-    ds = ds.assign_coords({k: v for k, v in VECTOR_COORDS.items() if k in ds.dims})
-    ds.attrs.update(engine.run_attrs(method, rec_every, band))
-    ds.attrs["batch_shape"] = list(prep.shape)
-    return ds
+    return engine.batch_dataset(prep, raw, rec_every, attrs_for,
+                                engine.run_attrs(method, rec_every, band))

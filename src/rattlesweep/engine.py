@@ -11,6 +11,8 @@ into flat per-trajectory inputs and a launch state, and hands them here.
 from __future__ import annotations
 
 import contextlib
+import json
+import warnings
 from dataclasses import dataclass, field
 from types import ModuleType
 from typing import Any, Callable, Mapping
@@ -21,12 +23,13 @@ import xarray as xr
 
 from ._version import __version__
 from .core import stepper
-from .core.workspace import BLOCK, METHODS, OBSERVABLES, STATUS_NAMES
+from .core.workspace import BLOCK, METHODS, O_STATUS, O_T_END, OBSERVABLES, OK, STATUS_NAMES
 from .metadata import flag_attrs
 from .validation import as_float_array, fail_where
 
 __all__ = [
-    "Model", "Prepared", "Raw", "broadcast_inputs", "check_band", "check_common",
+    "MAX_DEFAULT_SAMPLES", "VECTOR_COORDS", "Model", "Prepared", "Raw", "batch_dataset",
+    "broadcast_inputs", "default_record_every", "run_dataset", "check_band", "check_common",
     "check_method", "check_record_every", "contact_slip_velocity", "default_dts", "execute",
     "numba_threads", "observables_dataset", "pack", "prepared", "run_attrs",
     "series_dataset", "status_attrs", "steps_for", "unblock",
@@ -37,6 +40,17 @@ STATUS_COMMENT = ("ok: ran to t_end; capsized: the body tipped onto its rim or e
                   "input was NaN or inf. A stopped trajectory keeps its last valid state.")
 
 _DTYPES = {"status": np.int8, "steps": np.int64, "n_reversals": np.int64}
+
+VECTOR_COORDS = {
+    "quaternion_component": ["w", "x", "y", "z"],
+    "body_axis": ["x", "y", "z"],
+    "axis": ["X", "Y", "Z"],
+    "horizontal": ["X", "Y"],
+}
+"""Labels of the vector dimensions of results."""
+
+MAX_DEFAULT_SAMPLES = 10_000
+"""A single run records at most this many samples unless ``record_every`` is given."""
 
 
 @dataclass(frozen=True)
@@ -286,6 +300,63 @@ def series_dataset(model: Model, rec: np.ndarray, dims: tuple[str, ...]
     out["slip_speed"] = xr.DataArray(speed, dims=dims, attrs={
         "units": "m s-1", "long_name": "speed of the material contact point"})
     return out
+
+
+def _sample_times(prep: Prepared, raw: Raw, record_every: int) -> np.ndarray:
+    return np.arange(raw.records.shape[1]) * record_every * float(prep.coords["dt"][1][0])
+
+
+def batch_dataset(prep: Prepared, raw: Raw, record_every: int | None, attrs_for,
+                  global_attrs: Mapping) -> xr.Dataset:
+    """A batch's results over ``trajectory`` (and ``time`` when recorded), with every
+    input as a coordinate; ``attrs_for(name)`` gives the CF attributes of an input."""
+    data = observables_dataset(prep.model, raw.observables, "trajectory")
+    coords: dict[str, Any] = {"trajectory": np.arange(prep.n)}
+    if raw.records is not None:
+        data.update(series_dataset(prep.model, raw.records, ("trajectory", "time")))
+        coords["time"] = ("time", _sample_times(prep, raw, record_every), attrs_for("time"))
+    ds = xr.Dataset(data, coords=coords)
+    ds = ds.assign_coords({name: (dims, values, attrs_for(name))
+                           for name, (dims, values) in prep.coords.items()})
+    ds = ds.assign_coords({k: v for k, v in VECTOR_COORDS.items() if k in ds.dims})
+    ds.attrs.update(global_attrs)
+    ds.attrs["batch_shape"] = list(prep.shape)
+    return ds
+
+
+def default_record_every(prep: Prepared, record_every: int | None) -> int:
+    """``record_every``, or the smallest stride that keeps at most
+    :data:`MAX_DEFAULT_SAMPLES` samples of a single run."""
+    if record_every is not None:
+        return record_every
+    return max(1, -(-int(prep.nsteps[0, 0]) // MAX_DEFAULT_SAMPLES))
+
+
+def run_dataset(prep: Prepared, raw: Raw, record_every: int, attrs_for,
+                global_attrs: Mapping, config: Mapping) -> xr.Dataset:
+    """A single run's results over ``time``: its series, its observables as scalars,
+    every input as an attribute (units in ``<name>_units``) and the configuration as
+    JSON in ``config``. A status other than ok raises a RuntimeWarning."""
+    data = series_dataset(prep.model, raw.records[0], ("time",))
+    data.update(observables_dataset(prep.model, raw.observables, None))
+    ds = xr.Dataset(data, coords={
+        "time": ("time", _sample_times(prep, raw, record_every), attrs_for("time"))})
+    ds = ds.assign_coords({k: v for k, v in VECTOR_COORDS.items() if k in ds.dims})
+    ds.attrs.update(global_attrs)
+    for name, (_, values) in prep.coords.items():
+        value = values[0]
+        if name == "body_name":
+            ds.attrs[name] = str(value)
+            continue
+        ds.attrs[name] = value.tolist() if isinstance(value, np.ndarray) else float(value)
+        ds.attrs[f"{name}_units"] = attrs_for(name)["units"]
+    ds.attrs["config"] = json.dumps(config)
+    status = int(raw.observables[O_STATUS, 0])
+    if status != OK:
+        warnings.warn(
+            f"simulation stopped at t = {raw.observables[O_T_END, 0]:.6g} s with status "
+            f"{STATUS_NAMES[status]!r}", RuntimeWarning, stacklevel=3)
+    return ds
 
 
 def run_attrs(method: str, record_every: int | None, band: float | None) -> dict:

@@ -2,23 +2,18 @@
 
 from __future__ import annotations
 
-import json
 import math
-import warnings
 
 import numpy as np
 import xarray as xr
 
 from . import engine
-from .batch import MODEL, VECTOR_COORDS, prepare
+from .batch import prepare
 from .body import Body
-from .core.workspace import O_STATUS, O_T_END, OK, STATUS_NAMES
 from .engine import check_band, check_method, check_record_every
 from .metadata import attrs_for
 
 __all__ = ["simulate"]
-
-_MAX_DEFAULT_SAMPLES = 10_000
 
 
 def simulate(
@@ -63,38 +58,14 @@ def simulate(
         if inputs[name] is not None and np.shape(inputs[name]) != (width,):
             raise ValueError(f"{name} must have shape ({width},), got {np.shape(inputs[name])}")
     prep = prepare(body, **inputs)
-    nsteps = int(prep.nsteps[0, 0])
-    if rec_every is None:
-        rec_every = max(1, -(-nsteps // _MAX_DEFAULT_SAMPLES))
+    rec_every = engine.default_record_every(prep, rec_every)
     raw = engine.execute(prep, method=m, record_every=rec_every, band=band, parallel=False)
-    obs, rec = raw.observables, raw.records
-
-    dt_used = float(prep.coords["dt"][1][0])
-    data = engine.series_dataset(MODEL, rec[0], ("time",))
-    data.update(engine.observables_dataset(MODEL, obs, None))
-    ds = xr.Dataset(data, coords={
-        "time": ("time", np.arange(rec.shape[1]) * rec_every * dt_used, attrs_for("time")),
-    })
-    ds = ds.assign_coords({k: v for k, v in VECTOR_COORDS.items() if k in ds.dims})
-    ds.attrs.update(engine.run_attrs(method, rec_every, band))
-    for name, (dims, values) in prep.coords.items():
-        value = values[0]
-        if name == "body_name":
-            ds.attrs[name] = str(value)
-            continue
-        ds.attrs[name] = value.tolist() if isinstance(value, np.ndarray) else float(value)
-        ds.attrs[f"{name}_units"] = attrs_for(name)["units"]
-    ds.attrs["config"] = json.dumps({
+    config = {
         "body": body.describe(),
         "launch": {k: (np.asarray(v).tolist() if v is not None else None)
                    for k, v in inputs.items()},
-        "dt_used": dt_used, "method": method, "record_every": rec_every,
-        "reversal_band": band,
-    })
-    status = int(obs[O_STATUS, 0])
-    if status != OK:
-        warnings.warn(
-            f"simulation stopped at t = {obs[O_T_END, 0]:.6g} s with status "
-            f"{STATUS_NAMES[status]!r}", RuntimeWarning, stacklevel=2,
-        )
-    return ds
+        "dt_used": float(prep.coords["dt"][1][0]), "method": method,
+        "record_every": rec_every, "reversal_band": band,
+    }
+    return engine.run_dataset(prep, raw, rec_every, attrs_for,
+                              engine.run_attrs(method, rec_every, band), config)

@@ -92,85 +92,44 @@ def _euler_step(W, model):
                  lambda W, model: planar_dynamics.euler_step(W))
 
 
-# --- per-lane hooks -------------------------------------------------------------------
+# --- per-lane hooks: stub(W, model, j) calls the model's fn(W, j) -----------------------
+def _lane_hook(stub, rattleback, planar, inline="never"):
+    def typer(W, model, j):
+        return _pick(model, lambda W, model, j: rattleback(W, j),
+                     lambda W, model, j: planar(W, j))
+    _hook(stub, inline)(typer)
+
+
 def derive(W, model, j):
     """Fill lane j's derived parameters from its parameters."""
-
-
-@_hook(derive)
-def _derive(W, model, j):
-    return _pick(model, lambda W, model, j: rattleback_dynamics.derive_parameters(W, j),
-                 lambda W, model, j: None)
 
 
 def start_lane(W, model, j):
     """Prepare a finite launch state; True when it starts capsized."""
 
 
-@_hook(start_lane)
-def _start_lane(W, model, j):
-    return _pick(model, lambda W, model, j: rattleback_model.start_lane(W, j),
-                 lambda W, model, j: planar_model.start_lane(W, j))
-
-
 def check_step(W, model, j):
     """(non-finite, capsized) of lane j's new state, after any renormalisation."""
-
-
-@_hook(check_step, inline="always")
-def _check_step(W, model, j):
-    return _pick(model, lambda W, model, j: rattleback_model.check_step(W, j),
-                 lambda W, model, j: planar_model.check_step(W, j))
 
 
 def spin_and_watch(W, model, j):
     """(spin about the vertical (rad/s), watched quantity) of lane j's state."""
 
 
-@_hook(spin_and_watch, inline="always")
-def _spin_and_watch(W, model, j):
-    return _pick(model, lambda W, model, j: rattleback_model.spin_and_watch(W, j),
-                 lambda W, model, j: planar_model.spin_and_watch(W, j))
-
-
 def spin(W, model, j):
     """Spin about the vertical of lane j's state, rad/s (0 where there is none)."""
-
-
-@_hook(spin)
-def _spin(W, model, j):
-    return _pick(model, lambda W, model, j: rattleback_model.spin(W, j),
-                 lambda W, model, j: planar_model.spin(W, j))
 
 
 def watch(W, model, j):
     """The watched quantity of lane j's state, whose smallest value is an observable."""
 
 
-@_hook(watch)
-def _watch(W, model, j):
-    return _pick(model, lambda W, model, j: rattleback_model.watch(W, j),
-                 lambda W, model, j: planar_model.watch(W, j))
-
-
 def energy(W, model, j):
     """Mechanical energy of lane j's state, J."""
 
 
-@_hook(energy)
-def _energy(W, model, j):
-    return _pick(model, lambda W, model, j: rattleback_model.energy(W, j),
-                 lambda W, model, j: planar_model.energy(W, j))
-
-
 def roll_start(W, model, j):
     """Set the velocity of lane j so that its contact point is at rest."""
-
-
-@_hook(roll_start)
-def _roll_start(W, model, j):
-    return _pick(model, lambda W, model, j: rattleback_model.roll_start(W, j),
-                 lambda W, model, j: planar_model.roll_start(W, j))
 
 
 def stick_impulse(W, model, j):
@@ -178,22 +137,24 @@ def stick_impulse(W, model, j):
     horizontal components (N s)."""
 
 
-@_hook(stick_impulse)
-def _stick_impulse(W, model, j):
-    return _pick(model, lambda W, model, j: rattleback_model.stick_impulse(W, j),
-                 lambda W, model, j: planar_model.stick_impulse(W, j))
-
-
 def park(W, model, j):
     """Give a lane that is no longer stepped a harmless state."""
 
 
-@_hook(park)
-def _park(W, model, j):
-    return _pick(model, lambda W, model, j: rattleback_model.park(W, j),
-                 lambda W, model, j: planar_model.park(W, j))
+_lane_hook(derive, rattleback_dynamics.derive_parameters, planar_model.derive)
+_lane_hook(start_lane, rattleback_model.start_lane, planar_model.start_lane)
+_lane_hook(check_step, rattleback_model.check_step, planar_model.check_step, "always")
+_lane_hook(spin_and_watch, rattleback_model.spin_and_watch, planar_model.spin_and_watch,
+           "always")
+_lane_hook(spin, rattleback_model.spin, planar_model.spin)
+_lane_hook(watch, rattleback_model.watch, planar_model.watch)
+_lane_hook(energy, rattleback_model.energy, planar_model.energy)
+_lane_hook(roll_start, rattleback_model.roll_start, planar_model.roll_start)
+_lane_hook(stick_impulse, rattleback_model.stick_impulse, planar_model.stick_impulse)
+_lane_hook(park, rattleback_model.park, planar_model.park)
 
 
+# --- hooks with more arguments --------------------------------------------------------
 def finish(W, model, j, O, launched):
     """Write the model's own observables of lane j into O."""
 

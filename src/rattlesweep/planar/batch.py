@@ -149,15 +149,5 @@ def run_planar_batch(
         check_single_step(prep)
     raw = engine.execute(prep, method=m, record_every=rec_every, parallel=parallel,
                          threads=threads)
-    data = engine.observables_dataset(MODEL, raw.observables, "trajectory")
-    coords: dict[str, Any] = {"trajectory": np.arange(prep.n)}
-    if raw.records is not None:
-        data.update(engine.series_dataset(MODEL, raw.records, ("trajectory", "time")))
-        coords["time"] = ("time", np.arange(raw.records.shape[1]) * rec_every
-                          * prep.coords["dt"][1][0], attrs_for("time"))
-    ds = xr.Dataset(data, coords=coords)
-    ds = ds.assign_coords({k: (dims, v, attrs_for(k))
-                           for k, (dims, v) in prep.coords.items()})
-    ds.attrs.update(planar_run_attrs(method, rec_every))
-    ds.attrs["batch_shape"] = list(prep.shape)
-    return ds
+    return engine.batch_dataset(prep, raw, rec_every, attrs_for,
+                                planar_run_attrs(method, rec_every))

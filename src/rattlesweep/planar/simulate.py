@@ -2,23 +2,18 @@
 
 from __future__ import annotations
 
-import json
 import math
-import warnings
 
 import numpy as np
 import xarray as xr
 
 from .. import engine
-from ..core.workspace import O_STATUS, O_T_END, OK, STATUS_NAMES
 from ..engine import check_method, check_record_every
-from .batch import MODEL, planar_run_attrs, prepare_planar
+from .batch import planar_run_attrs, prepare_planar
 from .body import PlanarBody
 from .metadata import attrs_for
 
 __all__ = ["simulate_planar"]
-
-_MAX_DEFAULT_SAMPLES = 10_000
 
 
 def simulate_planar(
@@ -58,33 +53,13 @@ def simulate_planar(
             raise ValueError(f"{name} must be a scalar for simulate_planar(); "
                              f"use run_planar_batch for arrays")
     prep = prepare_planar(body, **inputs)
-    nsteps = int(prep.nsteps[0, 0])
-    if rec_every is None:
-        rec_every = max(1, -(-nsteps // _MAX_DEFAULT_SAMPLES))
+    rec_every = engine.default_record_every(prep, rec_every)
     raw = engine.execute(prep, method=m, record_every=rec_every, parallel=False)
-    obs, rec = raw.observables, raw.records
-
-    dt_used = float(prep.coords["dt"][1][0])
-    data = engine.series_dataset(MODEL, rec[0], ("time",))
-    data.update(engine.observables_dataset(MODEL, obs, None))
-    ds = xr.Dataset(data, coords={
-        "time": ("time", np.arange(rec.shape[1]) * rec_every * dt_used, attrs_for("time")),
-    })
-    ds.attrs.update(planar_run_attrs(method, rec_every))
-    for name, (_, values) in prep.coords.items():
-        if name == "body_name":
-            ds.attrs[name] = str(values[0])
-            continue
-        ds.attrs[name] = float(values[0])
-        ds.attrs[f"{name}_units"] = attrs_for(name)["units"]
-    ds.attrs["config"] = json.dumps({
+    config = {
         "body": body.describe(),
         "launch": {k: (None if v is None else float(v)) for k, v in inputs.items()},
-        "dt_used": dt_used, "method": method, "record_every": rec_every,
-    })
-    status = int(obs[O_STATUS, 0])
-    if status != OK:
-        warnings.warn(
-            f"simulation stopped at t = {obs[O_T_END, 0]:.6g} s with status "
-            f"{STATUS_NAMES[status]!r}", RuntimeWarning, stacklevel=2)
-    return ds
+        "dt_used": float(prep.coords["dt"][1][0]), "method": method,
+        "record_every": rec_every,
+    }
+    return engine.run_dataset(prep, raw, rec_every, attrs_for,
+                              planar_run_attrs(method, rec_every), config)
