@@ -59,3 +59,23 @@ def test_lazy_names_resolve_and_are_listed():
         assert "no_such_name" in str(exc)
     else:
         raise AssertionError("an unknown attribute must raise AttributeError")
+
+
+def test_making_a_sweep_runs_no_kernel():
+    """The corner check validates every combination of the axis extremes without the
+    kernel: no numba kernel is compiled or loaded to build a configuration."""
+    probe = textwrap.dedent("""
+        from rattlesweep import Sweep
+        from rattlesweep.core import stepper
+        s = Sweep(axes={"spin": [1.0, 2.0], "mu": [0.3, float("inf")]},
+                  fixed={"t_end": 1.0, "roll_deg": 0.5})
+        assert s.tile_size > 0
+        kernels = [f for f in vars(stepper).values() if hasattr(f, "signatures")]
+        assert kernels
+        print(sum(len(f.signatures) for f in kernels))
+    """)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [SRC, *filter(None, [os.environ.get("PYTHONPATH")])])}
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         env=env, check=True).stdout
+    assert out.split()[-1] == "0"
