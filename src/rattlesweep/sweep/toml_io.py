@@ -9,9 +9,9 @@ user writes and reads back to the same data. The text is ASCII (other characters
 strings are written as ``\\uXXXX`` escapes), so it passes unchanged through terminals,
 files and netCDF attributes whatever their encoding.
 
-A maintained writer (``tomli-w``) was considered and not adopted: it writes a mapping
-inside a table as a ``[table.key]`` sub-table placed after the table's other keys, which
-changes the order of the axes, and spreads every array over one line per item.
+The writer is written here rather than taken from ``tomli-w``, which writes a mapping
+inside a table as a ``[table.key]`` sub-table placed after the table's other keys (that
+would change the order of the axes, which is the order of the result's dimensions).
 """
 
 from __future__ import annotations

@@ -29,13 +29,13 @@ model's (:mod:`..stepper`, :mod:`..switching`, :mod:`..workspace`); horizontal v
 the shared rows have a zero Y component here. A re-stick is the plastic impulse of
 :func:`contact_impulse`.
 
-One planar specialisation: the slip direction s (the shared row S_UHX) is held through a step with the mode (it
-is sgn u at the step start, or −sgn F at a slip onset). In 3-D the direction u/|u| turns
-continuously and is re-read at every stage; on a line it only changes when u passes
-through zero, which is the reversal event itself. Re-reading it at the stages would flip
-the friction inside the step, let RK4 land on an end-of-step u of the old sign (a missed
-reversal: chattering instead of sticking), and add energy: measured, per-step rises of
-~1e-7 of the energy instead of ~1e-10 (tests/test_planar.py).
+One planar specialisation: the slip direction s (the shared row S_UHX) is held through
+a step with the mode (it is sgn u at the step start, or −sgn F at a slip onset). In 3-D
+the direction u/|u| turns continuously and is re-read at every stage; on a line it only
+changes when u passes through zero, which is the reversal event itself. Re-reading it
+at the stages would flip the friction inside the step, let RK4 land on an end-of-step u
+of the old sign (a missed reversal: chattering instead of sticking), and add energy
+(tests/test_planar.py checks that friction never does).
 """
 
 from __future__ import annotations
