@@ -23,7 +23,9 @@ parameters, state, stage state, the RK4 accumulator and scratch.
 
 from __future__ import annotations
 
-from .jit import kernel
+from numba.extending import overload
+
+from .jit import JIT_OPTIONS
 from .rows import Row, Rows
 
 __all__ = [
@@ -35,10 +37,15 @@ BLOCK = 32
 """Lanes per block. A multiple of the SIMD width (4 doubles for AVX2, 8 for AVX-512)."""
 
 
-@kernel
 def at(region, row, j):
     """Index into the workspace of lane ``j`` of row ``row`` of the region at ``region``."""
     return (region + row) * BLOCK + j
+
+
+# An overload, not a kernel: a kernel called with constant arguments is compiled once per
+# combination of their values (hundreds here), an overload once per argument type.
+overload(at, jit_options={k: v for k, v in JIT_OPTIONS.items() if k != "cache"})(
+    lambda region, row, j: at)
 
 
 # --- statuses and methods ---------------------------------------------------------------
