@@ -28,7 +28,12 @@ import numba
 import numpy as np
 
 import rattlesweep as rs
-from rattlesweep.batch import execute, prepare
+from rattlesweep.batch import prepare
+
+try:
+    from rattlesweep.engine import execute
+except ImportError:  # a tree from before the shared batch layer, under --compare
+    from rattlesweep.batch import execute
 
 ROOT = Path(__file__).resolve().parent.parent
 BODY = rs.Body.preset("kane_levinson")

@@ -20,6 +20,7 @@ from typing import Any, Callable, Mapping
 import numba
 import numpy as np
 import xarray as xr
+from numba import types
 
 from ._version import __version__
 from .core import stepper
@@ -31,7 +32,7 @@ __all__ = [
     "MAX_DEFAULT_SAMPLES", "VECTOR_COORDS", "Model", "Prepared", "Raw", "batch_dataset",
     "broadcast_inputs", "default_record_every", "run_dataset", "check_band", "check_common",
     "check_method", "check_record_every", "contact_slip_velocity", "default_dts", "execute",
-    "numba_threads", "observables_dataset", "pack", "prepared", "run_attrs",
+    "numba_threads", "observables_dataset", "pack", "prepared", "run_attrs", "run_kernel",
     "series_dataset", "status_attrs", "steps_for", "unblock",
 ]
 
@@ -200,11 +201,28 @@ def prepared(model: Model, columns: Mapping[str, np.ndarray], Y: np.ndarray,
                     steps.reshape(-1, BLOCK), n, tuple(shape), coords)
 
 
+_COMPILED: dict = {}
+
+
+def run_kernel(kernel, model: int, *args) -> None:
+    """Call a stepper kernel for a model. The kernels take the model as a literal
+    (``numba.literally``); called from Python with a plain int, numba would type the call
+    afresh every time (milliseconds), so the compiled specialisation is looked up once
+    per argument types and called directly afterwards (microseconds)."""
+    key = (kernel, model, *(numba.typeof(a) for a in args))
+    entry = _COMPILED.get(key)
+    if entry is None:
+        kernel(model, *args)  # compiles or loads the specialisation, and runs it
+        _COMPILED[key] = kernel.get_overload((types.literal(model), *key[2:]))
+    else:
+        entry(model, *args)
+
+
 def contact_slip_velocity(model: Model, P: np.ndarray, Y: np.ndarray) -> np.ndarray:
     """(2, n_pad) slip velocity of each lane's launch state, from the kernel's own
     arithmetic (so that a rolling launch starts with u = 0 exactly)."""
     U = np.zeros((P.shape[0], 2, BLOCK))
-    stepper.contact_slip_velocity(model.number, P, Y, U)
+    run_kernel(stepper.contact_slip_velocity, model.number, P, Y, U)
     return U.transpose(1, 0, 2).reshape(2, -1)
 
 
@@ -261,8 +279,8 @@ def execute(prep: Prepared, *, method: int, record_every: int | None, band: floa
     Y = prep.Y.copy()
     entry = stepper.integrate_parallel if parallel else stepper.integrate_serial
     with numba_threads(threads):
-        entry(prep.model.number, prep.P, Y, prep.nsteps, method, record_every or 1, band,
-              O, REC)
+        run_kernel(entry, prep.model.number, prep.P, Y, prep.nsteps, method,
+                   record_every or 1, band, O, REC)
     rec = None
     if n_rec:
         rec = REC.transpose(0, 3, 1, 2).reshape(n_blocks * BLOCK, n_rec, layout.N_REC)[:prep.n]

@@ -37,8 +37,8 @@ from .switching import (
     any_slipping, flag_restick, flag_slip_start, note_slip, slip_marked, stick_marked,
 )
 from .workspace import (
-    BLOCK, CAPSIZED, DT, EPS_U, H_HALF_DT, H_SIXTH_DT, K_BAND, K_END_STATUS, K_FIRST_REV,
-    K_MARK_BEYOND, K_MARK_CROSS, K_MARK_END, K_N_REV, K_OPEN, K_RUN, K_SIDE, K_SLIP_STEPS,
+    BEYOND, BLOCK, CAPSIZED, CROSSED, DT, ENDS_AS_IS, EPS_U, H_HALF_DT, H_SIXTH_DT, K_BAND,
+    K_FIRST_REV, K_MARK_END, K_MARK_REVERSAL, K_N_REV, NOT_MARKED, K_OPEN, K_RUN, K_SIDE, K_SLIP_STEPS,
     K_SPIN_PREV, K_STOP, K_T_CAND, K_T_CROSS, K_WATCH_LOW, K_WIN0, K_WIN_CNT, K_WIN_SUM,
     LIFTED_OFF, MU_S, NON_FINITE, OFF_H, OFF_K, OFF_P, OFF_S, OFF_X, OK, O_E0, O_E_END,
     O_FINAL_SPIN, O_FIRST_REV, O_MEAN_FINAL_SPIN, O_N_REV, O_SLIP_FRAC, O_SPIN0, O_STATUS,
@@ -110,16 +110,16 @@ def next_stop(W):
 
 @kernel
 def flag_end(W, step):
-    """Mark the lanes whose run ends at this step, with the status each ends with:
-    LIFTED_OFF, as :func:`flag_bad_step` finds it, for a stepped lane whose normal force
-    is negative; its status unchanged for a lane at its last step. Scalar: it runs only
+    """Mark the lanes whose run ends at this step with how it ends: LIFTED_OFF, as
+    :func:`flag_bad_step` finds it, for a stepped lane whose normal force is negative;
+    ENDS_AS_IS for a lane at its last step. Scalar: it runs only
     at the steps where some lane's run ends (:func:`next_stop`); at the others a
     lift-off is found by :func:`flag_bad_step`, after the step."""
     for j in range(BLOCK):
         lift = W[at(OFF_K, K_RUN, j)] > 0.5 and W[at(OFF_X, X_N, j)] < 0.0
         last = W[at(OFF_K, K_OPEN, j)] > 0.5 and step >= W[at(OFF_K, K_STOP, j)]
-        W[at(OFF_K, K_MARK_END, j)] = 1.0 if lift or last else 0.0
-        W[at(OFF_K, K_END_STATUS, j)] = float(LIFTED_OFF) if lift else -1.0
+        W[at(OFF_K, K_MARK_END, j)] = (float(LIFTED_OFF) if lift else (
+            ENDS_AS_IS if last else NOT_MARKED))
 
 
 @kernel
@@ -138,9 +138,8 @@ def flag_bad_step(W, model):
         lift = run & (W[at(OFF_X, X_N, j)] < 0.0)  # from the first stage
         bad_value = run & bad_value
         capsized = run & capsized
-        W[at(OFF_K, K_END_STATUS, j)] = (float(LIFTED_OFF) if lift else (
-            float(NON_FINITE) if bad_value else float(CAPSIZED)))
-        W[at(OFF_K, K_MARK_END, j)] = 1.0 if lift | bad_value | capsized else 0.0
+        W[at(OFF_K, K_MARK_END, j)] = (float(LIFTED_OFF) if lift else (
+            float(NON_FINITE) if bad_value else (float(CAPSIZED) if capsized else NOT_MARKED)))
         n += 1 if lift | bad_value | capsized else 0
     return n
 
@@ -148,8 +147,8 @@ def flag_bad_step(W, model):
 @kernel
 def observe(W, model, step):
     """Update the run observables from the new state Y, and mark the lanes whose spin
-    crossed zero (``K_MARK_CROSS``) or went beyond the reversal band on the other side
-    (``K_MARK_BEYOND``); returns how many it marked. Frozen lanes are updated too:
+    crossed zero (CROSSED) or went beyond the reversal band on the other side (BEYOND)
+    or both; returns how many it marked. Frozen lanes are updated too:
     harmless, nothing reads them."""
     numba.literally(model)
     n = 0
@@ -168,8 +167,8 @@ def observe(W, model, step):
         W[at(OFF_K, K_T_CAND, j)] = (step + 1) * dt - dt * spin / (spin - spin_prev)
         crossed = (side * spin_prev > 0.0) & (side * spin <= 0.0)
         beyond = side * spin < -W[at(OFF_K, K_BAND, j)]
-        W[at(OFF_K, K_MARK_CROSS, j)] = 1.0 if crossed else 0.0
-        W[at(OFF_K, K_MARK_BEYOND, j)] = 1.0 if beyond else 0.0
+        W[at(OFF_K, K_MARK_REVERSAL, j)] = (CROSSED if crossed else NOT_MARKED) + (
+            BEYOND if beyond else NOT_MARKED)
         n += 1 if crossed | beyond else 0
         W[at(OFF_K, K_SPIN_PREV, j)] = spin
     return n
@@ -179,9 +178,10 @@ def observe(W, model, step):
 def note_reversals(W):
     """Count the reversals of the lanes :func:`observe` marked."""
     for j in range(BLOCK):
-        if W[at(OFF_K, K_MARK_CROSS, j)] != 0.0:
+        mark = W[at(OFF_K, K_MARK_REVERSAL, j)]
+        if mark == CROSSED or mark == CROSSED + BEYOND:
             W[at(OFF_K, K_T_CROSS, j)] = W[at(OFF_K, K_T_CAND, j)]
-        if W[at(OFF_K, K_MARK_BEYOND, j)] != 0.0:
+        if mark >= BEYOND:
             W[at(OFF_K, K_N_REV, j)] += 1.0
             if W[at(OFF_K, K_N_REV, j)] == 1.0:
                 W[at(OFF_K, K_FIRST_REV, j)] = W[at(OFF_K, K_T_CROSS, j)]
@@ -234,15 +234,15 @@ def freeze_lane(W, model, j):
 @kernel
 def end_marked(W, model, P, status, Y, O, step, undo):
     """Write out and freeze every lane marked by :func:`flag_end` or
-    :func:`flag_bad_step`, ending it with its marked status (a negative mark keeps the
-    status); ``undo`` restores the state from before this step first."""
+    :func:`flag_bad_step`, ending it with its marked status (or its own, ENDS_AS_IS);
+    ``undo`` restores the state from before this step first."""
     numba.literally(model)
     off_y, _, off_a, n_state, _ = models.state_regions(model)
     for j in range(BLOCK):
-        if W[at(OFF_K, K_MARK_END, j)] != 0.0:
-            code = W[at(OFF_K, K_END_STATUS, j)]
-            if code >= 0.0:
-                status[j] = int(code)
+        mark = W[at(OFF_K, K_MARK_END, j)]
+        if mark != NOT_MARKED:
+            if mark != ENDS_AS_IS:
+                status[j] = int(mark)
                 W[at(OFF_K, K_STOP, j)] = step
             if undo:
                 for k in range(n_state):  # the last valid state, which the step kept
@@ -343,7 +343,7 @@ def advance_block(model, P, Y, nsteps, method, record_every, band, O, REC):
         if ending:
             flag_end(W, step)
             for j in range(BLOCK):
-                if W[at(OFF_K, K_MARK_END, j)] != 0.0:
+                if W[at(OFF_K, K_MARK_END, j)] != NOT_MARKED:
                     W[at(OFF_K, K_RUN, j)] = 0.0
         if recording:
             record_block(W, model, step, REC, step // record_every, rec)

@@ -21,7 +21,8 @@ from . import models
 from .jit import kernel
 from .workspace import (
     BLOCK, DT, EPS_U, GRAV, K_MARK_SWITCH, K_RUN, MU_K, MU_S, OFF_K, OFF_P, OFF_S, OFF_X,
-    S_JX, S_JY, S_MODE, S_UHX, S_UHY, S_UPREV, S_USX, S_USY, X_FX, X_FY, X_N, X_UX, X_UY, at,
+    NOT_MARKED, S_JX, S_JY, S_MODE, S_UHX, S_UHY, S_UPREV, S_USX, S_USY, SWITCHES, X_FX, X_FY,
+    X_N, X_UX, X_UY, at,
 )
 
 __all__ = [
@@ -84,7 +85,7 @@ def flag_restick(W):
                  & (uu < W[at(OFF_S, S_UPREV, j)]))
         mark = ((W[at(OFF_K, K_RUN, j)] > 0.5) & (W[at(OFF_S, S_MODE, j)] > 0.5)
                 & (W[at(OFF_P, MU_S, j)] > 0.0) & (reversed_ | dying))
-        W[at(OFF_K, K_MARK_SWITCH, j)] = 1.0 if mark else 0.0
+        W[at(OFF_K, K_MARK_SWITCH, j)] = SWITCHES if mark else NOT_MARKED
         n += 1 if mark else 0
     return n
 
@@ -95,7 +96,7 @@ def stick_marked(W, model):
     point to rest. The impulse is friction too, and is kept for the record."""
     numba.literally(model)
     for j in range(BLOCK):
-        if W[at(OFF_K, K_MARK_SWITCH, j)] != 0.0:
+        if W[at(OFF_K, K_MARK_SWITCH, j)] == SWITCHES:
             W[at(OFF_S, S_MODE, j)] = 0.0
             jx, jy = models.stick_impulse(W, model, j)
             W[at(OFF_S, S_JX, j)] += jx
@@ -117,7 +118,7 @@ def flag_slip_start(W):
         mu_s = W[at(OFF_P, MU_S, j)]
         mark = (run & (not slipping) & (mu_s < math.inf) & (normal >= 0.0)
                 & (math.sqrt(fx * fx + fy * fy) > mu_s * normal))
-        W[at(OFF_K, K_MARK_SWITCH, j)] = 1.0 if mark else 0.0
+        W[at(OFF_K, K_MARK_SWITCH, j)] = SWITCHES if mark else NOT_MARKED
         n += 1 if mark else 0
 
         note = run & slipping
@@ -137,5 +138,5 @@ def flag_slip_start(W):
 def slip_marked(W):
     """Stick → slip for every marked lane."""
     for j in range(BLOCK):
-        if W[at(OFF_K, K_MARK_SWITCH, j)] != 0.0:
+        if W[at(OFF_K, K_MARK_SWITCH, j)] == SWITCHES:
             start_slip(W, j)

@@ -99,8 +99,10 @@ S_JY = S_JX + 1
 
 # --- time-loop bookkeeping of each lane, rows of region K ----------------------------
 # Float rows of the workspace rather than separate arrays, so the once-per-step passes
-# over them vectorise like the right-hand side. Each pass that selects lanes for scalar
-# work marks them in a row of its own (the MARK_ rows, 1.0 selected, 0.0 not).
+# over them vectorise like the right-hand side. Each kind of pass that selects lanes for
+# scalar work marks them in a row of its own (the mark rows; 0.0: not selected), with
+# the named values below. One row per kind, not one per value: each extra row written
+# in the once-per-step passes costs measurably.
 BOOK = Rows(
     "bookkeeping",
     Row("running", "1", "1 while the lane is stepped"),
@@ -118,11 +120,9 @@ BOOK = Rows(
     Row("window_count", "1", "steps in the final window so far"),
     Row("watch_low", "1", "smallest value so far of the model's watched quantity"),
     Row("slip_steps", "1", "steps taken slipping"),
-    Row("end_status", "1", "status a lane marked by MARK_END ends with"),
-    Row("mark_switch", "1", "marked by a switching pass"),
-    Row("mark_end", "1", "marked by an end-of-run pass"),
-    Row("mark_cross", "1", "the spin crossed zero in this step"),
-    Row("mark_beyond", "1", "the spin went beyond the band on the other side"),
+    Row("mark_switch", "1", "marked by a switching pass: SWITCHES"),
+    Row("mark_end", "1", "how the run ends at this step: ENDS_AS_IS or a status code"),
+    Row("mark_reversal", "1", "CROSSED, BEYOND or both (their sum) in this step"),
 )
 K_RUN = BOOK.start("running")
 K_OPEN = BOOK.start("open")
@@ -139,11 +139,16 @@ K_WIN_SUM = BOOK.start("window_sum")
 K_WIN_CNT = BOOK.start("window_count")
 K_WATCH_LOW = BOOK.start("watch_low")
 K_SLIP_STEPS = BOOK.start("slip_steps")
-K_END_STATUS = BOOK.start("end_status")
 K_MARK_SWITCH = BOOK.start("mark_switch")
 K_MARK_END = BOOK.start("mark_end")
-K_MARK_CROSS = BOOK.start("mark_cross")
-K_MARK_BEYOND = BOOK.start("mark_beyond")
+K_MARK_REVERSAL = BOOK.start("mark_reversal")
+
+NOT_MARKED = 0.0
+SWITCHES = 1.0  # K_MARK_SWITCH: the lane changes mode
+ENDS_AS_IS = -1.0  # K_MARK_END: the run ends with its status unchanged (the status codes
+# CAPSIZED, LIFTED_OFF and NON_FINITE, all > 0, mark a run that ends with that status)
+CROSSED = 1.0  # K_MARK_REVERSAL: the spin crossed zero
+BEYOND = 2.0  # K_MARK_REVERSAL: the spin went beyond the band on the other side
 
 # --- fractions of the time step, rows of region H (set from DT in the block set-up) ---
 H_HALF_DT = 0  # dt / 2, s
