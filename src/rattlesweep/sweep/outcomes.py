@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.workspace import CAPSIZED as _CAPSIZED, LIFTED_OFF as _LIFTED_OFF, NON_FINITE as _NON_FINITE
+from ..core import workspace as _status
 from ..metadata import flag_attrs
 
 __all__ = ["CAPSIZED", "FAILED", "LIFTED_OFF", "NO_REVERSAL", "OUTCOME_ATTRS",
@@ -35,7 +35,7 @@ def classify(status: np.ndarray, n_reversals: np.ndarray, mean_final_spin: np.nd
     out[(n_reversals == 0) & stopped & (initial_spin != 0)] = STOPPED
     out[n_reversals == 1] = REVERSED
     out[n_reversals >= 2] = SEVERAL
-    out[status == _CAPSIZED] = CAPSIZED
-    out[status == _LIFTED_OFF] = LIFTED_OFF
-    out[status == _NON_FINITE] = FAILED
+    out[status == _status.CAPSIZED] = CAPSIZED
+    out[status == _status.LIFTED_OFF] = LIFTED_OFF
+    out[status == _status.NON_FINITE] = FAILED
     return out

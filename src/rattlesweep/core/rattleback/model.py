@@ -17,9 +17,10 @@ from ..workspace import (
 )
 from .geometry import contact_point, energy_terms, plastic_contact_impulse, rotation
 from .layout import (
-    A2, B2, C2, COM_X, COM_Y, COM_Z, FULL, N_STATE, OFF_A, OFF_T, OFF_Y, O_MAX_TILT, OMEGA_X, OMEGA_Y, OMEGA_Z, POS_X, POS_Y,
-    Q0, Q1, Q2, Q3, R_CONTACT, R_ENERGY, R_FRICTION, R_IMPULSE, R_NORMAL, R_OMEGA, R_POSITION,
-    R_QUATERNION, R_SLIP_VELOCITY, R_SLIPPING, R_SPIN, R_TILT, R_VELOCITY, VEL_X, VEL_Y,
+    A2, B2, C2, COM_X, COM_Y, COM_Z, FULL, N_STATE, O_MAX_TILT, OFF_A, OFF_T, OFF_Y,
+    OMEGA_X, OMEGA_Y, OMEGA_Z, POS_X, POS_Y, Q0, Q1, Q2, Q3, R_CONTACT, R_ENERGY,
+    R_FRICTION, R_IMPULSE, R_NORMAL, R_OMEGA, R_POSITION, R_QUATERNION, R_SLIP_VELOCITY,
+    R_SLIPPING, R_SPIN, R_TILT, R_VELOCITY, VEL_X, VEL_Y,
 )
 
 __all__ = [
