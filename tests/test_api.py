@@ -122,3 +122,21 @@ def test_cli_simulate_and_errors(tmp_path, capsys):
     assert (tmp_path / "one.nc").exists()
     assert main(["simulate", "--mu", "-1", "--t-end", "1"]) == 2
     assert "mu must be >= 0" in capsys.readouterr().err
+
+
+def test_an_empty_batch_gives_an_empty_result():
+    """An empty axis is a batch of no launches, as in NumPy: an empty result over
+    ``trajectory`` with the usual variables, not an error."""
+    from rattlesweep.planar import PlanarBody, run_planar_batch
+
+    toy = rs.Body.preset("toy")
+    for ds in (rs.run_batch(toy, spin=[], t_end=0.1),
+               rs.run_batch(toy, spin=[], t_end=0.1, record_every=3),
+               rs.run_batch(toy, spin=[[1.0], [2.0]], mu=[[]], t_end=0.1)):
+        assert ds.sizes["trajectory"] == 0
+        assert ds.first_reversal_time.shape == (0,) and ds.status.dtype == np.int8
+        assert ds.com.shape == (0, 3)
+    assert rs.run_batch(toy, spin=[[1.0], [2.0]], mu=[[]], t_end=0.1).attrs[
+        "batch_shape"] == [2, 0]
+    planar = run_planar_batch(PlanarBody(0.1, 0.05, 1.0), theta=[], t_end=0.1)
+    assert planar.sizes["trajectory"] == 0 and planar.max_angle.shape == (0,)

@@ -69,7 +69,9 @@ class Inputs:
         for name, (r, c) in (("xx", (0, 0)), ("yy", (1, 1)), ("zz", (2, 2)), ("xy", (0, 1)),
                              ("xz", (0, 2)), ("yz", (1, 2))):
             rows[f"inertia_{name}"] = [b.inertia[r, c] for b in self.bodies]
-        return {k: np.array(v, dtype=float)[self.index] for k, v in rows.items()}
+        columns = {k: np.array(v, dtype=float)[self.index] for k, v in rows.items()}
+        columns["com"] = columns["com"].reshape(-1, 3)  # (0, 3) for an empty batch
+        return columns
 
 
 def as_bodies(body, cls: type = Body) -> np.ndarray:
@@ -206,7 +208,7 @@ def check_single_step(prep: Prepared) -> None:
     """Records need one time step and one end time for the whole batch."""
     for name in ("dt", "t_end"):
         values = prep.coords[name][1]
-        if np.any(values != values[0]):
+        if values.size and np.any(values != values[0]):
             raise ValueError(f"record_every needs a single {name} for the whole batch")
 
 

@@ -273,7 +273,8 @@ def execute(prep: Prepared, *, method: int, record_every: int | None, band: floa
     """Run a prepared batch through the kernel."""
     layout = prep.model.layout
     n_blocks = prep.P.shape[0]
-    n_rec = 0 if record_every is None else int(prep.nsteps.max()) // record_every + 1
+    n_rec = 0 if record_every is None or prep.n == 0 else (
+        int(prep.nsteps.max()) // record_every + 1)
     REC = np.empty((n_blocks, n_rec, layout.N_REC, BLOCK))
     O = np.empty((n_blocks, layout.N_OBS, BLOCK))
     Y = prep.Y.copy()
