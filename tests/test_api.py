@@ -140,3 +140,10 @@ def test_an_empty_batch_gives_an_empty_result():
         "batch_shape"] == [2, 0]
     planar = run_planar_batch(PlanarBody(0.1, 0.05, 1.0), theta=[], t_end=0.1)
     assert planar.sizes["trajectory"] == 0 and planar.max_angle.shape == (0,)
+
+
+def test_a_record_that_cannot_fit_is_refused_before_compute(kl):
+    with pytest.raises(ValueError, match=r"record would need [\d.]+ GiB.*record_every.*t_end"):
+        rs.simulate(kl, spin=5.0, t_end=1e5, record_every=1)
+    # the same run recorded sparsely is fine
+    assert rs.simulate(kl, spin=5.0, t_end=0.5, record_every=50).sizes["time"] > 1

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import os
 import warnings
 from dataclasses import dataclass, field
 from types import ModuleType
@@ -31,7 +32,7 @@ from .validation import as_float_array, fail_where
 __all__ = [
     "MAX_DEFAULT_SAMPLES", "VECTOR_COORDS", "Model", "Prepared", "Raw", "batch_dataset",
     "broadcast_inputs", "default_record_every", "run_dataset", "check_band", "check_common",
-    "check_method", "check_record_every", "contact_slip_velocity", "default_dts", "execute",
+    "check_method", "check_record_every", "check_record_size", "physical_memory", "contact_slip_velocity", "default_dts", "execute",
     "numba_threads", "observables_dataset", "pack", "prepared", "run_attrs", "run_kernel",
     "series_dataset", "status_attrs", "steps_for", "unblock",
 ]
@@ -268,6 +269,31 @@ def check_band(reversal_band) -> float:
     return band
 
 
+def physical_memory() -> int | None:
+    """This machine's memory in bytes, None where the system does not say."""
+    try:
+        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, ValueError, OSError):
+        return None
+
+
+def check_record_size(prep: Prepared, n_rec: int, record_every: int) -> None:
+    """Refuse, before any compute, a record that would not fit in this machine's memory,
+    naming its size and the arguments that set it."""
+    need = n_rec * prep.model.layout.N_REC * prep.P.shape[0] * BLOCK * 8
+    have = physical_memory()
+    if have is not None and need > have:
+        dt = float(prep.coords["dt"][1][0])
+        raise ValueError(
+            f"the record would need {need / 2**30:.3g} GiB ({n_rec:,} samples of "
+            f"{prep.model.layout.N_REC} series for {prep.n:,} "
+            f"{'trajectory' if prep.n == 1 else 'trajectories'} in blocks of {BLOCK}), "
+            f"more than this "
+            f"machine's {have / 2**30:.3g} GiB: t_end / (dt * record_every) = "
+            f"{float(prep.coords['t_end'][1].max()):g} / ({dt:g} * {record_every}) samples "
+            f"each; record less often (a larger record_every), or a shorter t_end")
+
+
 def execute(prep: Prepared, *, method: int, record_every: int | None, band: float = 0.0,
             parallel: bool = True, threads: int | None = None) -> Raw:
     """Run a prepared batch through the kernel."""
@@ -275,6 +301,8 @@ def execute(prep: Prepared, *, method: int, record_every: int | None, band: floa
     n_blocks = prep.P.shape[0]
     n_rec = 0 if record_every is None or prep.n == 0 else (
         int(prep.nsteps.max()) // record_every + 1)
+    if n_rec:
+        check_record_size(prep, n_rec, record_every)
     REC = np.empty((n_blocks, n_rec, layout.N_REC, BLOCK))
     O = np.empty((n_blocks, layout.N_OBS, BLOCK))
     Y = prep.Y.copy()
