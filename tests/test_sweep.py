@@ -406,6 +406,22 @@ def test_cli_demo_info_plot(tmp_path, capsys):
     assert main(["info", str(out / RESULT_NAME)]) == 0
     info = capsys.readouterr().out
     assert "spin (41), delta_deg (33), mu (2)" in info and "outcomes:" in info
+    # the directory the sweep wrote is summarised the same way
+    assert main(["info", str(out)]) == 0
+    assert capsys.readouterr().out == info
+    # an unfinished sweep directory reports its progress
+    (out / RESULT_NAME).unlink()
+    assert main(["info", str(out)]) == 0
+    assert "tiles written: 11 of 11" in capsys.readouterr().out
+    # anything unreadable is named, with what was expected, and the exit status says so
+    junk = tmp_path / "junk.nc"
+    junk.write_text("not netCDF")
+    assert main(["info", str(junk), str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert f"cannot read {junk}: expected a rattlesweep result file" in err
+    assert f"{tmp_path} is a directory without sweep.nc or sweep.toml" in err
+    assert main(["demo", "--out", str(out), "--quiet"]) == 0  # resumes: merges again
+    capsys.readouterr()
     png = tmp_path / "t.png"
     assert main(["plot", str(out / RESULT_NAME), "--var", "first_reversal_time",
                  "--facet", "mu", "--out", str(png)]) == 0

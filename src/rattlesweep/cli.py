@@ -150,11 +150,52 @@ def _cmd_plot(args, argv) -> int:
     return 0
 
 
+def _info_directory(path: Path) -> Path | None:
+    """The merged result of a sweep directory, or None after printing the progress of an
+    unfinished one; ValueError when ``path`` is no sweep directory."""
+    if (path / "sweep.nc").is_file():
+        return path / "sweep.nc"
+    if not (path / "sweep.toml").is_file():
+        raise ValueError(f"{path} is a directory without sweep.nc or sweep.toml: expected a "
+                         "sweep directory (what 'rattlesweep sweep --out DIR' writes)")
+    from .sweep import Sweep
+
+    sweep = Sweep.from_toml(path / "sweep.toml")
+    done = len(list((path / "tiles").glob("tile-*.nc")))
+    print(f"{path} (unfinished sweep: no sweep.nc yet)")
+    print(f"  name: {sweep.name}")
+    print("  dimensions: " + ", ".join(f"{d} ({n})" for d, n in zip(sweep.dims, sweep.shape)))
+    print(f"  tiles written: {done} of {sweep.n_tiles}; 'rattlesweep resume {path}' "
+          "completes it")
+    return None
+
+
 def _cmd_info(args, argv) -> int:
     import xarray as xr
 
-    for path in args.files:
-        with xr.open_dataset(path) as ds:
+    failed = 0
+    for name in args.files:
+        path = Path(name)
+        try:
+            if path.is_dir():
+                path = _info_directory(path)
+                if path is None:
+                    continue
+        except ValueError as exc:
+            print(f"rattlesweep info: {exc}", file=sys.stderr)
+            failed += 1
+            continue
+        try:
+            ds = xr.open_dataset(path)
+        except (OSError, ValueError) as exc:
+            reason = str(exc).splitlines()[0]
+            if "did not find a match" in reason:
+                reason = "it is not a netCDF file"
+            print(f"rattlesweep info: cannot read {path}: expected a rattlesweep result "
+                  f"file (netCDF) or a sweep directory; {reason}", file=sys.stderr)
+            failed += 1
+            continue
+        with ds:
             print(f"{path}")
             print(f"  title: {ds.attrs.get('title', '')}")
             print("  dimensions: " + ", ".join(f"{d} ({n})" for d, n in ds.sizes.items()))
@@ -177,7 +218,7 @@ def _cmd_info(args, argv) -> int:
                     print(f"  {key}: {ds.attrs[key]}")
             if args.config and "sweep_config" in ds.attrs:
                 print(ds.attrs["sweep_config"])
-    return 0
+    return 2 if failed else 0
 
 
 def _simulate_from_args(args):
@@ -295,8 +336,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="netCDF file to write")
     p.set_defaults(func=_cmd_stability)
 
-    p = sub.add_parser("info", help="summarise result files")
-    p.add_argument("files", nargs="+")
+    p = sub.add_parser("info", help="summarise result files or sweep directories")
+    p.add_argument("files", nargs="+", help="netCDF result files or sweep directories")
     p.add_argument("--config", action="store_true", help="also print the sweep TOML")
     p.set_defaults(func=_cmd_info)
 
