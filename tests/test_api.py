@@ -2,6 +2,7 @@
 
 import math
 import os
+import warnings
 
 import netCDF4
 import numpy as np
@@ -177,3 +178,22 @@ def test_launch_angles_follow_the_documented_rotation_order():
     run = rs.simulate(rs.Body.preset("toy"), roll=roll, pitch=pitch, yaw=yaw, t_end=0.01)
     np.testing.assert_allclose(run.quaternion.isel(time=0).values,
                                quaternion_from_angles(roll, pitch, yaw), atol=1e-15)
+
+
+def test_a_coarse_time_step_is_flagged_at_the_callers_line():
+    from rattlesweep.engine import CoarseStepWarning
+    from rattlesweep.planar import PlanarBody, simulate_planar
+
+    toy = rs.Body.preset("toy")
+    default = toy.default_dt()
+    with pytest.warns(CoarseStepWarning, match=r"30 times the default step of body 'toy'"
+                      r".*unstable from about 29 times") as caught:
+        rs.run_batch(toy, spin=[5.0, -5.0], roll=0.01, dt=30 * default, t_end=0.5)
+    assert caught[0].filename == __file__
+    with pytest.warns(CoarseStepWarning) as caught:
+        simulate_planar(PlanarBody(0.1, 0.05, 1.0), theta=0.2,
+                        dt=10 * PlanarBody(0.1, 0.05, 1.0).default_dt(), t_end=0.1)
+    assert caught[0].filename == __file__
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", CoarseStepWarning)
+        rs.simulate(toy, spin=5.0, dt=2 * default, t_end=0.1)  # fine: no warning

@@ -131,6 +131,9 @@ def launch_inputs(
     table, index = distinct_bodies(flat_bodies)
     if "dt" not in flat:
         flat["dt"] = engine.default_dts(table, index, flat["g"])
+    else:
+        # warn at the user's call: run_batch or simulate -> prepare -> launch_inputs
+        engine.warn_coarse_dt(table, index, flat["g"], flat["dt"], stacklevel=4)
     if "orientation" in flat_vec:
         q = flat_vec["orientation"].copy()
         check_unit_quaternion(q)

@@ -30,11 +30,11 @@ from .metadata import flag_attrs
 from .validation import as_float_array, fail_where
 
 __all__ = [
-    "MAX_DEFAULT_SAMPLES", "VECTOR_COORDS", "Model", "Prepared", "Raw", "batch_dataset",
+    "COARSE_DT", "CoarseStepWarning", "MAX_DEFAULT_SAMPLES", "RK4_LIMIT", "VECTOR_COORDS", "Model", "Prepared", "Raw", "batch_dataset",
     "broadcast_inputs", "default_record_every", "run_dataset", "check_band", "check_common",
     "check_method", "check_record_every", "check_record_size", "physical_memory", "contact_slip_velocity", "default_dts", "execute",
     "numba_threads", "observables_dataset", "pack", "prepared", "run_attrs", "run_kernel",
-    "series_dataset", "status_attrs", "steps_for", "unblock",
+    "series_dataset", "status_attrs", "steps_for", "unblock", "warn_coarse_dt",
 ]
 
 STATUS_COMMENT = ("ok: ran to t_end; capsized: the body tipped onto its rim or edge; "
@@ -151,6 +151,40 @@ def check_common(arrays: Mapping[str, np.ndarray]) -> None:
     for name in ("g", "t_end") + (("dt",) if "dt" in arrays else ()):
         v = arrays[name]
         fail_where(name, v, ~(np.isfinite(v) & (v > 0)), "must be finite and > 0")
+
+
+COARSE_DT = 4.0
+"""A time step above this many times the body's default draws a :class:`CoarseStepWarning`."""
+
+RK4_LIMIT = 2.0 * 2.0 ** 0.5 * 64.0 / (2.0 * np.pi)
+"""RK4 is unstable for an oscillation of angular frequency ω when ω dt > 2√2: at about
+this many times the default step (1/64 of the shortest small-oscillation period)."""
+
+
+class CoarseStepWarning(RuntimeWarning):
+    """A time step so coarse that a result, statuses included, may be a numerical
+    artefact."""
+
+
+def warn_coarse_dt(table: list, index: np.ndarray, g: np.ndarray, dt: np.ndarray,
+                   stacklevel: int) -> None:
+    """Warn once per call when a given time step exceeds COARSE_DT times the default
+    of its body (at its g), naming the body, the default and RK4's stability limit;
+    ``stacklevel`` as for :func:`warnings.warn`, counted from the caller."""
+    keys, first = np.unique(np.stack([index.astype(float), g]), axis=1, return_index=True)
+    for (i, gv), at in zip(keys.T, first):
+        body = table[int(i)]
+        default = body.default_dt(float(gv))
+        worst = float(np.max(dt[(index == i) & (g == gv)]))
+        if worst > COARSE_DT * default:
+            warnings.warn(
+                f"dt = {worst:.3g} s is {worst / default:.3g} times the default step of "
+                f"body {body.name!r} ({default:.3g} s, 1/64 of its shortest small-"
+                f"oscillation period): RK4 loses accuracy beyond a few times the default "
+                f"and is unstable from about {RK4_LIMIT:.0f} times it (semi-implicit Euler "
+                f"sooner); statuses such as capsized or lifted_off of such a run may be "
+                f"numerical artefacts", CoarseStepWarning, stacklevel=stacklevel + 1)
+            return
 
 
 def steps_for(t_end: np.ndarray, dt: np.ndarray) -> np.ndarray:

@@ -67,6 +67,9 @@ def prepare_planar(body, *, theta, rate=0.0, velocity=None, mu=math.inf, mu_stat
     table, index = distinct_bodies(flat_bodies)
     if "dt" not in flat:
         flat["dt"] = engine.default_dts(table, index, flat["g"])
+    else:
+        # warn at the user's call: run_planar_batch or simulate_planar -> prepare_planar
+        engine.warn_coarse_dt(table, index, flat["g"], flat["dt"], stacklevel=3)
     columns = {k: np.array([getattr(b, k) for b in table], dtype=float)[index]
                for k in ("a", "b", "mass", "com_depth", "inertia")}
 
