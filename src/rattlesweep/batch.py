@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from . import engine
+from . import engine, results
 from .body import Body, distinct_bodies
 from .core.models import RATTLEBACK
 from .core.rattleback import layout
@@ -270,5 +270,5 @@ def run_batch(
         check_single_step(prep)
     raw = engine.execute(prep, method=m, record_every=rec_every, band=band,
                          parallel=parallel, threads=threads)
-    return engine.batch_dataset(prep, raw, rec_every, attrs_for,
-                                engine.run_attrs(method, rec_every, band))
+    return results.batch_dataset(prep, raw, rec_every, attrs_for,
+                                results.run_attrs(method, rec_every, band))

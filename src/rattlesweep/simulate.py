@@ -7,7 +7,7 @@ import math
 import numpy as np
 import xarray as xr
 
-from . import engine
+from . import engine, results
 from .batch import prepare
 from .body import Body
 from .engine import check_band, check_method, check_record_every
@@ -58,7 +58,7 @@ def simulate(
         if inputs[name] is not None and np.shape(inputs[name]) != (width,):
             raise ValueError(f"{name} must have shape ({width},), got {np.shape(inputs[name])}")
     prep = prepare(body, **inputs)
-    rec_every = engine.default_record_every(prep, rec_every)
+    rec_every = results.default_record_every(prep, rec_every)
     raw = engine.execute(prep, method=m, record_every=rec_every, band=band, parallel=False)
     config = {
         "body": body.describe(),
@@ -67,5 +67,5 @@ def simulate(
         "dt_used": float(prep.coords["dt"][1][0]), "method": method,
         "record_every": rec_every, "reversal_band": band,
     }
-    return engine.run_dataset(prep, raw, rec_every, attrs_for,
-                              engine.run_attrs(method, rec_every, band), config)
+    return results.run_dataset(prep, raw, rec_every, attrs_for,
+                              results.run_attrs(method, rec_every, band), config)

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from .. import engine
+from .. import engine, results
 from ..batch import as_bodies, check_single_step
 from ..body import distinct_bodies
 from ..core.models import PLANAR
@@ -99,7 +99,7 @@ def prepare_planar(body, *, theta, rate=0.0, velocity=None, mu=math.inf, mu_stat
 
 def planar_run_attrs(method: str, record_every: int | None) -> dict:
     """Global attributes of a planar result."""
-    attrs = engine.run_attrs(method, record_every, None)
+    attrs = results.run_attrs(method, record_every, None)
     attrs["title"] = TITLE
     attrs["model"] = "MODEL.md section 8: rocking half-ellipse lamina"
     return attrs
@@ -152,5 +152,5 @@ def run_planar_batch(
         check_single_step(prep)
     raw = engine.execute(prep, method=m, record_every=rec_every, parallel=parallel,
                          threads=threads)
-    return engine.batch_dataset(prep, raw, rec_every, attrs_for,
+    return results.batch_dataset(prep, raw, rec_every, attrs_for,
                                 planar_run_attrs(method, rec_every))

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import xarray as xr
 
-from .. import engine
+from .. import engine, results
 from ..engine import check_method, check_record_every
 from .batch import planar_run_attrs, prepare_planar
 from .body import PlanarBody
@@ -53,7 +53,7 @@ def simulate_planar(
             raise ValueError(f"{name} must be a scalar for simulate_planar(); "
                              f"use run_planar_batch for arrays")
     prep = prepare_planar(body, **inputs)
-    rec_every = engine.default_record_every(prep, rec_every)
+    rec_every = results.default_record_every(prep, rec_every)
     raw = engine.execute(prep, method=m, record_every=rec_every, parallel=False)
     config = {
         "body": body.describe(),
@@ -61,5 +61,5 @@ def simulate_planar(
         "dt_used": float(prep.coords["dt"][1][0]), "method": method,
         "record_every": rec_every,
     }
-    return engine.run_dataset(prep, raw, rec_every, attrs_for,
+    return results.run_dataset(prep, raw, rec_every, attrs_for,
                               planar_run_attrs(method, rec_every), config)

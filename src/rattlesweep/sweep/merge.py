@@ -14,7 +14,7 @@ import numpy as np
 import xarray as xr
 
 from .. import __version__
-from ..engine import run_attrs
+from ..results import run_attrs
 from .params import resolve
 from .spec import Sweep
 from .tiles import RESULT_VARS, extra_vars, read_tile, tile_path, variable_attrs

@@ -12,7 +12,7 @@ import netCDF4
 import numpy as np
 import xarray as xr
 
-from .. import engine
+from .. import engine, results
 from ..batch import MODEL, prepare
 from ..engine import check_method
 from ..io import NETCDF_LOCK, write_netcdf
@@ -65,7 +65,7 @@ def compute_tile(sweep: Sweep, tile: int, tiles_dir: str) -> dict:
     prep = prepare(bodies, **kwargs)
     raw = engine.execute(prep, method=check_method(sweep.method), record_every=None,
                         band=sweep.reversal_band, parallel=False)
-    data = engine.observables_dataset(MODEL, raw.observables, "point")
+    data = results.observables_dataset(MODEL, raw.observables, "point")
     ds = xr.Dataset({k: data[k] for k in RESULT_VARS})
     ds["outcome"] = ("point", classify(ds.status.values, ds.n_reversals.values,
                                        ds.mean_final_spin.values, ds.initial_spin.values,
