@@ -6,22 +6,29 @@
 kane_levinson body, default dt, RK4, 0.5 degree roll, spins linspace(-10, 10, n) rad/s.
 Timings are the best of --repeats calls after an untimed one (spread: (slowest - best) /
 best); the baselines run the same rolling equations (tests/numpy_oracle.py) in this
-process; latency is measured in fresh interpreters. --compare times the throughput
-table in pairs of worker processes, one on OLD_SRC and one on this checkout's src,
-alternating call by call, a fresh pair each round.
+process; latency is measured in fresh interpreters. --compare is an A/B of the
+throughput table with both trees in one process: OLD_SRC/rattlesweep is copied as the
+package rattlesweep_baseline, and each of --rounds fresh processes times the two trees'
+calls in alternating pairs; the figure to quote is the median over processes of new/old
+of a process's best times. Pairs in one process, because the speed of a process on this
+kind of machine varies from process to process by up to 30 %.
 """
 
 from __future__ import annotations
 
 import argparse
+import functools
 import itertools
+import json
 import math
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
 import time
 import tracemalloc
+from importlib import import_module
 from pathlib import Path
 
 import numba
@@ -29,11 +36,7 @@ import numpy as np
 
 import rattlesweep as rs
 from rattlesweep.batch import prepare
-
-try:
-    from rattlesweep.engine import execute
-except ImportError:  # a tree from before the shared batch layer, under --compare
-    from rattlesweep.batch import execute
+from rattlesweep.engine import execute
 
 ROOT = Path(__file__).resolve().parent.parent
 BODY = rs.Body.preset("kane_levinson")
@@ -54,7 +57,7 @@ def sweep_prep(n, mu, t_end):
     return prepare(BODY, spin=np.linspace(-10.0, 10.0, n), roll=ROLL, mu=mu, t_end=t_end)
 
 
-def run_kernel(prep, threads):  # RK4; threads 1: the serial entry point
+def run_kernel(prep, threads, execute=execute):  # RK4; threads 1: the serial entry point
     return execute(prep, method=0, record_every=None, band=0.05, parallel=threads > 1,
                    threads=threads if threads > 1 else None)
 
@@ -169,58 +172,65 @@ def latency():
             print(f"{label:<12} {imp:>7.2f} {sim:>11.2f} {batch:>12.2f}")
 
 
-def serve():
-    """--worker: time one kernel call per request line "n mu threads t_end" on stdin (a
-    new configuration gets an untimed call first) and answer with steps per second."""
-    print(rs.__file__, flush=True)
-    preps = {}
-    for line in sys.stdin:
-        n, mu, threads, t_end = line.split()
-        if line not in preps:
-            preps[line] = sweep_prep(int(n), float(mu), float(t_end))
-            run_kernel(preps[line], int(threads))
-        t0 = time.perf_counter()
-        result = run_kernel(preps[line], int(threads))
-        print(steps_taken(result, preps[line]) / (time.perf_counter() - t0), flush=True)
+def tree(name):
+    """(Body, prepare, execute) of package `name`: this tree's rattlesweep, or under
+    --compare the other tree's copy, whose execute is in batch before engine.py existed."""
+    pkg, batch = import_module(name), import_module(f"{name}.batch")
+    try:
+        return pkg.Body, batch.prepare, import_module(f"{name}.engine").execute
+    except ModuleNotFoundError:
+        return pkg.Body, batch.prepare, batch.execute
+
+
+def pairs(sizes, args):
+    """--pairs, one --compare process: per configuration, the best rate of the old tree
+    (package rattlesweep_baseline) and of this one over --repeats pairs of calls."""
+    assert Path(rs.__file__).resolve().is_relative_to(ROOT / "src"), rs.__file__
+    trees, rates = [tree("rattlesweep_baseline"), tree("rattlesweep")], []
+    for mu, n, threads, t_end in configs(sizes, args.target):
+        preps = [prep(body.preset("kane_levinson"), spin=np.linspace(-10.0, 10.0, n),
+                      roll=ROLL, mu=mu, t_end=t_end) for body, prep, _ in trees]
+        steps = [int(prep.nsteps.sum()) for prep in preps]
+        assert steps[0] == steps[1], f"the trees take different step counts: {steps}"
+        calls = [functools.partial(run_kernel, prep, threads, ex)
+                 for prep, (_, _, ex) in zip(preps, trees)]
+        for call in calls:  # untimed
+            call()
+        best = [math.inf, math.inf]
+        for i in range(args.repeats):
+            for k in (0, 1) if i % 2 == 0 else (1, 0):  # who goes first alternates
+                t0 = time.perf_counter()
+                calls[k]()
+                best[k] = min(best[k], time.perf_counter() - t0)
+        rates.append([steps[0] / b for b in best])
+    print(json.dumps(rates))
 
 
 def compare(old_src, sizes, args):
-    """Interleaved A/B of the throughput table. Each round starts a fresh worker process
-    per tree (it warms and loads that tree's own numba cache) and times every
-    configuration in calls alternating old, new, old, new, ...: the speed of a process
-    on this kind of machine varies from process to process and drifts in time."""
-    trees = {"old": Path(old_src).resolve(), "new": ROOT / "src"}
+    """--compare: the A/B of the module docstring; prints the table."""
     table = configs(sizes, args.target)
-    best = {name: np.zeros((args.rounds, len(table))) for name in trees}
-    for k in range(args.rounds):
-        workers = {name: subprocess.Popen([sys.executable, __file__, "--worker"], text=True,
-                                          stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                          env={**os.environ, "PYTHONPATH": str(src)})
-                   for name, src in trees.items()}
-        for name, src in trees.items():
-            where = workers[name].stdout.readline().strip()
-            assert Path(where).resolve().is_relative_to(src), f"{where} is not in {src}"
-        for j, (mu, n, threads, t_end) in enumerate(table):
-            for _, name in itertools.product(range(args.repeats), trees):
-                workers[name].stdin.write(f"{n} {mu} {threads} {t_end!r}\n")
-                workers[name].stdin.flush()
-                rate = float(workers[name].stdout.readline())
-                best[name][k, j] = max(best[name][k, j], rate)
-        for worker in workers.values():
-            worker.stdin.close()
-            worker.wait()
-        print(f"round {k + 1} of {args.rounds} done", flush=True)
-    print(f"\nINTERLEAVED A/B, {args.rounds} rounds of {args.repeats} calls each: best M "
-          f"steps/s of old ({trees['old']})\nand new ({trees['new']}), new/old of the "
-          "bests, median and range of new/old of the rounds' bests")
-    print(f"{'mu':>5} {'batch':>6} {'threads':>7} {'old':>8} {'new':>8} {'new/old':>8} "
+    with tempfile.TemporaryDirectory() as tmp:  # the copy and its numba cache
+        shutil.copytree(Path(old_src) / "rattlesweep", Path(tmp) / "rattlesweep_baseline",
+                        ignore=shutil.ignore_patterns("__pycache__"))
+        env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), tmp])}
+        run = lambda sizes, repeats, target: subprocess.run(
+            [sys.executable, __file__, "--pairs", "--sizes", ",".join(map(str, sizes)),
+             "--repeats", str(repeats), "--target", repr(target)],
+            env=env, check=True, text=True, stdout=subprocess.PIPE).stdout
+        run([2], 0, 1e-9)  # compiles both trees' kernels once, untimed (runs of MIN_T_END)
+        rates = np.array([json.loads(run(sizes, args.repeats, args.target))
+                          for _ in range(args.rounds)])  # (process, configuration, tree)
+    ratio = rates[:, :, 1] / rates[:, :, 0]
+    print(f"\nIN-PROCESS A/B, {args.rounds} processes of {args.repeats} alternating pairs "
+          f"of calls: best M steps/s\nof old ({Path(old_src).resolve()}) and new "
+          f"({ROOT / 'src'}) over all processes;\nnew/old: median and range over processes "
+          "of the ratio of a process's best times")
+    print(f"{'mu':>5} {'batch':>6} {'threads':>7} {'old':>8} {'new':>8} "
           f"{'median':>7} {'range':>12}")
     for j, (mu, n, threads, _) in enumerate(table):
-        old, new = best["old"][:, j], best["new"][:, j]
-        per = new / old
-        print(f"{mu:>5g} {n:>6d} {threads:>7d} {old.max() / 1e6:>8.2f} "
-              f"{new.max() / 1e6:>8.2f} {new.max() / old.max():>8.3f} "
-              f"{np.median(per):>7.3f} {per.min():>5.3f}-{per.max():.3f}")
+        print(f"{mu:>5g} {n:>6d} {threads:>7d} {rates[:, j, 0].max() / 1e6:>8.2f} "
+              f"{rates[:, j, 1].max() / 1e6:>8.2f} {np.median(ratio[:, j]):>7.3f} "
+              f"{ratio[:, j].min():>5.3f}-{ratio[:, j].max():.3f}")
 
 
 def main(argv=None):
@@ -228,25 +238,27 @@ def main(argv=None):
     ap.add_argument("--quick", action="store_true", help="fewer sizes, shorter runs")
     ap.add_argument("--sizes", help="comma-separated batch sizes")
     ap.add_argument("--target", type=float, help="about this many s per timed run")
-    ap.add_argument("--repeats", type=int, default=3, help="timed runs per configuration")
+    ap.add_argument("--repeats", type=int, help="timed runs per configuration (default 3; "
+                    "--compare: pairs per process, default 10)")
     ap.add_argument("--compare", metavar="OLD_SRC", help="A/B against another tree's src")
-    ap.add_argument("--rounds", type=int, default=6, help="A/B rounds (fresh processes)")
-    ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--rounds", type=int, default=6, help="A/B processes, one after another")
+    ap.add_argument("--pairs", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--warm", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     sizes = [int(s) for s in args.sizes.split(",")] if args.sizes else (
         [256, 4096] if args.quick else [256, 4096, 65536])
     args.target = args.target or (0.2 if args.quick else 1.0)
+    args.repeats = args.repeats if args.repeats is not None else 10 if args.compare else 3
     if args.warm:
         return [run_kernel(sweep_prep(2, math.inf, DT), threads) for threads in (1, 2)]
     if args.compare:
         return compare(args.compare, sizes, args)
+    if args.pairs:
+        return pairs(sizes, args)
     # A process that compiled the kernels runs them measurably slower than one that loaded
     # them from numba's cache, so a child process fills the cache before anything is timed.
     subprocess.run([sys.executable, __file__, "--warm"], check=True)
     main(["--warm"])  # loads them into this process, untimed
-    if args.worker:
-        return serve()
     print(f"rattlesweep {rs.__version__} ({Path(rs.__file__).parent}), numba "
           f"{numba.__version__}, numpy {np.__version__}, {os.cpu_count()} CPUs, "
           f"{'quick' if args.quick else 'full'}")
