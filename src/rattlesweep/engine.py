@@ -229,14 +229,15 @@ def run_kernel(kernel, model: int, *args) -> None:
     """Call a stepper kernel for a model. The kernels take the model as a literal
     (``numba.literally``); called from Python with a plain int, numba would type the call
     afresh every time (milliseconds), so the compiled specialisation is looked up once
-    per argument types and called directly afterwards (microseconds)."""
+    per argument types (compiled for the literal model at once, which also spares numba
+    a first attempt with a plain int) and called directly (microseconds)."""
     key = (kernel, model, *(numba.typeof(a) for a in args))
     entry = _COMPILED.get(key)
     if entry is None:
-        kernel(model, *args)  # compiles or loads the specialisation, and runs it
-        _COMPILED[key] = kernel.get_overload((types.literal(model), *key[2:]))
-    else:
-        entry(model, *args)
+        signature = (types.literal(model), *key[2:])
+        kernel.compile(signature)  # or loads it from the cache
+        entry = _COMPILED[key] = kernel.get_overload(signature)
+    entry(model, *args)
 
 
 def contact_slip_velocity(model: Model, P: np.ndarray, Y: np.ndarray) -> np.ndarray:
