@@ -220,3 +220,21 @@ def test_sweep_is_immutable_picklable_and_does_not_touch_its_arguments():
     np.testing.assert_array_equal(back.points(0, 4)[1]["spin"], s.points(0, 4)[1]["spin"])
     assert repr(s).startswith("Sweep(axes={'spin': {'values': [2.0, 1.0]}, 'delta_deg'")
     assert repr(s).endswith("tile_size=3, name='sweep')")
+
+
+def test_the_order_of_the_axes_is_part_of_the_configuration(tmp_path):
+    """The axes' order is the result's dimension order: a reordered configuration is a
+    different sweep (a resume into its directory would otherwise merge tiles laid out
+    the other way)."""
+    from rattlesweep.sweep.run import prepare_directory
+
+    fixed = {"t_end": 0.1}
+    a = Sweep(axes={"spin": [1.0, 2.0], "mu": [0.3, math.inf]}, fixed=fixed)
+    b = Sweep(axes={"mu": [0.3, math.inf], "spin": [1.0, 2.0]}, fixed=fixed)
+    assert a != b and a.config_hash() != b.config_hash()
+    assert a == Sweep.from_toml(a.to_toml()) and a.config_hash() == Sweep.from_toml(
+        a.to_toml()).config_hash()
+    assert a.differences(b) == ["axes: order spin, mu -> mu, spin"]
+    prepare_directory(a, tmp_path)
+    with pytest.raises(ValueError, match="holds a different sweep.*order spin, mu -> mu, spin"):
+        prepare_directory(b, tmp_path)

@@ -249,16 +249,23 @@ class Sweep:
         return format_toml(document, comment="rattlesweep sweep configuration")
 
     def config_hash(self) -> str:
-        """SHA-256 of the normalised configuration."""
-        text = json.dumps(self.to_dict(), sort_keys=True)
+        """SHA-256 of the normalised configuration, the order of the axes (the order of
+        the result's dimensions) included."""
+        text = json.dumps({"config": self.to_dict(), "axis_order": list(self.axes)},
+                          sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()
 
     def differences(self, other: "Sweep") -> list[str]:
         """Human-readable list of what differs between two configurations."""
-        return _diff(self.to_dict(), other.to_dict(), "")
+        out = _diff(self.to_dict(), other.to_dict(), "")
+        if list(self.axes) != list(other.axes) and set(self.axes) == set(other.axes):
+            out.append(f"axes: order {', '.join(self.axes)} -> {', '.join(other.axes)}")
+        return out
 
     def __eq__(self, other) -> bool:
-        return isinstance(other, Sweep) and self.to_dict() == other.to_dict()
+        # dicts compare without order, but the order of the axes is that of the dimensions
+        return (isinstance(other, Sweep) and self.to_dict() == other.to_dict()
+                and list(self.axes) == list(other.axes))
 
     __hash__ = None  # the stored tables are mutable dicts; compare with ==
 
