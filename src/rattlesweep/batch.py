@@ -10,6 +10,7 @@ The steps are :func:`launch_inputs` (checks and broadcasting, no kernel),
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -21,12 +22,15 @@ from . import engine, results
 from .body import Body, distinct_bodies
 from .core.models import RATTLEBACK
 from .core.rattleback import layout
-from .engine import Model, Prepared, check_band, check_method, check_record_every
+from .engine import (
+    Model, Prepared, as_bodies, check_band, check_method, check_record_every,
+    check_single_step,
+)
 from .launch import check_unit_quaternion, quaternion_from_angles, tilt_limit_error, up_vector
 from .metadata import attrs_for
 from .validation import as_float_array, fail_where
 
-__all__ = ["MODEL", "Inputs", "as_bodies", "launch_inputs", "max_steps", "prepare",
+__all__ = ["MODEL", "Inputs", "launch_inputs", "max_steps", "prepare",
            "run_batch"]
 
 MODEL = Model(
@@ -34,11 +38,9 @@ MODEL = Model(
     observables=("first_reversal_time", "n_reversals", "initial_spin", "final_spin",
                  "mean_final_spin", "max_tilt", "energy_initial", "energy_final",
                  "energy_lost", "slip_fraction", "t_final", "steps", "status"),
+    status_attrs=attrs_for("status"),
     derived={"energy_lost": (lambda v: v["energy_initial"] - v["energy_final"], "J",
                              "energy_initial - energy_final")},
-    status_comment=("ok: ran to t_end; capsized: the rim reached the floor; lifted_off: "
-                    "the normal force went negative; non_finite: a state or input was "
-                    "NaN or inf. A stopped trajectory keeps its last valid state."),
 )
 """The rattleback model as the batch layer sees it."""
 
@@ -72,23 +74,6 @@ class Inputs:
         columns = {k: np.array(v, dtype=float)[self.index] for k, v in rows.items()}
         columns["com"] = columns["com"].reshape(-1, 3)  # (0, 3) for an empty batch
         return columns
-
-
-def as_bodies(body, cls: type = Body) -> np.ndarray:
-    """``body`` as an object array of ``cls`` instances (0-d for a single body)."""
-    name = cls.__name__
-    if isinstance(body, cls):
-        arr = np.empty((), dtype=object)
-        arr[()] = body
-        return arr
-    arr = np.asarray(body, dtype=object)
-    if arr.size == 0:
-        raise ValueError(f"body must be a {name} or a non-empty array of {name} objects")
-    for item in arr.flat:
-        if not isinstance(item, cls):
-            raise ValueError(f"body must be a {name} or an array of {name} objects, "
-                             f"got {item!r}")
-    return arr
 
 
 def launch_inputs(
@@ -126,7 +111,7 @@ def launch_inputs(
     engine.check_common(arrays)
     d = arrays["damping"]
     fail_where("damping", d, ~(np.isfinite(d) & (d >= 0)), "must be finite and >= 0 (N m s)")
-    shape, n, flat_bodies, flat, flat_vec = engine.broadcast_inputs(as_bodies(body), arrays,
+    shape, n, flat_bodies, flat, flat_vec = engine.broadcast_inputs(as_bodies(body, Body), arrays,
                                                                     vectors)
     table, index = distinct_bodies(flat_bodies)
     if "dt" not in flat:
@@ -152,7 +137,8 @@ def max_steps(body, **kwargs) -> int:
 
 
 def _launch_state(inputs: Inputs) -> dict[str, np.ndarray]:
-    """The launch state by row name; G's velocity is set in :func:`prepare`."""
+    """The launch state by row name; G's velocity, zero here, is set in :func:`prepare`
+    once the kernel has given the rolling one."""
     q, vec = inputs.quaternion, inputs.vectors
     w = vec["omega"] if "omega" in vec else inputs.flat["spin"][:, None] * up_vector(q)
     return {"quaternion": q, "omega": w, "position": np.zeros((inputs.n, 2)),
@@ -189,11 +175,10 @@ def prepare(body, **kwargs) -> Prepared:
     inputs = launch_inputs(body, **kwargs)
     n = inputs.n
     columns = {**inputs.body_columns(), **inputs.flat}
-    state = _launch_state(inputs)
-    prep = engine.prepared(MODEL, columns, engine.pack(layout.STATE, state, n),
-                           inputs.nsteps, n, inputs.shape, {})
+    Y = engine.pack(layout.STATE, _launch_state(inputs), n)
+    prep = engine.prepared(MODEL, columns, Y, inputs.nsteps, n, inputs.shape, {})
     # G's velocity: rolling (material contact point at rest) unless given
-    rolling = -engine.contact_slip_velocity(MODEL, prep.P, prep.Y)[:, :n]
+    rolling = -engine.contact_slip_velocity(MODEL, prep.P, Y)[:, :n]
     given = inputs.vectors.get("velocity")
     if given is not None:
         v = given.T
@@ -202,17 +187,8 @@ def prepare(body, **kwargs) -> Prepared:
                    "makes a sliding launch, which needs a finite mu_static")
     else:
         v = rolling
-    state["velocity"] = v.T
-    return Prepared(MODEL, prep.P, engine.pack(layout.STATE, state, n), prep.nsteps, n,
-                    inputs.shape, _coords(inputs, columns, given))
-
-
-def check_single_step(prep: Prepared) -> None:
-    """Records need one time step and one end time for the whole batch."""
-    for name in ("dt", "t_end"):
-        values = prep.coords[name][1]
-        if values.size and np.any(values != values[0]):
-            raise ValueError(f"record_every needs a single {name} for the whole batch")
+    Y[:, layout.STATE.slice("velocity"), :] = engine.blocked(v, n)
+    return dataclasses.replace(prep, coords=_coords(inputs, columns, given))
 
 
 def run_batch(

@@ -22,24 +22,16 @@ import numpy as np
 from numba import types
 
 from .core import stepper
-from .core.workspace import BLOCK, METHODS, OBSERVABLES, STATUS_NAMES
-from .metadata import flag_attrs
+from .core.workspace import BLOCK, METHODS, OBSERVABLES
 from .validation import as_float_array, fail_where
 
 __all__ = [
     "COARSE_DT", "RK4_LIMIT", "CoarseStepWarning", "Model", "Prepared", "Raw",
-    "broadcast_inputs", "check_band", "check_common", "check_method", "check_record_every",
-    "check_record_size", "contact_slip_velocity", "default_dts", "execute", "numba_threads",
-    "pack", "physical_memory", "prepared", "run_kernel", "status_attrs", "steps_for",
-    "unblock", "warn_coarse_dt",
+    "as_bodies", "blocked", "broadcast_inputs", "check_band", "check_common", "check_method",
+    "check_record_every", "check_record_size", "check_single_step", "contact_slip_velocity",
+    "default_dts", "execute", "numba_threads", "pack", "physical_memory", "prepared",
+    "run_kernel", "steps_for", "unblock", "warn_coarse_dt",
 ]
-
-STATUS_COMMENT = ("ok: ran to t_end; capsized: the body tipped onto its rim or edge; "
-                  "lifted_off: the normal force went negative; non_finite: a state or "
-                  "input was NaN or inf. A stopped trajectory keeps its last valid state.")
-
-
-
 
 @dataclass(frozen=True)
 class Model:
@@ -49,16 +41,17 @@ class Model:
     the model's layout module (``PARAMS``, ``STATE``, ``RECORD``, ``OBSERVABLES``,
     ``N_OBS``); ``observables`` the names of the per-run results, in order, each a row
     of the shared or the model's observables or a key of ``derived``: (function of the
-    observables before it by name, units, long name); ``status_comment`` explains the
-    status flags.
+    observables before it by name, units, long name); ``status_attrs`` are the CF
+    attributes of the status flags (their comment says what each status means for the
+    model).
     """
 
     number: int
     layout: ModuleType
     observables: tuple[str, ...]
+    status_attrs: Mapping[str, Any]
     derived: Mapping[str, tuple[Callable[[Mapping[str, np.ndarray]], np.ndarray], str, str]
                      ] = field(default_factory=dict)
-    status_comment: str = STATUS_COMMENT
 
     def observable_row(self, name: str) -> int:
         if name in OBSERVABLES:
@@ -68,7 +61,7 @@ class Model:
     def attrs(self, name: str) -> dict:
         """CF attributes of a result variable of this model."""
         if name == "status":
-            return status_attrs(self.status_comment)
+            return dict(self.status_attrs)
         if name in self.derived:
             return {"units": self.derived[name][1], "long_name": self.derived[name][2]}
         for rows in (self.layout.OBSERVABLES, OBSERVABLES, self.layout.RECORD):
@@ -76,10 +69,6 @@ class Model:
                 row = rows[name]
                 return {"units": row.units, "long_name": row.long_name}
         raise KeyError(name)
-
-
-def status_attrs(comment: str = STATUS_COMMENT) -> dict:
-    return flag_attrs("trajectory status", STATUS_NAMES, comment)
 
 
 @dataclass(frozen=True)
@@ -106,6 +95,23 @@ class Raw:
 
 
 # --- inputs ---------------------------------------------------------------------------
+def as_bodies(body, cls: type) -> np.ndarray:
+    """``body`` as an object array of ``cls`` instances (0-d for a single body)."""
+    name = cls.__name__
+    if isinstance(body, cls):
+        arr = np.empty((), dtype=object)
+        arr[()] = body
+        return arr
+    arr = np.asarray(body, dtype=object)
+    if arr.size == 0:
+        raise ValueError(f"body must be a {name} or a non-empty array of {name} objects")
+    for item in arr.flat:
+        if not isinstance(item, cls):
+            raise ValueError(f"body must be a {name} or an array of {name} objects, "
+                             f"got {item!r}")
+    return arr
+
+
 def broadcast_inputs(bodies: np.ndarray, scalars: Mapping[str, Any],
                      vectors: Mapping[str, np.ndarray] | None = None):
     """Broadcast bodies (object array), scalar inputs and vector inputs (broadcast on
@@ -154,23 +160,22 @@ class CoarseStepWarning(RuntimeWarning):
 
 def warn_coarse_dt(table: list, index: np.ndarray, g: np.ndarray, dt: np.ndarray,
                    stacklevel: int) -> None:
-    """Warn once per call when a given time step exceeds COARSE_DT times the default
-    of its body (at its g), naming the body, the default and RK4's stability limit;
+    """Warn when a given time step exceeds COARSE_DT times the default of its body (at
+    its g), naming the worst trajectory's body, its default and RK4's stability limit;
     ``stacklevel`` as for :func:`warnings.warn`, counted from the caller."""
-    keys, first = np.unique(np.stack([index.astype(float), g]), axis=1, return_index=True)
-    for (i, gv), at in zip(keys.T, first):
-        body = table[int(i)]
-        default = body.default_dt(float(gv))
-        worst = float(np.max(dt[(index == i) & (g == gv)]))
-        if worst > COARSE_DT * default:
-            warnings.warn(
-                f"dt = {worst:.3g} s is {worst / default:.3g} times the default step of "
-                f"body {body.name!r} ({default:.3g} s, 1/64 of its shortest small-"
-                f"oscillation period): RK4 loses accuracy beyond a few times the default "
-                f"and is unstable from about {RK4_LIMIT:.0f} times it (semi-implicit Euler "
-                f"sooner); statuses such as capsized or lifted_off of such a run may be "
-                f"numerical artefacts", CoarseStepWarning, stacklevel=stacklevel + 1)
-            return
+    if dt.size == 0:
+        return
+    default = default_dts(table, index, g)
+    worst = int(np.argmax(dt / default))
+    ratio = dt[worst] / default[worst]
+    if ratio > COARSE_DT:
+        warnings.warn(
+            f"dt = {dt[worst]:.3g} s is {ratio:.3g} times the default step of body "
+            f"{table[index[worst]].name!r} ({default[worst]:.3g} s, 1/64 of its shortest "
+            f"small-oscillation period): RK4 loses accuracy beyond a few times the default "
+            f"and is unstable from about {RK4_LIMIT:.0f} times it (semi-implicit Euler "
+            f"sooner); statuses such as capsized or lifted_off of such a run may be "
+            f"numerical artefacts", CoarseStepWarning, stacklevel=stacklevel + 1)
 
 
 def steps_for(t_end: np.ndarray, dt: np.ndarray) -> np.ndarray:
@@ -186,7 +191,7 @@ def default_dts(table: list, index: np.ndarray, g: np.ndarray) -> np.ndarray:
 
 
 # --- packing --------------------------------------------------------------------------
-def _blocked(rows: np.ndarray, n: int) -> np.ndarray:
+def blocked(rows: np.ndarray, n: int) -> np.ndarray:
     """(n_rows, n) → (n_blocks, n_rows, BLOCK); padding lanes copy the first
     trajectory (they take no steps)."""
     n_blocks = -(-n // BLOCK)
@@ -204,7 +209,7 @@ def pack(table, columns: Mapping[str, np.ndarray], n: int) -> np.ndarray:
     for row in table:
         values = np.asarray(row.pack(columns) if row.pack else columns[row.name], dtype=float)
         rows[table.slice(row.name)] = values.reshape(n, row.width).T
-    return _blocked(rows, n)
+    return blocked(rows, n)
 
 
 def unblock(arr: np.ndarray, n: int) -> np.ndarray:
@@ -280,6 +285,14 @@ def check_record_every(record_every) -> int | None:
             and record_every >= 1):
         raise ValueError(f"record_every must be a positive integer or None, got {record_every!r}")
     return int(record_every)
+
+
+def check_single_step(prep: Prepared) -> None:
+    """Records need one time step and one end time for the whole batch."""
+    for name in ("dt", "t_end"):
+        values = prep.coords[name][1]
+        if values.size and np.any(values != values[0]):
+            raise ValueError(f"record_every needs a single {name} for the whole batch")
 
 
 def check_band(reversal_band) -> float:

@@ -26,8 +26,8 @@ behaviour:
   count. Such a helper cannot allocate an array or return one it was not given: numba
   refuses to compile either without NRT. The option is set explicitly on both kinds,
   because a function that leaves it unset inherits its caller's.
-* The model hooks of :mod:`.models` are numba overloads compiled with
-  :data:`JIT_OPTIONS`, the helpers' options.
+* The model hooks of :mod:`.models` and the accessor ``workspace.at`` are numba
+  overloads compiled with :data:`OVERLOAD_OPTIONS`, the helpers' options.
 
 Numba's on-disk cache is keyed on each kernel's own source file only, but the stepper's
 cached machine code contains every model hook it calls from other files: after an edit
@@ -47,14 +47,18 @@ from pathlib import Path
 import numba
 
 __all__ = [
-    "FASTMATH", "JIT_OPTIONS", "allocating_kernel", "drop_stale_cache", "inline_kernel",
-    "kernel", "parallel_kernel",
+    "FASTMATH", "JIT_OPTIONS", "OVERLOAD_OPTIONS", "allocating_kernel", "drop_stale_cache",
+    "inline_kernel", "kernel", "parallel_kernel",
 ]
 
 FASTMATH = {"nsz"}  # see the module docstring for what is left out, and why
 
 JIT_OPTIONS = dict(nogil=True, cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
-"""Options of every helper kernel (and of the model hooks' overloads)."""
+"""Options of every helper kernel."""
+
+OVERLOAD_OPTIONS = {k: v for k, v in JIT_OPTIONS.items() if k != "cache"}
+"""Options of the overloads (``at``, the model hooks): they are compiled into their
+callers, which are cached themselves."""
 
 kernel = functools.partial(numba.njit, **JIT_OPTIONS)
 """Decorator for helpers and scalar functions: no NRT, so no allocation (see above)."""

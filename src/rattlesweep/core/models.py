@@ -16,7 +16,7 @@ from numba import types
 from numba.core.errors import TypingError
 from numba.extending import overload
 
-from .jit import JIT_OPTIONS
+from .jit import OVERLOAD_OPTIONS
 from .planar import dynamics as planar_dynamics
 from .planar import layout as planar_layout
 from .planar import model as planar_model
@@ -44,11 +44,8 @@ def _pick(model, rattleback, planar):
 def _hook(stub, inline="never"):
     """Register ``stub`` as an overloaded hook; its typer is the decorated function."""
     return lambda typer: overload(stub, prefer_literal=True, inline=inline,
-                                  jit_options=_OPTIONS)(typer)
+                                  jit_options=OVERLOAD_OPTIONS)(typer)
 
-
-# the overloads are compiled into their callers, which are cached themselves
-_OPTIONS = {k: v for k, v in JIT_OPTIONS.items() if k != "cache"}
 
 
 # --- layout constants -------------------------------------------------------------------
@@ -113,15 +110,8 @@ def check_step(W, model, j):
 
 
 def spin_and_watch(W, model, j):
-    """(spin about the vertical (rad/s), watched quantity) of lane j's state."""
-
-
-def spin(W, model, j):
-    """Spin about the vertical of lane j's state, rad/s (0 where there is none)."""
-
-
-def watch(W, model, j):
-    """The watched quantity of lane j's state, whose smallest value is an observable."""
+    """(spin about the vertical (rad/s), 0 where there is none; the watched quantity,
+    whose smallest value is an observable) of lane j's state."""
 
 
 def energy(W, model, j):
@@ -146,8 +136,6 @@ _lane_hook(start_lane, rattleback_model.start_lane, planar_model.start_lane)
 _lane_hook(check_step, rattleback_model.check_step, planar_model.check_step, "always")
 _lane_hook(spin_and_watch, rattleback_model.spin_and_watch, planar_model.spin_and_watch,
            "always")
-_lane_hook(spin, rattleback_model.spin, planar_model.spin)
-_lane_hook(watch, rattleback_model.watch, planar_model.watch)
 _lane_hook(energy, rattleback_model.energy, planar_model.energy)
 _lane_hook(roll_start, rattleback_model.roll_start, planar_model.roll_start)
 _lane_hook(stick_impulse, rattleback_model.stick_impulse, planar_model.stick_impulse)

@@ -206,7 +206,7 @@ def finish_lane(W, model, j, P, status, Y, O):
     win_cnt = W[at(OFF_K, K_WIN_CNT, j)]
     O[O_MEAN_FINAL_SPIN, j] = W[at(OFF_K, K_WIN_SUM, j)] / win_cnt if win_cnt > 0 else np.nan
     if launched:
-        O[O_FINAL_SPIN, j] = models.spin(W, model, j)
+        O[O_FINAL_SPIN, j] = models.spin_and_watch(W, model, j)[0]
         O[O_WATCH_LOW, j] = W[at(OFF_K, K_WATCH_LOW, j)]
         O[O_E_END, j] = models.energy(W, model, j)
     else:
@@ -312,12 +312,12 @@ def advance_block(model, P, Y, nsteps, method, record_every, band, O, REC):
         else:
             note_slip(W, j)
         O[O_E0, j] = models.energy(W, model, j)
-        n0 = models.spin(W, model, j)
+        n0, watched = models.spin_and_watch(W, model, j)
         O[O_SPIN0, j] = n0
         W[at(OFF_K, K_BAND, j)] = band * abs(n0)
         W[at(OFF_K, K_SPIN_PREV, j)] = n0
         W[at(OFF_K, K_SIDE, j)] = 1.0 if n0 > 0.0 else (-1.0 if n0 < 0.0 else 0.0)
-        W[at(OFF_K, K_WATCH_LOW, j)] = models.watch(W, model, j)
+        W[at(OFF_K, K_WATCH_LOW, j)] = watched
         can_slip = can_slip or (W[at(OFF_K, K_RUN, j)] > 0.5 and (
             W[at(OFF_P, MU_S, j)] < math.inf or W[at(OFF_S, S_MODE, j)] > 0.5))
 

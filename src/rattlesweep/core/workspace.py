@@ -25,7 +25,7 @@ from __future__ import annotations
 
 from numba.extending import overload
 
-from .jit import JIT_OPTIONS
+from .jit import OVERLOAD_OPTIONS
 from .rows import Row, Rows
 
 __all__ = [
@@ -44,8 +44,7 @@ def at(region, row, j):
 
 # An overload, not a kernel: a kernel called with constant arguments is compiled once per
 # combination of their values (hundreds here), an overload once per argument type.
-overload(at, jit_options={k: v for k, v in JIT_OPTIONS.items() if k != "cache"})(
-    lambda region, row, j: at)
+overload(at, jit_options=OVERLOAD_OPTIONS)(lambda region, row, j: at)
 
 
 # --- statuses and methods ---------------------------------------------------------------

@@ -15,14 +15,15 @@ import numpy as np
 import xarray as xr
 
 from .. import engine, results
-from ..batch import as_bodies, check_single_step
 from ..body import distinct_bodies
 from ..core.models import PLANAR
 from ..core.planar import layout
-from ..engine import Model, Prepared, check_method, check_record_every
+from ..engine import (
+    Model, Prepared, as_bodies, check_method, check_record_every, check_single_step,
+)
 from ..validation import fail_where
 from .body import PlanarBody
-from .metadata import STATUS_COMMENT, attrs_for
+from .metadata import attrs_for
 
 __all__ = ["MODEL", "planar_run_attrs", "prepare_planar", "run_planar_batch"]
 
@@ -32,9 +33,9 @@ MODEL = Model(
     PLANAR, layout,
     observables=("energy_initial", "energy_final", "energy_lost", "slip_fraction",
                  "max_angle", "final_angle", "final_rate", "t_final", "steps", "status"),
+    status_attrs=attrs_for("status"),
     derived={"energy_lost": (lambda v: v["energy_initial"] - v["energy_final"], "J",
                              "energy_initial - energy_final")},
-    status_comment=STATUS_COMMENT,
 )
 """The planar model as the batch layer sees it."""
 

@@ -18,8 +18,8 @@ from .layout import (
 )
 
 __all__ = [
-    "check_step", "derive", "energy", "finish", "park", "record", "roll_start", "spin",
-    "spin_and_watch", "start_lane", "stick_impulse", "watch",
+    "check_step", "derive", "energy", "finish", "park", "record", "roll_start",
+    "spin_and_watch", "start_lane", "stick_impulse",
 ]
 
 HALF_PI = 0.5 * math.pi
@@ -47,18 +47,6 @@ def energy(W, j):
 
 
 @kernel
-def spin(W, j):
-    """No spin about the vertical in the plane: reversal tracking stays off."""
-    return 0.0
-
-
-@kernel
-def watch(W, j):
-    """The watched quantity, −|θ|: its smallest value gives the largest |θ|."""
-    return -abs(W[at(OFF_Y, THETA, j)])
-
-
-@kernel
 def start_lane(W, j):
     """True when the launch angle puts a corner of the flat edge on the floor."""
     return abs(W[at(OFF_Y, THETA, j)]) >= HALF_PI
@@ -74,7 +62,9 @@ def check_step(W, j):
 
 @inline_kernel
 def spin_and_watch(W, j):
-    """(spin, watched quantity) of lane j's state Y; see :func:`spin`, :func:`watch`."""
+    """(spin, watched quantity) of lane j's state Y: no spin about the vertical in the
+    plane (reversal tracking stays off), and −|θ|, whose smallest value gives the
+    largest |θ|."""
     return 0.0, -abs(W[at(OFF_Y, THETA, j)])
 
 

@@ -25,7 +25,7 @@ from .layout import (
 
 __all__ = [
     "check_step", "energy", "euler_step", "finish", "park", "record", "roll_start",
-    "spin", "spin_and_watch", "start_lane", "stick_impulse",
+    "spin_and_watch", "start_lane", "stick_impulse",
 ]
 
 
@@ -41,14 +41,6 @@ def up_vector(W, off, j):
         2.0 * (q2 * q3 + q0 * q1),
         1.0 - 2.0 * (q1 * q1 + q2 * q2),
     )
-
-
-@kernel
-def spin(W, j):
-    """Vertical component of the angular velocity of the state Y, rad/s."""
-    n0, n1, n2 = up_vector(W, OFF_Y, j)
-    return (W[at(OFF_Y, OMEGA_X, j)] * n0 + W[at(OFF_Y, OMEGA_Y, j)] * n1
-            + W[at(OFF_Y, OMEGA_Z, j)] * n2)
 
 
 @kernel
@@ -150,12 +142,6 @@ def spin_and_watch(W, j):
 
 
 @kernel
-def watch(W, j):
-    """The watched quantity of lane j's state Y (see :func:`spin_and_watch`)."""
-    return up_vector(W, OFF_Y, j)[2]
-
-
-@kernel
 def roll_start(W, j):
     """Set G's velocity so that lane j's material contact point is at rest (a rolling
     launch, not a collision), from the slip velocity in region X."""
@@ -206,7 +192,7 @@ def record(W, j, out):
     out[R_VELOCITY] = W[at(OFF_Y, VEL_X, j)]
     out[R_VELOCITY + 1] = W[at(OFF_Y, VEL_Y, j)]
     out[R_VELOCITY + 2] = vz
-    out[R_SPIN] = spin(W, j)
+    out[R_SPIN] = spin_and_watch(W, j)[0]
     n0, n1, n2 = up_vector(W, OFF_Y, j)
     # atan2 keeps full precision at tiny tilts, where 1 - cos(tilt) underflows float64
     out[R_TILT] = math.atan2(math.sqrt(n0 * n0 + n1 * n1), n2)
