@@ -318,14 +318,14 @@ def check_record_size(prep: Prepared, n_rec: int, record_every: int) -> None:
     have = physical_memory()
     if have is not None and need > have:
         dt = float(prep.coords["dt"][1][0])
+        t_end = float(prep.coords["t_end"][1].max())
+        lanes = "trajectory" if prep.n == 1 else "trajectories"
         raise ValueError(
             f"the record would need {need / 2**30:.3g} GiB ({n_rec:,} samples of "
-            f"{prep.model.layout.N_REC} series for {prep.n:,} "
-            f"{'trajectory' if prep.n == 1 else 'trajectories'} in blocks of {BLOCK}), "
-            f"more than this "
-            f"machine's {have / 2**30:.3g} GiB: t_end / (dt * record_every) = "
-            f"{float(prep.coords['t_end'][1].max()):g} / ({dt:g} * {record_every}) samples "
-            f"each; record less often (a larger record_every), or a shorter t_end")
+            f"{prep.model.layout.N_REC} series for {prep.n:,} {lanes} in blocks of "
+            f"{BLOCK}), more than this machine's {have / 2**30:.3g} GiB: t_end / (dt * "
+            f"record_every) = {t_end:g} / ({dt:g} * {record_every}) samples each; record "
+            f"less often (a larger record_every), or a shorter t_end")
 
 
 def execute(prep: Prepared, *, method: int, record_every: int | None, band: float = 0.0,

@@ -42,7 +42,7 @@ from .workspace import (
     K_SLIP_STEPS, K_SPIN_PREV, K_STOP, K_T_CAND, K_T_CROSS, K_WATCH_LOW, K_WIN0, K_WIN_CNT,
     K_WIN_SUM, LIFTED_OFF, MU_S, NON_FINITE, NOT_MARKED, O_E0, O_E_END, O_FINAL_SPIN,
     O_FIRST_REV, O_MEAN_FINAL_SPIN, O_N_REV, O_SLIP_FRAC, O_SPIN0, O_STATUS, O_STEPS,
-    O_T_END, O_WATCH_LOW, OFF_H, OFF_K, OFF_P, OFF_S, OFF_X, OK, RK4, S_JX, S_JY, S_MODE,
+    O_T_END, OFF_H, OFF_K, OFF_P, OFF_S, OFF_X, OK, RK4, S_JX, S_JY, S_MODE,
     S_UHX, STAGE_2, STAGE_3, STAGE_4, STAGE_FIRST, STAGE_START, X_N, X_UX, X_UY,
 )
 
@@ -207,12 +207,10 @@ def finish_lane(W, model, j, P, status, Y, O):
     O[O_MEAN_FINAL_SPIN, j] = W[at(OFF_K, K_WIN_SUM, j)] / win_cnt if win_cnt > 0 else np.nan
     if launched:
         O[O_FINAL_SPIN, j] = models.spin_and_watch(W, model, j)[0]
-        O[O_WATCH_LOW, j] = W[at(OFF_K, K_WATCH_LOW, j)]
         O[O_E_END, j] = models.energy(W, model, j)
     else:
         O[O_E0, j] = np.nan
         O[O_FINAL_SPIN, j] = np.nan
-        O[O_WATCH_LOW, j] = np.nan
         O[O_E_END, j] = np.nan
     models.finish(W, model, j, O, launched)
 

@@ -188,7 +188,6 @@ OBSERVABLES = Rows(
     Row("energy_initial", "J", "mechanical energy at t = 0"),
     Row("energy_final", "J", "mechanical energy at the end of the run"),
     Row("slip_fraction", "1", "fraction of steps spent slipping"),
-    Row("watch_low", "1", "smallest value of the model's watched quantity"),
     Row("initial_spin", "rad s-1", "vertical angular velocity at t = 0"),
     Row("final_spin", "rad s-1", "vertical angular velocity at the end of the run"),
     Row("mean_final_spin", "rad s-1",
@@ -202,7 +201,6 @@ O_T_END = OBSERVABLES.start("t_final")
 O_E0 = OBSERVABLES.start("energy_initial")
 O_E_END = OBSERVABLES.start("energy_final")
 O_SLIP_FRAC = OBSERVABLES.start("slip_fraction")
-O_WATCH_LOW = OBSERVABLES.start("watch_low")
 O_SPIN0 = OBSERVABLES.start("initial_spin")
 O_FINAL_SPIN = OBSERVABLES.start("final_spin")
 O_MEAN_FINAL_SPIN = OBSERVABLES.start("mean_final_spin")
