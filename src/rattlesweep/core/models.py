@@ -50,32 +50,46 @@ def _hook(stub, inline="never"):
 
 # --- layout constants -------------------------------------------------------------------
 def state_regions(model):
-    """(OFF_Y, OFF_T, OFF_A, N_STATE, N_WORK) of the model's workspace."""
+    """(OFF_Y, OFF_T, OFF_A, OFF_B, N_STATE, N_WORK) of the model's workspace."""
 
 
 @_hook(state_regions, inline="always")
 def _state_regions(model):
     rb, pl = rattleback_layout, planar_layout
     return _pick(model,
-                 lambda model: (rb.OFF_Y, rb.OFF_T, rb.OFF_A, rb.N_STATE, rb.N_WORK),
-                 lambda model: (pl.OFF_Y, pl.OFF_T, pl.OFF_A, pl.N_STATE, pl.N_WORK))
+                 lambda model: (rb.OFF_Y, rb.OFF_T, rb.OFF_A, rb.OFF_B, rb.N_STATE,
+                                rb.N_WORK),
+                 lambda model: (pl.OFF_Y, pl.OFF_T, pl.OFF_A, pl.OFF_B, pl.N_STATE,
+                                pl.N_WORK))
+
+
+def locates_switches(model):
+    """True when the model's RK4 steps locate stick/slip switches inside the step
+    (:mod:`.events`); False when its modes change at step starts."""
+
+
+@_hook(locates_switches, inline="always")
+def _locates_switches(model):
+    return _pick(model, lambda model: rattleback_model.LOCATES_SWITCHES,
+                 lambda model: planar_model.LOCATES_SWITCHES)
 
 
 # --- the right-hand side and the Euler step -------------------------------------------
-def evaluate(W, model, slip_possible, stage):
-    """The right-hand side of every lane used as ``stage`` asks (:mod:`.stages`), with
-    the contact outputs (region X) at the first stages. Both flags are literals;
-    ``slip_possible=False`` promises that every lane sticks."""
+def evaluate(W, model, slip_possible, stage, one_lane, lane):
+    """The right-hand side of every lane (or, when ``one_lane``, of lane ``lane`` alone)
+    used as ``stage`` asks (:mod:`.stages`), with the contact outputs (region X) at the
+    first stages. The flags are literals; ``slip_possible=False`` promises that every
+    lane sticks."""
 
 
 @_hook(evaluate)
-def _evaluate(W, model, slip_possible, stage):
+def _evaluate(W, model, slip_possible, stage, one_lane, lane):
     return _pick(
         model,
-        lambda W, model, slip_possible, stage: rattleback_dynamics.eval_block(
-            W, slip_possible, stage),
-        lambda W, model, slip_possible, stage: planar_dynamics.eval_block(
-            W, slip_possible, stage))
+        lambda W, model, slip_possible, stage, one_lane, lane: rattleback_dynamics.eval_block(
+            W, slip_possible, stage, one_lane, lane),
+        lambda W, model, slip_possible, stage, one_lane, lane: planar_dynamics.eval_block(
+            W, slip_possible, stage, one_lane, lane))
 
 
 def euler_step(W, model):

@@ -9,8 +9,8 @@ T the stage state, A the accumulator, h the time step):
   step also starts from A = d);
 * ``STAGE_2``: A += 2d and T = Y + (h/2) d;
 * ``STAGE_3``: A += 2d and T = Y + h d;
-* ``STAGE_4``: Y = Y + (h/6)(A + d), the new state, in place, and A = the old Y, kept
-  for a lane whose step fails.
+* ``STAGE_4``: Y = Y + (h/6)(A + d), the new state, in place, and B = the old Y, kept
+  for a lane whose step fails or whose contact mode changed inside the step.
 
 The two first stages differ only in which contact outputs the model writes (see
 :mod:`.workspace`).
@@ -34,11 +34,11 @@ def first_stage(stage):
 
 
 @kernel
-def put_derivative(W, j, row, stage, dk, stage_state, off_y, off_t, off_a):
+def put_derivative(W, j, row, stage, dk, stage_state, off_y, off_t, off_a, off_b):
     """Use lane j's derivative ``dk`` of a state row as ``stage`` asks. ``row`` is
     k·BLOCK + j for state row k; ``stage_state`` says whether the stage state T has row
-    k (a row no stage reads, such as a position, needs none); ``off_y``, ``off_t`` and
-    ``off_a`` are the model's offsets of regions Y, T and A.
+    k (a row no stage reads, such as a position, needs none); ``off_y``, ``off_t``,
+    ``off_a`` and ``off_b`` are the model's offsets of regions Y, T, A and B.
 
     The row comes as a number that depends on j, not as the literal k: numba compiles a
     function once per combination of literal arguments, and a literal k would make a
@@ -63,7 +63,7 @@ def put_derivative(W, j, row, stage, dk, stage_state, off_y, off_t, off_a):
     else:
         y_old = W[y]
         W[y] = y_old + W[at(OFF_H, H_SIXTH_DT, j)] * (W[a] + dk)
-        W[a] = y_old
+        W[at(off_b, 0, row)] = y_old
 
 
 @kernel

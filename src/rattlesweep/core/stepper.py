@@ -1,14 +1,19 @@
 """Fixed-step integration of blocks of trajectories with Coulomb stick/slip switching:
 the one time loop of every model.
 
-The time loop of :func:`advance_block` works on one block of ``BLOCK`` lanes:
+The time loop of :func:`advance_block` works on one block of ``BLOCK`` lanes. Each pass:
 
-1. evaluate the right-hand side at the start of the step with every lane's current mode;
-2. decide switches (:mod:`.switching`); forces are evaluated again only when some lane
-   switched;
-3. record, take an RK4 (or semi-implicit Euler) step with the modes held, and commit
-   each lane unless its new state is non-finite or capsized, or its normal force at the
-   start of the step was negative (lift-off: the lane ends with its state there).
+1. evaluates the right-hand side at the state the last step reached (the first RK stage
+   of the next step) with every lane's current mode;
+2. finds the lanes whose contact mode changed (:mod:`.switching`). With RK4, for a model
+   that locates switches, each such lane's last step is redone with the switch located
+   inside it (:mod:`.events`); otherwise (the launch, the Euler method, a model that
+   does not locate) the mode changes now, at the step start, and forces are evaluated
+   again;
+3. observes the last step (reversals, slip tally), records, writes out the lanes whose
+   run ends, and takes an RK4 (or semi-implicit Euler) step with the modes held; it
+   commits each lane unless its new state is non-finite or capsized, or its normal force
+   at the start of the step was negative (lift-off: the lane ends with its state there).
 
 Every step-wide task is a vector pass over the lanes that marks the few lanes needing
 scalar work, each pass in a row of its own. A lane that stops (status other than ok, or
@@ -32,10 +37,9 @@ from numba import prange
 
 from . import models
 from .jit import allocating_kernel, kernel, parallel_kernel
+from .events import LOCATE_ROWS, locate_marked, switch_marked
 from .stages import set_step_fractions
-from .switching import (
-    any_slipping, flag_restick, flag_slip_start, note_slip, slip_marked, stick_marked,
-)
+from .switching import any_slipping, flag_switches, note_slip
 from .workspace import (
     at, BEYOND, BLOCK, CAPSIZED, CROSSED, DT, ENDS_AS_IS, EPS_U, H_HALF_DT, H_SIXTH_DT,
     K_BAND, K_FIRST_REV, K_MARK_END, K_MARK_REVERSAL, K_N_REV, K_OPEN, K_RUN, K_SIDE,
@@ -43,7 +47,7 @@ from .workspace import (
     K_WIN_SUM, LIFTED_OFF, MU_S, NON_FINITE, NOT_MARKED, O_E0, O_E_END, O_FINAL_SPIN,
     O_FIRST_REV, O_MEAN_FINAL_SPIN, O_N_REV, O_SLIP_FRAC, O_SPIN0, O_STATUS, O_STEPS,
     O_T_END, OFF_H, OFF_K, OFF_P, OFF_S, OFF_X, OK, RK4, S_JX, S_JY, S_MODE,
-    S_UHX, STAGE_2, STAGE_3, STAGE_4, STAGE_FIRST, STAGE_START, X_N, X_UX, X_UY,
+    S_TSTOP, S_UHX, STAGE_2, STAGE_3, STAGE_4, STAGE_FIRST, STAGE_START, X_N, X_UX, X_UY,
 )
 
 __all__ = ["advance_block", "contact_slip_velocity", "integrate_parallel",
@@ -58,27 +62,27 @@ def evaluate_state(W, model, slip_possible, forces):
     stepped slips."""
     numba.literally(model)
     if slip_possible:
-        models.evaluate(W, model, True, STAGE_START)
+        models.evaluate(W, model, True, STAGE_START, False, 0)
     elif forces:
-        models.evaluate(W, model, False, STAGE_START)
+        models.evaluate(W, model, False, STAGE_START, False, 0)
     else:
-        models.evaluate(W, model, False, STAGE_FIRST)
+        models.evaluate(W, model, False, STAGE_FIRST, False, 0)
 
 
 @kernel
 def rk4_step(W, model, slip_possible):
     """The three inner stages of classic RK4 (the first ran in :func:`evaluate_state`),
-    leaving the new state in region Y and the old one in region A. ``slip_possible``
+    leaving the new state in region Y and the old one in region B. ``slip_possible``
     False (every lane sticks) lets the stages skip slip-only work."""
     numba.literally(model)
     if slip_possible:
-        models.evaluate(W, model, True, STAGE_2)
-        models.evaluate(W, model, True, STAGE_3)
-        models.evaluate(W, model, True, STAGE_4)
+        models.evaluate(W, model, True, STAGE_2, False, 0)
+        models.evaluate(W, model, True, STAGE_3, False, 0)
+        models.evaluate(W, model, True, STAGE_4, False, 0)
     else:
-        models.evaluate(W, model, False, STAGE_2)
-        models.evaluate(W, model, False, STAGE_3)
-        models.evaluate(W, model, False, STAGE_4)
+        models.evaluate(W, model, False, STAGE_2, False, 0)
+        models.evaluate(W, model, False, STAGE_3, False, 0)
+        models.evaluate(W, model, False, STAGE_4, False, 0)
 
 
 @kernel
@@ -192,7 +196,7 @@ def note_reversals(W):
 def finish_lane(W, model, j, P, status, Y, O):
     """Write out lane j's final state Y and observables O: its run has ended."""
     numba.literally(model)
-    off_y, _, _, n_state, _ = models.state_regions(model)
+    off_y, _, _, _, n_state, _ = models.state_regions(model)
     for k in range(n_state):
         Y[k, j] = W[at(off_y, k, j)]
     stop = W[at(OFF_K, K_STOP, j)]
@@ -235,7 +239,7 @@ def end_marked(W, model, P, status, Y, O, step, undo):
     :func:`flag_bad_step`, ending it with its marked status (or its own, ENDS_AS_IS);
     ``undo`` restores the state from before this step first."""
     numba.literally(model)
-    off_y, _, off_a, n_state, _ = models.state_regions(model)
+    off_y, _, _, off_b, n_state, _ = models.state_regions(model)
     for j in range(BLOCK):
         mark = W[at(OFF_K, K_MARK_END, j)]
         if mark != NOT_MARKED:
@@ -244,7 +248,7 @@ def end_marked(W, model, P, status, Y, O, step, undo):
                 W[at(OFF_K, K_STOP, j)] = step
             if undo:
                 for k in range(n_state):  # the last valid state, which the step kept
-                    W[at(off_y, k, j)] = W[at(off_a, k, j)]
+                    W[at(off_y, k, j)] = W[at(off_b, k, j)]
             finish_lane(W, model, j, P, status[j], Y, O)
             freeze_lane(W, model, j)
 
@@ -277,7 +281,8 @@ def advance_block(model, P, Y, nsteps, method, record_every, band, O, REC):
     |spin(0)|; O (n_obs, BLOCK) receives the observables.
     """
     numba.literally(model)
-    W = np.zeros(models.state_regions(model)[4] * BLOCK)
+    W = np.zeros(models.state_regions(model)[5] * BLOCK)
+    buf = np.empty((LOCATE_ROWS, models.state_regions(model)[4]))
     status = np.zeros(BLOCK, dtype=np.int64)
     rec = np.empty(REC.shape[1])
     n_rec = REC.shape[0]
@@ -309,6 +314,7 @@ def advance_block(model, P, Y, nsteps, method, record_every, band, O, REC):
             models.roll_start(W, model, j)  # a rolling launch: exactly
         else:
             note_slip(W, j)
+            W[at(OFF_S, S_TSTOP, j)] = math.inf  # no step before the launch to redo
         O[O_E0, j] = models.energy(W, model, j)
         n0, watched = models.spin_and_watch(W, model, j)
         O[O_SPIN0, j] = n0
@@ -320,23 +326,30 @@ def advance_block(model, P, Y, nsteps, method, record_every, band, O, REC):
             W[at(OFF_P, MU_S, j)] < math.inf or W[at(OFF_S, S_MODE, j)] > 0.5))
 
     # --- time loop ------------------------------------------------------------------
+    # Each pass evaluates the state the last step reached (the first stage of the next
+    # step), corrects the lanes whose contact mode changed inside the last step, observes
+    # the last step, then takes the next one.
     stop = next_stop(W)  # kept up to date whenever a lane is written out
+    locating = method == RK4 and models.locates_switches(model)
     for step in range(max_steps + 1):
         slipping = can_slip and any_slipping(W)
         recording = n_rec > 0 and step % record_every == 0 and step // record_every < n_rec
         # the friction force and slip velocity are read only by the stick/slip decisions
         # and the record
         evaluate_state(W, model, slipping, can_slip or recording)
-        if slipping:
-            if flag_restick(W) > 0:
-                stick_marked(W, model)
-                slipping = any_slipping(W)
-                evaluate_state(W, model, slipping, True)
         if can_slip:
-            if flag_slip_start(W) > 0:
-                slip_marked(W)
-                slipping = True
+            if locating and step > 0:
+                if flag_switches(W, True) > 0:
+                    locate_marked(W, model, buf)
+            elif flag_switches(W, True) > 0:  # the mode changes at the step start
+                switch_marked(W, model)
                 evaluate_state(W, model, True, True)
+                if flag_switches(W, False) > 0:  # re-stuck outside the cone: slips on
+                    switch_marked(W, model)
+                    evaluate_state(W, model, True, True)
+            slipping = any_slipping(W)
+        if step > 0 and observe(W, model, step - 1) > 0:
+            note_reversals(W)
         ending = step >= stop
         if ending:
             flag_end(W, step)
@@ -358,8 +371,6 @@ def advance_block(model, P, Y, nsteps, method, record_every, band, O, REC):
         if flag_bad_step(W, model) > 0:
             end_marked(W, model, P, status, Y, O, step, True)
             stop = next_stop(W)
-        if observe(W, model, step) > 0:
-            note_reversals(W)
     # every lane ends at or before max_steps and is written out there; this is a guard
     for j in range(BLOCK):
         if W[at(OFF_K, K_OPEN, j)] > 0.5:
@@ -396,7 +407,7 @@ def contact_slip_velocity(model, P, Y, U):
     arithmetic, a rolling launch starts with u = 0 exactly.
     """
     numba.literally(model)
-    W = np.zeros(models.state_regions(model)[4] * BLOCK)
+    W = np.zeros(models.state_regions(model)[5] * BLOCK)
     for b in range(P.shape[0]):
         for j in range(BLOCK):
             load_lane(W, model, P[b], Y[b], j)
@@ -412,7 +423,7 @@ def rolling_derivative(model, P, Y, D):
     contact (every lane sticking), from the kernel's own right-hand side. For checks
     such as the linear-stability Jacobian; the launch velocity must satisfy rolling."""
     numba.literally(model)
-    _, _, off_a, n_state, n_work = models.state_regions(model)
+    _, _, off_a, _, n_state, n_work = models.state_regions(model)
     W = np.zeros(n_work * BLOCK)  # switching state zero: every lane sticks
     for b in range(P.shape[0]):
         for j in range(BLOCK):

@@ -1,14 +1,21 @@
-"""Coulomb stick/slip switching (MODEL.md section 4), decided once per step and per lane,
-in the shared rows of every model (:mod:`.workspace`).
+"""Coulomb stick/slip switching (MODEL.md section 4) in the shared rows of every model
+(:mod:`.workspace`): which lanes change mode, in one vector pass per step.
 
-* slip → stick when the slip velocity reversed over the last step, or a decaying slip is
-  about to die (|u| < μ_k g dt and smaller than a step earlier): the model's plastic
-  contact impulse sets u = 0 exactly;
-* stick → slip when |F_t| > μ_s N, starting with the slip direction û = −F_t/|F_t|.
+* sticking → slipping where the friction sticking needs leaves the cone, |F_t| > μ_s N
+  (μ_s finite, N ≥ 0): the cone margin g = μ_s N − |F_t| turned negative over the last
+  step;
+* slipping → sticking where the slip velocity u reaches zero. That is a zero of a
+  2-vector, which no sign change of one function marks on a curved path, so each
+  evaluation at a step start predicts it instead: the time to stop at the present
+  deceleration, |u|² / (−u · u̇) (``X_TSTOP``). A slip whose prediction at the start of
+  the last step fell within ``STOP_HORIZON`` steps, or whose slip velocity turned
+  against its value there, may have stopped inside that step.
 
-Each decision is a vector pass over the lanes that marks the few lanes needing scalar
-work in a row of its own (``K_MARK_SWITCH``) and returns how many it marked (an integer
-sum that vectorises with the pass); the scalar work runs only when that is not zero.
+:func:`flag_switches` marks these lanes. With RK4 the stepper then redoes each marked
+lane's last step with the switch located inside it (:mod:`.events`) for the models that
+locate switches (``LOCATES_SWITCHES`` of each model); at the launch, with the
+semi-implicit Euler method (first order anyway) and for the other models, the mode
+changes at the step start instead.
 """
 
 from __future__ import annotations
@@ -17,18 +24,21 @@ import math
 
 import numba
 
-from . import models
-from .jit import kernel
+from .jit import inline_kernel, kernel
 from .workspace import (
-    BLOCK, DT, EPS_U, GRAV, K_MARK_SWITCH, K_RUN, MU_K, MU_S, OFF_K, OFF_P, OFF_S, OFF_X,
-    NOT_MARKED, S_JX, S_JY, S_MODE, S_UHX, S_UHY, S_UPREV, S_USX, S_USY, SWITCHES, X_FX, X_FY,
-    X_N, X_UX, X_UY, at,
+    BLOCK, DT, EPS_U, K_MARK_SWITCH, K_RUN, MU_S, OFF_K, OFF_P, OFF_S, OFF_X, NOT_MARKED,
+    S_MODE, S_TSTOP, S_UHX, S_UHY, S_USX, S_USY, SWITCHES, X_FX, X_FY, X_N, X_TSTOP, X_UX,
+    X_UY, at,
 )
 
 __all__ = [
-    "any_slipping", "flag_restick", "flag_slip_start", "note_slip", "start_slip",
-    "stick_marked", "slip_marked",
+    "STOP_HORIZON", "any_slipping", "cone_margin", "flag_switches", "note_slip",
+    "start_slip", "stop_time",
 ]
+
+STOP_HORIZON = 1.5
+"""A slip predicted to stop within this many steps is checked for a stop inside the
+step: the margin covers a deceleration that grows during the step."""
 
 
 @kernel
@@ -48,7 +58,7 @@ def note_slip(W, j):
     uu = math.sqrt(ux * ux + uy * uy)
     W[at(OFF_S, S_USX, j)] = ux
     W[at(OFF_S, S_USY, j)] = uy
-    W[at(OFF_S, S_UPREV, j)] = uu
+    W[at(OFF_S, S_TSTOP, j)] = W[at(OFF_X, X_TSTOP, j)]
     if uu > W[at(OFF_P, EPS_U, j)]:
         W[at(OFF_S, S_UHX, j)] = ux / uu
         W[at(OFF_S, S_UHY, j)] = uy / uu
@@ -67,47 +77,43 @@ def start_slip(W, j):
     W[at(OFF_S, S_UHY, j)] = uy
     W[at(OFF_S, S_USX, j)] = ux  # the slip starts from rest in this direction
     W[at(OFF_S, S_USY, j)] = uy
-    W[at(OFF_S, S_UPREV, j)] = 0.0  # an onset slip grows: never "decaying" at once
+    W[at(OFF_S, S_TSTOP, j)] = math.inf
+
+
+@inline_kernel
+def stop_time(ux, uy, dux, duy, uhx, uhy, eps):
+    """Time (s) until a slip velocity u (m/s) reaches zero at a constant slip
+    acceleration u̇ (m/s²) along it, |u|² / (−u · u̇); inf when it does not decelerate.
+    A slip speed at or below ``eps`` (m/s) is at rest along the friction's direction
+    û: stopped (0) when u̇ points against û, starting (inf) when along it."""
+    speed2 = ux * ux + uy * uy
+    closing = -(ux * dux + uy * duy)
+    moving = speed2 > eps * eps
+    t_moving = speed2 / closing if closing > 0.0 else math.inf
+    t_rest = 0.0 if uhx * dux + uhy * duy < 0.0 else math.inf
+    return t_moving if moving else t_rest
 
 
 @kernel
-def flag_restick(W):
-    """Mark the slipping lanes that stick again: their slip velocity reversed over the
-    last step, or a decaying slip would die within the next one (|u| < μ_k g dt and
-    smaller than a step earlier). Returns how many."""
-    n = 0
-    for j in range(BLOCK):
-        ux = W[at(OFF_X, X_UX, j)]
-        uy = W[at(OFF_X, X_UY, j)]
-        uu = math.sqrt(ux * ux + uy * uy)
-        reversed_ = ux * W[at(OFF_S, S_USX, j)] + uy * W[at(OFF_S, S_USY, j)] < 0.0
-        dying = ((uu < W[at(OFF_P, MU_K, j)] * W[at(OFF_P, GRAV, j)] * W[at(OFF_P, DT, j)])
-                 & (uu < W[at(OFF_S, S_UPREV, j)]))
-        mark = ((W[at(OFF_K, K_RUN, j)] > 0.5) & (W[at(OFF_S, S_MODE, j)] > 0.5)
-                & (W[at(OFF_P, MU_S, j)] > 0.0) & (reversed_ | dying))
-        W[at(OFF_K, K_MARK_SWITCH, j)] = SWITCHES if mark else NOT_MARKED
-        n += 1 if mark else 0
-    return n
+def cone_margin(W, j):
+    """μ_s N − |F_t| of a sticking lane j, from the contact outputs of an evaluation at
+    its state (N); inf when its static friction is infinite."""
+    mu_s = W[at(OFF_P, MU_S, j)]
+    if mu_s == math.inf:
+        return math.inf
+    fx = W[at(OFF_X, X_FX, j)]
+    fy = W[at(OFF_X, X_FY, j)]
+    return mu_s * W[at(OFF_X, X_N, j)] - math.sqrt(fx * fx + fy * fy)
 
 
 @kernel
-def stick_marked(W, model):
-    """Slip → stick for every marked lane: a plastic contact impulse brings its contact
-    point to rest. The impulse is friction too, and is kept for the record."""
-    numba.literally(model)
-    for j in range(BLOCK):
-        if W[at(OFF_K, K_MARK_SWITCH, j)] == SWITCHES:
-            W[at(OFF_S, S_MODE, j)] = 0.0
-            jx, jy = models.stick_impulse(W, model, j)
-            W[at(OFF_S, S_JX, j)] += jx
-            W[at(OFF_S, S_JY, j)] += jy
-
-
-@kernel
-def flag_slip_start(W):
-    """Mark the sticking lanes whose friction leaves the cone, |F_t| > μ_s N (μ_s
-    finite, N ≥ 0); in the same pass the slipping lanes remember this step's slip
-    velocity (as :func:`note_slip`). Returns how many lanes it marked."""
+def flag_switches(W, stops):
+    """Mark (``SWITCHES`` in ``K_MARK_SWITCH``) the sticking lanes whose friction left the
+    cone and, when ``stops`` (a literal), the slipping lanes (μ_s > 0) that may have
+    stopped inside the last step (see the module docstring); in the same pass the
+    unmarked slipping lanes then remember this step's slip velocity and stop time (as
+    :func:`note_slip`). Returns how many lanes it marked."""
+    numba.literally(stops)
     n = 0
     for j in range(BLOCK):
         run = W[at(OFF_K, K_RUN, j)] > 0.5
@@ -115,28 +121,28 @@ def flag_slip_start(W):
         normal = W[at(OFF_X, X_N, j)]
         fx = W[at(OFF_X, X_FX, j)]
         fy = W[at(OFF_X, X_FY, j)]
-        mu_s = W[at(OFF_P, MU_S, j)]
-        mark = (run & (not slipping) & (mu_s < math.inf) & (normal >= 0.0)
-                & (math.sqrt(fx * fx + fy * fy) > mu_s * normal))
-        W[at(OFF_K, K_MARK_SWITCH, j)] = SWITCHES if mark else NOT_MARKED
-        n += 1 if mark else 0
-
-        note = run & slipping
         ux = W[at(OFF_X, X_UX, j)]
         uy = W[at(OFF_X, X_UY, j)]
+        usx = W[at(OFF_S, S_USX, j)]
+        usy = W[at(OFF_S, S_USY, j)]
+        mu_s = W[at(OFF_P, MU_S, j)]
+        leaves_cone = ((not slipping) & (mu_s < math.inf) & (normal >= 0.0)
+                       & (math.sqrt(fx * fx + fy * fy) > mu_s * normal))
+        stopped = slipping & (mu_s > 0.0) & (
+            (W[at(OFF_S, S_TSTOP, j)] <= STOP_HORIZON * W[at(OFF_P, DT, j)])
+            | (ux * usx + uy * usy < 0.0))
+        mark = run & (leaves_cone | (stops & stopped))
+        W[at(OFF_K, K_MARK_SWITCH, j)] = SWITCHES if mark else NOT_MARKED
+        n += 1 if mark else 0
+        if not stops:
+            continue
+
+        note = run & slipping & (not mark)
         uu = math.sqrt(ux * ux + uy * uy)
-        W[at(OFF_S, S_USX, j)] = ux if note else W[at(OFF_S, S_USX, j)]
-        W[at(OFF_S, S_USY, j)] = uy if note else W[at(OFF_S, S_USY, j)]
-        W[at(OFF_S, S_UPREV, j)] = uu if note else W[at(OFF_S, S_UPREV, j)]
+        W[at(OFF_S, S_USX, j)] = ux if note else usx
+        W[at(OFF_S, S_USY, j)] = uy if note else usy
+        W[at(OFF_S, S_TSTOP, j)] = W[at(OFF_X, X_TSTOP, j)] if note else W[at(OFF_S, S_TSTOP, j)]
         turn = note & (uu > W[at(OFF_P, EPS_U, j)])
         W[at(OFF_S, S_UHX, j)] = ux / uu if turn else W[at(OFF_S, S_UHX, j)]
         W[at(OFF_S, S_UHY, j)] = uy / uu if turn else W[at(OFF_S, S_UHY, j)]
     return n
-
-
-@kernel
-def slip_marked(W):
-    """Stick → slip for every marked lane."""
-    for j in range(BLOCK):
-        if W[at(OFF_K, K_MARK_SWITCH, j)] == SWITCHES:
-            start_slip(W, j)

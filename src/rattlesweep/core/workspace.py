@@ -23,13 +23,14 @@ parameters, state, stage state, the RK4 accumulator and scratch.
 
 from __future__ import annotations
 
+from numba import types
 from numba.extending import overload
 
 from .jit import OVERLOAD_OPTIONS
 from .rows import Row, Rows
 
 __all__ = [
-    "BLOCK", "at", "STATUS_NAMES", "OK", "CAPSIZED", "LIFTED_OFF", "NON_FINITE", "RK4",
+    "BLOCK", "at", "lane_range", "STATUS_NAMES", "OK", "CAPSIZED", "LIFTED_OFF", "NON_FINITE", "RK4",
     "EULER", "METHODS",
 ]
 
@@ -45,6 +46,21 @@ def at(region, row, j):
 # An overload, not a kernel: a kernel called with constant arguments is compiled once per
 # combination of their values (hundreds here), an overload once per argument type.
 overload(at, jit_options=OVERLOAD_OPTIONS)(lambda region, row, j: at)
+
+
+def lane_range(one_lane, lane):
+    """(first, stop) of the lanes a pass runs over: every lane of the block, or, when
+    ``one_lane`` (a literal), lane ``lane`` alone (the scalar path of a lane whose contact
+    mode changes inside a step)."""
+    return (lane, lane + 1) if one_lane else (0, BLOCK)
+
+
+@overload(lane_range, prefer_literal=True, inline="always", jit_options=OVERLOAD_OPTIONS)
+def _lane_range(one_lane, lane):
+    # chosen while typing, so that a block pass keeps the constant trip count BLOCK
+    if isinstance(one_lane, types.BooleanLiteral) and not one_lane.literal_value:
+        return lambda one_lane, lane: (0, BLOCK)
+    return lambda one_lane, lane: (lane, lane + 1)
 
 
 # --- statuses and methods ---------------------------------------------------------------
@@ -69,12 +85,15 @@ CONTACT = Rows(
     Row("friction_force", "N", "horizontal friction force on the body", 2, "horizontal"),
     Row("slip_velocity", "m s-1", "horizontal velocity of the material contact point", 2,
         "horizontal"),
+    Row("stop_time", "s", "time until a slip stops at its present deceleration (inf when "
+        "it does not decelerate, or sticks)"),
 )
 X_N = CONTACT.start("normal_force")
 X_FX = CONTACT.start("friction_force")
 X_FY = X_FX + 1
 X_UX = CONTACT.start("slip_velocity")
 X_UY = X_UX + 1
+X_TSTOP = CONTACT.start("stop_time")
 
 # --- switching state of each lane, rows of region S ----------------------------------
 SWITCH = Rows(
@@ -83,7 +102,7 @@ SWITCH = Rows(
     Row("slip_direction", "1", "last known slip direction (unit)", 2, "horizontal"),
     Row("step_slip_velocity", "m s-1", "slip velocity at the start of the step", 2,
         "horizontal"),
-    Row("previous_slip_speed", "m s-1", "slip speed at the end of the previous step"),
+    Row("step_stop_time", "s", "stop_time at the start of the step"),
     Row("impulse_tally", "N s", "re-stick friction impulses since the last sample", 2,
         "horizontal"),
 )
@@ -92,7 +111,7 @@ S_UHX = SWITCH.start("slip_direction")
 S_UHY = S_UHX + 1
 S_USX = SWITCH.start("step_slip_velocity")
 S_USY = S_USX + 1
-S_UPREV = SWITCH.start("previous_slip_speed")
+S_TSTOP = SWITCH.start("step_stop_time")
 S_JX = SWITCH.start("impulse_tally")
 S_JY = S_JX + 1
 

@@ -26,30 +26,34 @@ out negative and the lane stops as ``lifted_off``.
 
 The time loop, the switching rules and the layout of the shared rows are the 3-D
 model's (:mod:`..stepper`, :mod:`..switching`, :mod:`..workspace`); horizontal vectors of
-the shared rows have a zero Y component here. A re-stick is the plastic impulse of
-:func:`contact_impulse`.
+the shared rows have a zero Y component here. Its switches are located inside the step
+(:mod:`..events`); a re-stick is the plastic impulse of :func:`contact_impulse`, which
+removes the residual slip a located stop leaves. The first stage also gives the time
+until the slip stops at its present deceleration, u / (−u̇) with
+u̇ = ẍ_G + θ̈ h + θ̇² h′, from which stops are found.
 
 One planar specialisation: the slip direction s (the shared row S_UHX) is held through
 a step with the mode (it is sgn u at the step start, or −sgn F at a slip onset). In 3-D
 the direction u/|u| turns continuously and is re-read at every stage; on a line it only
-changes when u passes through zero, which is the reversal event itself. Re-reading it
-at the stages would flip the friction inside the step, let RK4 land on an end-of-step u
-of the old sign (a missed reversal: chattering instead of sticking), and add energy
-(tests/test_planar.py checks that friction never does).
+changes when u passes through zero, which is the stop itself, where the located
+switching takes over.
 """
 
 from __future__ import annotations
 
 import math
 
+import numba
+
 from ..jit import kernel
 from ..stages import first_stage, put_derivative
+from ..switching import stop_time
 from ..workspace import (
-    BLOCK, DT, GRAV, MU_K, OFF_P, OFF_S, OFF_X, S_MODE, S_UHX, X_FX, X_FY, X_N, X_UX, X_UY,
-    at,
+    BLOCK, DT, EPS_U, GRAV, MU_K, OFF_P, OFF_S, OFF_X, S_MODE, S_UHX, X_FX, X_FY, X_N, X_TSTOP, X_UX,
+    X_UY, at, lane_range,
 )
 from .layout import (
-    A2, AB2, B2, DEPTH, INERTIA, MASS, OFF_A, OFF_T, OFF_Y, RATE, THETA, VXG, XG,
+    A2, AB2, B2, DEPTH, INERTIA, MASS, OFF_A, OFF_B, OFF_T, OFF_Y, RATE, THETA, VXG, XG,
 )
 
 __all__ = ["contact_impulse", "energy", "eval_block", "euler_step", "shape"]
@@ -93,7 +97,7 @@ def contact_impulse(m, inertia, h, hp, u):
 
 
 @kernel
-def eval_block(W, slip_possible, stage):
+def eval_block(W, slip_possible, stage, one_lane, lane):
     """Time derivative of every lane, used as ``stage`` asks (:mod:`..stages`), with the
     contact outputs N, F and u (region X) at the first stages; reads each lane's mode and
     held slip direction (region S). ``slip_possible`` is accepted for the stepper's sake:
@@ -103,8 +107,10 @@ def eval_block(W, slip_possible, stage):
     Slip:  θ̈ = −k N₀/(I + m h′ k), k = h′ + μ_k s h, N₀ = m(g + h″θ̇²), F = −μ_k s N.
     Both:  N = N₀ + m h′ θ̈, ẍ_G = F/m.
     """
+    numba.literally(one_lane)
     state = OFF_Y if first_stage(stage) else OFF_T
-    for j in range(BLOCK):
+    first, stop = lane_range(one_lane, lane)
+    for j in range(first, stop):
         theta = W[at(state, THETA, j)]
         rate = W[at(state, RATE, j)]
         vx = W[at(state, VXG, j)]
@@ -129,15 +135,19 @@ def eval_block(W, slip_possible, stage):
         else:
             force = -m * (alpha * h + hp * w2)  # keeps u̇ = ẍ_G + θ̈ h + θ̇² h′ = 0
         if first_stage(stage):
+            u = vx + rate * h
             W[at(OFF_X, X_N, j)] = normal
             W[at(OFF_X, X_FX, j)] = force
             W[at(OFF_X, X_FY, j)] = 0.0
-            W[at(OFF_X, X_UX, j)] = vx + rate * h
+            W[at(OFF_X, X_UX, j)] = u
             W[at(OFF_X, X_UY, j)] = 0.0
-        put_derivative(W, j, THETA * BLOCK + j, stage, rate, True, OFF_Y, OFF_T, OFF_A)
-        put_derivative(W, j, RATE * BLOCK + j, stage, alpha, True, OFF_Y, OFF_T, OFF_A)
-        put_derivative(W, j, XG * BLOCK + j, stage, vx, False, OFF_Y, OFF_T, OFF_A)
-        put_derivative(W, j, VXG * BLOCK + j, stage, force / m, True, OFF_Y, OFF_T, OFF_A)
+            # u̇ = ẍ_G + θ̈ h + θ̇² h′ (zero while sticking)
+            du = force / m + alpha * h + w2 * hp if slip else 0.0
+            W[at(OFF_X, X_TSTOP, j)] = stop_time(u, 0.0, du, 0.0, sgn, 0.0, W[at(OFF_P, EPS_U, j)])
+        put_derivative(W, j, THETA * BLOCK + j, stage, rate, True, OFF_Y, OFF_T, OFF_A, OFF_B)
+        put_derivative(W, j, RATE * BLOCK + j, stage, alpha, True, OFF_Y, OFF_T, OFF_A, OFF_B)
+        put_derivative(W, j, XG * BLOCK + j, stage, vx, False, OFF_Y, OFF_T, OFF_A, OFF_B)
+        put_derivative(W, j, VXG * BLOCK + j, stage, force / m, True, OFF_Y, OFF_T, OFF_A, OFF_B)
 
 
 @kernel
@@ -152,7 +162,7 @@ def euler_step(W):
         theta = W[at(OFF_Y, THETA, j)] + dt * rate
         x = W[at(OFF_Y, XG, j)] + dt * vx
         for k in (THETA, RATE, XG, VXG):
-            W[at(OFF_A, k, j)] = W[at(OFF_Y, k, j)]
+            W[at(OFF_B, k, j)] = W[at(OFF_Y, k, j)]
         W[at(OFF_Y, THETA, j)] = theta
         W[at(OFF_Y, RATE, j)] = rate
         W[at(OFF_Y, XG, j)] = x

@@ -49,11 +49,13 @@ N_STATE = STATE.size
 # --- the block workspace: the shared regions, then this model's ------------------------
 OFF_Y = OFF_P + N_PARAM  # state at the start of the step; the new state after it
 OFF_T = OFF_Y + N_STATE  # stage state of the inner RK4 stages
-OFF_A = OFF_T + N_STATE  # RK4 accumulator; the old state after a step
-N_WORK = OFF_A + N_STATE
+OFF_A = OFF_T + N_STATE  # RK4 accumulator; the first-stage derivative between steps
+OFF_B = OFF_A + N_STATE  # the state at the start of the last step
+N_WORK = OFF_B + N_STATE
 check_regions("planar workspace", {
     "shared": (0, N_SHARED), "model parameters": (N_SHARED, N_PARAM - COMMON_PARAMS.size),
-    "Y": (OFF_Y, N_STATE), "T": (OFF_T, N_STATE), "A": (OFF_A, N_STATE)}, N_WORK)
+    "Y": (OFF_Y, N_STATE), "T": (OFF_T, N_STATE), "A": (OFF_A, N_STATE),
+    "B": (OFF_B, N_STATE)}, N_WORK)
 
 # --- recorded time series, rows of the record array ------------------------------------
 RECORD = Rows(

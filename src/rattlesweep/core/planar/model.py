@@ -18,11 +18,14 @@ from .layout import (
 )
 
 __all__ = [
-    "check_step", "derive", "energy", "finish", "park", "record", "roll_start",
-    "spin_and_watch", "start_lane", "stick_impulse",
+    "LOCATES_SWITCHES", "check_step", "derive", "energy", "finish", "park", "record",
+    "roll_start", "spin_and_watch", "start_lane", "stick_impulse",
 ]
 
 HALF_PI = 0.5 * math.pi
+
+LOCATES_SWITCHES = True
+"""Stick/slip switches are located inside the RK4 step (:mod:`..events`)."""
 
 
 @kernel

@@ -15,15 +15,16 @@ import numba
 
 from ..jit import inline_kernel, kernel
 from ..stages import first_stage, put_derivative
+from ..switching import stop_time
 from ..workspace import (
     BLOCK, EPS_U, GRAV, MU_K, OFF_P, OFF_S, OFF_X, S_MODE, S_UHX, S_UHY, STAGE_FIRST,
-    STAGE_START, X_FX, X_FY, X_N, X_UX, X_UY, at,
+    STAGE_START, X_FX, X_FY, X_N, X_TSTOP, X_UX, X_UY, at, lane_range,
 )
 from .geometry import adjugate_solve, cross
 from .layout import (
     A2, ALPHA_X, ALPHA_Y, ALPHA_Z, B2, C2, COM_X, COM_Y, COM_Z, DAMPING, DAMPING_PM, DET,
     INV_QQ, INV_SIGMA, I_XX, I_XY, I_XZ, I_YY, I_YZ, I_ZZ, J_XX, J_XY, J_XZ, J_YY, J_YZ,
-    J_ZZ, MASS, NORMAL_PM, OFF_A, OFF_E, OFF_G, OFF_T, OFF_Y, OMEGA_X, OMEGA_Y, OMEGA_Z,
+    J_ZZ, MASS, NORMAL_PM, OFF_A, OFF_B, OFF_E, OFF_G, OFF_T, OFF_Y, OMEGA_X, OMEGA_Y, OMEGA_Z,
     POS_X, POS_Y, Q0, Q1, Q2, Q3, RHO_X, RHO_Y, RHO_Z, SLIP_X, SLIP_Y, UHAT_X, UHAT_Y, UP_X,
     UP_Y, UP_Z, VEL_X, VEL_Y, WW_X, WW_Y, WW_Z,
 )
@@ -41,7 +42,7 @@ def derive_parameters(W, j):
 
 
 @kernel
-def eval_block(W, slip_possible, stage):
+def eval_block(W, slip_possible, stage, one_lane, lane):
     """Time derivative of every lane of a block, plus its contact forces.
 
     W is the block workspace (see :mod:`.layout`). Reads the parameters (regions P and
@@ -62,7 +63,9 @@ def eval_block(W, slip_possible, stage):
       for a lane whose step fails. Forces, which nobody reads in these inner stages,
       are not written.
 
-    Both flags must be literals, so each combination compiles to its own variant;
+    ``one_lane`` (a literal) restricts the evaluation to lane ``lane``.
+
+    The flags must be literals, so each combination compiles to its own variant;
     ``slip_possible=False`` promises that every lane sticks and drops the slip-only work.
     A lane's derivative is computed by the same operations in every variant, so it does
     not depend on which one ran.
@@ -75,20 +78,21 @@ def eval_block(W, slip_possible, stage):
     """
     numba.literally(slip_possible)
     numba.literally(stage)
+    numba.literally(one_lane)
     if stage == STAGE_START:
-        contact_kinematics(W, True, OFF_Y)  # the slip velocity is an output
-        accelerations(W, slip_possible, OFF_Y)
+        contact_kinematics(W, True, OFF_Y, one_lane, lane)  # the slip velocity is an output
+        accelerations(W, slip_possible, OFF_Y, one_lane, lane)
     elif stage == STAGE_FIRST:
-        contact_kinematics(W, slip_possible, OFF_Y)
-        accelerations(W, slip_possible, OFF_Y)
+        contact_kinematics(W, slip_possible, OFF_Y, one_lane, lane)
+        accelerations(W, slip_possible, OFF_Y, one_lane, lane)
     else:
-        contact_kinematics(W, slip_possible, OFF_T)
-        accelerations(W, slip_possible, OFF_T)
+        contact_kinematics(W, slip_possible, OFF_T, one_lane, lane)
+        accelerations(W, slip_possible, OFF_T, one_lane, lane)
     if slip_possible or first_stage(stage):
-        divide_out(W, True)
+        divide_out(W, True, one_lane, lane)
     else:
-        divide_out(W, False)  # the normal force, which no lane needs
-    store_derivative(W, slip_possible, stage)
+        divide_out(W, False, one_lane, lane)  # the normal force, which no lane needs
+    store_derivative(W, slip_possible, stage, one_lane, lane)
 
 
 @kernel
@@ -107,7 +111,7 @@ def horizontal_rows(q0, q1, q2, q3):
 
 
 @kernel
-def contact_kinematics(W, slip_velocity, state):
+def contact_kinematics(W, slip_velocity, state, one_lane, lane):
     """Phase 1 of :func:`eval_block`: contact point, its rate, w, and the slip velocity.
 
     The rotation body -> world is R = R̃/|q|² with R̃ quadratic in q (stage quaternions
@@ -120,7 +124,9 @@ def contact_kinematics(W, slip_velocity, state):
     """
     numba.literally(slip_velocity)
     numba.literally(state)
-    for j in range(BLOCK):
+    numba.literally(one_lane)
+    first, stop = lane_range(one_lane, lane)
+    for j in range(first, stop):
         q0 = W[at(state, Q0, j)]
         q1 = W[at(state, Q1, j)]
         q2 = W[at(state, Q2, j)]
@@ -141,7 +147,7 @@ def contact_kinematics(W, slip_velocity, state):
         W[at(OFF_G, UP_Z, j)] = u2
         W[at(OFF_G, INV_QQ, j)] = inv * sig  # 1/|q|²
         W[at(OFF_G, INV_SIGMA, j)] = inv * qq  # 1/σ̃
-    for j in range(BLOCK):
+    for j in range(first, stop):
         w0 = W[at(state, OMEGA_X, j)]
         w1 = W[at(state, OMEGA_Y, j)]
         w2 = W[at(state, OMEGA_Z, j)]
@@ -190,7 +196,7 @@ def contact_kinematics(W, slip_velocity, state):
 
 
 @kernel
-def accelerations(W, slip_possible, state):
+def accelerations(W, slip_possible, state, one_lane, lane):
     """Phase 2 of :func:`eval_block`: the angular acceleration, as adj(M) b and det M
     (see :func:`divide_out`).
 
@@ -202,7 +208,9 @@ def accelerations(W, slip_possible, state):
     """
     numba.literally(slip_possible)
     numba.literally(state)
-    for j in range(BLOCK):
+    numba.literally(one_lane)
+    first, stop = lane_range(one_lane, lane)
+    for j in range(first, stop):
         w0 = W[at(state, OMEGA_X, j)]
         w1 = W[at(state, OMEGA_Y, j)]
         w2 = W[at(state, OMEGA_Z, j)]
@@ -297,7 +305,7 @@ def accelerations(W, slip_possible, state):
 
 
 @kernel
-def divide_out(W, normal):
+def divide_out(W, normal, one_lane, lane):
     """Phase 3 of :func:`eval_block`: finish Cramer's rule, ω̇ = adj(M) b / det M, in
     place, and, if ``normal`` (a literal), the normal force per unit mass,
     N/m = g − n̂·w − l·ω̇ with l = ρ × n̂, into NORMAL_PM.
@@ -309,7 +317,9 @@ def divide_out(W, normal):
     divider.
     """
     numba.literally(normal)
-    for j in range(BLOCK):
+    numba.literally(one_lane)
+    first, stop = lane_range(one_lane, lane)
+    for j in range(first, stop):
         inv_det = 1.0 / W[at(OFF_G, DET, j)]
         x0 = W[at(OFF_G, ALPHA_X, j)] * inv_det
         x1 = W[at(OFF_G, ALPHA_Y, j)] * inv_det
@@ -335,7 +345,8 @@ def divide_out(W, normal):
 def friction_lane(W, j, slip_possible, stage, q0, q1, q2, q3):
     """Friction force per unit mass on lane j, world horizontal (m/s²), for
     :func:`store_derivative`, which passes the state's quaternion; writes the outputs
-    of region X at STAGE_START and STAGE_FIRST. Inlined into the derivative loop,
+    of region X at STAGE_START and STAGE_FIRST (at STAGE_START with the time until the
+    slip stops at its present deceleration, from the slip acceleration u̇). Inlined into the derivative loop,
     which is bound by its loads and stores: the friction's arithmetic fits in beside
     them, and its result never goes to memory."""
     outputs = stage == STAGE_START
@@ -352,30 +363,44 @@ def friction_lane(W, j, slip_possible, stage, q0, q1, q2, q3):
     e00, e01, e02, e10, e11, e12 = horizontal_rows(q0, q1, q2, q3)
     fx = (e00 * e0 + e01 * e1 + e02 * e2) * inv_q
     fy = (e10 * e0 + e11 * e1 + e12 * e2) * inv_q
+    # the slip acceleration u̇ is the friction force per unit mass less the force sticking
+    # would need (both modes share the kinematics: d/dt R(ω × ρ) = R(ω̇ × ρ + w))
+    dux = 0.0
+    duy = 0.0
     if slip_possible:
         if W[at(OFF_S, S_MODE, j)] > 0.5:  # slip: F/m = −μ_k (N/m) û
             mu_n = -W[at(OFF_P, MU_K, j)] * nm
+            stick_x = fx
+            stick_y = fy
             fx = mu_n * W[at(OFF_G, UHAT_X, j)]
             fy = mu_n * W[at(OFF_G, UHAT_Y, j)]
+            dux = fx - stick_x
+            duy = fy - stick_y
     if normal_output:
         W[at(OFF_X, X_N, j)] = W[at(OFF_P, MASS, j)] * nm
     if outputs:
         m = W[at(OFF_P, MASS, j)]
         W[at(OFF_X, X_FX, j)] = m * fx
         W[at(OFF_X, X_FY, j)] = m * fy
-        W[at(OFF_X, X_UX, j)] = W[at(OFF_G, SLIP_X, j)]
-        W[at(OFF_X, X_UY, j)] = W[at(OFF_G, SLIP_Y, j)]
+        ux = W[at(OFF_G, SLIP_X, j)]
+        uy = W[at(OFF_G, SLIP_Y, j)]
+        W[at(OFF_X, X_UX, j)] = ux
+        W[at(OFF_X, X_UY, j)] = uy
+        W[at(OFF_X, X_TSTOP, j)] = stop_time(ux, uy, dux, duy, W[at(OFF_G, UHAT_X, j)],
+                                             W[at(OFF_G, UHAT_Y, j)], W[at(OFF_P, EPS_U, j)])
     return fx, fy
 
 
 @kernel
-def store_derivative(W, slip_possible, stage):
+def store_derivative(W, slip_possible, stage, one_lane, lane):
     """Phase 4 of :func:`eval_block`: the friction force and the whole derivative, used
     as ``stage`` asks."""
     numba.literally(slip_possible)
     numba.literally(stage)
+    numba.literally(one_lane)
     state = OFF_Y if first_stage(stage) else OFF_T
-    for j in range(BLOCK):
+    first, stop = lane_range(one_lane, lane)
+    for j in range(first, stop):
         q0 = W[at(state, Q0, j)]
         q1 = W[at(state, Q1, j)]
         q2 = W[at(state, Q2, j)]
@@ -385,26 +410,26 @@ def store_derivative(W, slip_possible, stage):
         h1 = 0.5 * W[at(state, OMEGA_Y, j)]
         h2 = 0.5 * W[at(state, OMEGA_Z, j)]
         put_derivative(W, j, Q0 * BLOCK + j, stage, -(q1 * h0 + q2 * h1 + q3 * h2), True,
-                       OFF_Y, OFF_T, OFF_A)
+                       OFF_Y, OFF_T, OFF_A, OFF_B)
         put_derivative(W, j, Q1 * BLOCK + j, stage, q0 * h0 + q2 * h2 - q3 * h1, True,
-                       OFF_Y, OFF_T, OFF_A)
+                       OFF_Y, OFF_T, OFF_A, OFF_B)
         put_derivative(W, j, Q2 * BLOCK + j, stage, q0 * h1 + q3 * h0 - q1 * h2, True,
-                       OFF_Y, OFF_T, OFF_A)
+                       OFF_Y, OFF_T, OFF_A, OFF_B)
         put_derivative(W, j, Q3 * BLOCK + j, stage, q0 * h2 + q1 * h1 - q2 * h0, True,
-                       OFF_Y, OFF_T, OFF_A)
+                       OFF_Y, OFF_T, OFF_A, OFF_B)
         # ω̇, after divide_out
         put_derivative(W, j, OMEGA_X * BLOCK + j, stage, W[at(OFF_G, ALPHA_X, j)], True,
-                       OFF_Y, OFF_T, OFF_A)
+                       OFF_Y, OFF_T, OFF_A, OFF_B)
         put_derivative(W, j, OMEGA_Y * BLOCK + j, stage, W[at(OFF_G, ALPHA_Y, j)], True,
-                       OFF_Y, OFF_T, OFF_A)
+                       OFF_Y, OFF_T, OFF_A, OFF_B)
         put_derivative(W, j, OMEGA_Z * BLOCK + j, stage, W[at(OFF_G, ALPHA_Z, j)], True,
-                       OFF_Y, OFF_T, OFF_A)
+                       OFF_Y, OFF_T, OFF_A, OFF_B)
         # no stage reads the position of G, so no stage state has one
         put_derivative(W, j, POS_X * BLOCK + j, stage, W[at(state, VEL_X, j)], False,
-                       OFF_Y, OFF_T, OFF_A)
+                       OFF_Y, OFF_T, OFF_A, OFF_B)
         put_derivative(W, j, POS_Y * BLOCK + j, stage, W[at(state, VEL_Y, j)], False,
-                       OFF_Y, OFF_T, OFF_A)
+                       OFF_Y, OFF_T, OFF_A, OFF_B)
         put_derivative(W, j, VEL_X * BLOCK + j, stage, fx, True,
-                       OFF_Y, OFF_T, OFF_A)
+                       OFF_Y, OFF_T, OFF_A, OFF_B)
         put_derivative(W, j, VEL_Y * BLOCK + j, stage, fy, True,
-                       OFF_Y, OFF_T, OFF_A)
+                       OFF_Y, OFF_T, OFF_A, OFF_B)

@@ -96,14 +96,15 @@ N_SCRATCH = 20
 OFF_E = OFF_P + N_PARAM  # derived parameters
 OFF_Y = OFF_E + N_DERIVED  # state at the start of the step; the new state after it
 OFF_T = OFF_Y + N_STATE  # stage state of the inner RK4 stages (no position rows used)
-OFF_A = OFF_T + N_STATE  # RK4 accumulator; the old state after a step
-OFF_G = OFF_A + N_STATE  # right-hand-side intermediates
+OFF_A = OFF_T + N_STATE  # RK4 accumulator; the first-stage derivative between steps
+OFF_B = OFF_A + N_STATE  # the state at the start of the last step
+OFF_G = OFF_B + N_STATE  # right-hand-side intermediates
 N_WORK = OFF_G + N_SCRATCH
 check_regions("rattleback workspace", {
     "shared": (0, N_SHARED), "model parameters": (N_SHARED, N_PARAM - COMMON_PARAMS.size),
     "E": (OFF_E, N_DERIVED),
     "Y": (OFF_Y, N_STATE), "T": (OFF_T, N_STATE), "A": (OFF_A, N_STATE),
-    "G": (OFF_G, N_SCRATCH)}, N_WORK)
+    "B": (OFF_B, N_STATE), "G": (OFF_G, N_SCRATCH)}, N_WORK)
 
 # --- recorded time series, rows of the record array ------------------------------------
 RECORD = Rows(

@@ -1,0 +1,316 @@
+"""Stick/slip switches located inside the step (MODEL.md section 4): the scalar path of
+the few lanes whose contact mode changes.
+
+The vector RK4 step holds every lane's mode through the step; afterwards
+:func:`.switching.flag_switches` marks the lanes that may have switched inside it, and
+:func:`locate_marked` redoes each marked lane's step alone, from the state before it
+(region B), locating every switch:
+
+* stick → slip: the sticking motion is smooth through the instant the friction leaves
+  the cone, so the held step is a smooth continuation of it. The cubic Hermite
+  interpolant of the held step (the states at its ends, y0 and y1, and the derivatives
+  there: f0 from one evaluation at y0, f1 the first stage of the next step, region A) is
+  accurate to O(h⁴), one order below RK4's local error; the root of the cone margin
+  along it, found by the Illinois variant of regula falsi (one evaluation per iterate,
+  to a step fraction of ``THETA_TOL``), is the switching instant;
+* slip → stick: a slip stops where the 2-vector u reaches zero, and past that instant the
+  held step is not a continuation of anything (the friction turns with u). So the slip
+  is integrated forward to its stop instead, by steps of the predicted time to stop,
+  |u|² / (−u · u̇) (Newton's method on the slip speed from the slipping side, converging
+  quadratically), until that time is below ``THETA_TOL`` of the step. The plastic impulse
+  then removes the residual slip (what the located instant leaves: it is reported in the
+  record), and the cone is checked at once.
+
+After a switch the rest of the step is integrated in the new mode (RK4 steps of the
+remaining length, or the forward steps to a stop), and further switches in it are
+located the same way, up to ``MAX_SWITCHES`` per step. Every evaluation runs the models'
+right-hand side on the one lane (``one_lane``), from the same source as the vector
+passes. The lane's fraction of the step spent slipping goes into its slip tally. Should
+the located state be unusable (not finite, or capsized), the lane keeps the held step.
+"""
+
+from __future__ import annotations
+
+import numba
+
+from . import models
+from .jit import kernel
+from .stages import set_step_fractions
+from .switching import cone_margin, note_slip, start_slip
+from .workspace import (
+    BLOCK, DT, H_HALF_DT, K_MARK_SWITCH, K_SLIP_STEPS, OFF_H, OFF_K, OFF_P, OFF_S, OFF_X,
+    S_JX, S_JY, S_MODE, STAGE_2, STAGE_3, STAGE_4, STAGE_START, SWITCHES, X_TSTOP, X_UX, X_UY,
+    at,
+)
+
+__all__ = ["LOCATE_ROWS", "MAX_SWITCHES", "THETA_TOL", "locate_marked", "stick_lane",
+           "switch_marked"]
+
+THETA_TOL = 1e-10
+"""Convergence of the located instant, as a fraction of the (rest of the) step."""
+
+MAX_ITERATIONS = 40
+"""Bound on the iterations locating one switch (they converge in a handful)."""
+
+MAX_SWITCHES = 4
+"""Switches located inside one step of one lane; a further one waits for the step end."""
+
+Y0, F0, Y1, F1, HELD = range(5)
+LOCATE_ROWS = 5
+"""Rows of the per-block scratch array of :func:`locate_marked` (each ``n_state`` long):
+the ends of an interval and their derivatives, and the held step's result."""
+
+
+@kernel
+def evaluate_lane(W, model, j):
+    """Evaluate lane j alone at its state Y in its current mode: derivative in A, contact
+    outputs in X."""
+    numba.literally(model)
+    models.evaluate(W, model, True, STAGE_START, True, j)
+
+
+@kernel
+def rk4_lane(W, model, j):
+    """The three inner RK4 stages of lane j alone, after :func:`evaluate_lane`: Y becomes
+    the state one (lane) step later, B the state before."""
+    numba.literally(model)
+    models.evaluate(W, model, True, STAGE_2, True, j)
+    models.evaluate(W, model, True, STAGE_3, True, j)
+    models.evaluate(W, model, True, STAGE_4, True, j)
+
+
+@kernel
+def set_lane_step(W, j, h):
+    """Lane j's time step (and its fractions) set to h, s."""
+    W[at(OFF_P, DT, j)] = h
+    set_step_fractions(W, j)
+
+
+@kernel
+def interpolate(W, model, j, buf, theta, h):
+    """Lane j's state Y at the fraction θ of an interval of length h (s), from the cubic
+    Hermite interpolant of its ends and derivatives in ``buf``."""
+    numba.literally(model)
+    off_y, _, _, _, n_state, _ = models.state_regions(model)
+    t2 = theta * theta
+    t3 = t2 * theta
+    h00 = 2.0 * t3 - 3.0 * t2 + 1.0
+    h10 = (t3 - 2.0 * t2 + theta) * h
+    h01 = 3.0 * t2 - 2.0 * t3
+    h11 = (t3 - t2) * h
+    for k in range(n_state):
+        W[at(off_y, k, j)] = (h00 * buf[Y0, k] + h10 * buf[F0, k]
+                              + h01 * buf[Y1, k] + h11 * buf[F1, k])
+
+
+@kernel
+def copy_state(W, model, j, buf, row, off):
+    """buf[row] = lane j's state rows of the region at ``off``."""
+    numba.literally(model)
+    n_state = models.state_regions(model)[4]
+    for k in range(n_state):
+        buf[row, k] = W[at(off, k, j)]
+
+
+@kernel
+def begin_lane_step(W, model, j, h):
+    """Make lane j, evaluated at its state (derivative in A), ready for the inner RK4
+    stages of a step of length h (s): its step fractions and first stage state."""
+    numba.literally(model)
+    off_y, off_t, off_a, _, n_state, _ = models.state_regions(model)
+    set_lane_step(W, j, h)
+    for k in range(n_state):
+        W[at(off_t, k, j)] = W[at(off_y, k, j)] + W[at(OFF_H, H_HALF_DT, j)] * W[at(off_a, k, j)]
+
+
+@kernel
+def lane_step(W, model, j, h):
+    """One RK4 step of length h (s) of lane j alone, in its mode, from its evaluated
+    state; leaves the new state evaluated (with the step fractions of h)."""
+    numba.literally(model)
+    begin_lane_step(W, model, j, h)
+    rk4_lane(W, model, j)
+    evaluate_lane(W, model, j)
+
+
+@kernel
+def cone_exit(W, model, j, buf, h, g0, g1):
+    """The fraction θ* of the interval (length h, s) in ``buf`` at which sticking lane
+    j's cone margin, g0 at its start and g1 < 0 at its end, crosses zero; leaves the lane
+    at y(θ*), evaluated. θ* = 0 when the margin is not positive at the start."""
+    numba.literally(model)
+    if not g0 > 0.0:
+        interpolate(W, model, j, buf, 0.0, h)
+        evaluate_lane(W, model, j)
+        return 0.0
+    lo, g_lo, hi, g_hi = 0.0, g0, 1.0, g1
+    theta = 1.0
+    side = 0
+    for _ in range(MAX_ITERATIONS):
+        previous = theta
+        theta = (lo * g_hi - hi * g_lo) / (g_hi - g_lo)
+        interpolate(W, model, j, buf, theta, h)
+        evaluate_lane(W, model, j)
+        g = cone_margin(W, j)
+        if g >= 0.0:
+            lo, g_lo = theta, g
+            if side == 1:  # Illinois: halve the stale end's value
+                g_hi *= 0.5
+            side = 1
+        else:
+            hi, g_hi = theta, g
+            if side == -1:
+                g_lo *= 0.5
+            side = -1
+        if abs(theta - previous) <= THETA_TOL or hi - lo <= THETA_TOL:
+            break
+    return theta
+
+
+@kernel
+def forward_to_stop(W, model, j, buf, t_stop, dt):
+    """Step slipping lane j, evaluated, forward by its predicted stop time t_stop (s).
+    Past the stop (the slip velocity turned against its value before), the step is
+    taken again, shortened to where the slip velocity's component along its value
+    before crosses zero (linear in between: the prediction's error is second order).
+    Returns (whether the slip has stopped, the step taken, s); a step at or below
+    ``THETA_TOL`` of the lane's step dt (s) counts as stopped."""
+    numba.literally(model)
+    off_y, _, off_a, _, _, _ = models.state_regions(model)
+    copy_state(W, model, j, buf, Y0, off_y)
+    copy_state(W, model, j, buf, F0, off_a)
+    ux = W[at(OFF_X, X_UX, j)]
+    uy = W[at(OFF_X, X_UY, j)]
+    lane_step(W, model, j, t_stop)
+    g_before = ux * ux + uy * uy
+    g_after = W[at(OFF_X, X_UX, j)] * ux + W[at(OFF_X, X_UY, j)] * uy
+    if g_after >= 0.0:
+        return t_stop <= THETA_TOL * dt, t_stop
+    step = t_stop * g_before / (g_before - g_after)
+    for k in range(models.state_regions(model)[4]):
+        W[at(off_y, k, j)] = buf[Y0, k]
+        W[at(off_a, k, j)] = buf[F0, k]
+    lane_step(W, model, j, step)
+    return True, step
+
+
+@kernel
+def stick_lane(W, model, j):
+    """Slip → stick: a plastic contact impulse brings lane j's contact point to rest (from
+    the slip velocity in region X). The impulse is friction too, and is kept for the
+    record."""
+    numba.literally(model)
+    W[at(OFF_S, S_MODE, j)] = 0.0
+    jx, jy = models.stick_impulse(W, model, j)
+    W[at(OFF_S, S_JX, j)] += jx
+    W[at(OFF_S, S_JY, j)] += jy
+
+
+@kernel
+def switch_marked(W, model):
+    """Change the mode of every marked lane at the step start: a slipping lane sticks
+    (:func:`stick_lane`), a sticking one starts to slip (:func:`.switching.start_slip`)."""
+    numba.literally(model)
+    for j in range(BLOCK):
+        if W[at(OFF_K, K_MARK_SWITCH, j)] == SWITCHES:
+            if W[at(OFF_S, S_MODE, j)] > 0.5:
+                stick_lane(W, model, j)
+            else:
+                start_slip(W, j)
+
+
+@kernel
+def locate_lane(W, model, j, buf, dt):
+    """Redo lane j's last step (length dt, s) with its switches located (see the module
+    docstring). On entry: the state before the step in B, the held step's state in Y,
+    its first stage for the next step in A and contact outputs in X; on exit the same
+    for the located step."""
+    numba.literally(model)
+    off_y, _, off_a, off_b, n_state, _ = models.state_regions(model)
+    mode0 = W[at(OFF_S, S_MODE, j)]
+    g1 = cone_margin(W, j)
+    copy_state(W, model, j, buf, HELD, off_y)
+    copy_state(W, model, j, buf, Y1, off_y)
+    copy_state(W, model, j, buf, F1, off_a)
+    copy_state(W, model, j, buf, Y0, off_b)
+    for k in range(n_state):  # back to the step start
+        W[at(off_y, k, j)] = buf[Y0, k]
+    evaluate_lane(W, model, j)
+
+    t = 0.0  # time into the step, s
+    slip_time = 0.0  # time spent slipping, s
+    if mode0 < 0.5:  # the cone exit, along the held step
+        copy_state(W, model, j, buf, F0, off_a)
+        theta = cone_exit(W, model, j, buf, dt, cone_margin(W, j), g1)
+        t = theta * dt
+        start_slip(W, j)
+        evaluate_lane(W, model, j)
+    for _ in range(MAX_SWITCHES):
+        rest = dt - t
+        if W[at(OFF_S, S_MODE, j)] > 0.5:
+            # forward to the stop by the predicted stop times, while one falls in the step
+            t0 = t
+            stops = False
+            for _ in range(MAX_ITERATIONS):
+                t_stop = W[at(OFF_X, X_TSTOP, j)]
+                if not t_stop < dt - t:  # no stop (any more) inside the step
+                    break
+                stops, step = forward_to_stop(W, model, j, buf, t_stop, dt)
+                t += step
+                if stops:
+                    break
+            slip_time += t - t0
+            if not stops:  # slips to the end of the step
+                lane_step(W, model, j, dt - t)
+                slip_time += dt - t
+                t = dt
+                break
+            stick_lane(W, model, j)
+            evaluate_lane(W, model, j)
+            if cone_margin(W, j) < 0.0:  # slips on at once, in the new direction
+                start_slip(W, j)
+                evaluate_lane(W, model, j)
+        else:
+            # stick to the end of the step, and locate a cone exit on the way
+            copy_state(W, model, j, buf, Y0, off_y)
+            copy_state(W, model, j, buf, F0, off_a)
+            g0 = cone_margin(W, j)
+            lane_step(W, model, j, rest)
+            g1 = cone_margin(W, j)
+            if not g1 < 0.0:
+                t = dt
+                break
+            copy_state(W, model, j, buf, Y1, off_y)
+            copy_state(W, model, j, buf, F1, off_a)
+            theta = cone_exit(W, model, j, buf, rest, g0, g1)
+            t += theta * rest
+            start_slip(W, j)
+            evaluate_lane(W, model, j)
+    # unfinished after MAX_SWITCHES: the rest in the present mode
+    if t < dt:
+        slip_time += (dt - t) * W[at(OFF_S, S_MODE, j)]
+        lane_step(W, model, j, dt - t)
+
+    bad_value, capsized = models.check_step(W, model, j)  # renormalises the quaternion
+    if bad_value or capsized:  # keep the held step
+        for k in range(n_state):
+            W[at(off_y, k, j)] = buf[HELD, k]
+        W[at(OFF_S, S_MODE, j)] = mode0
+        slip_time = mode0 * dt
+        evaluate_lane(W, model, j)
+    # ready for the next step: its first stage is the evaluation at the end of this one
+    begin_lane_step(W, model, j, dt)
+    if W[at(OFF_S, S_MODE, j)] > 0.5:
+        note_slip(W, j)
+    # the step's slipping fraction; the observation of the step adds the final mode
+    W[at(OFF_K, K_SLIP_STEPS, j)] += slip_time / dt - W[at(OFF_S, S_MODE, j)]
+
+
+@kernel
+def locate_marked(W, model, buf):
+    """Redo the last step of every lane marked by :func:`.switching.flag_switches`, with
+    its switches located."""
+    numba.literally(model)
+    for j in range(BLOCK):
+        if W[at(OFF_K, K_MARK_SWITCH, j)] == SWITCHES:
+            locate_lane(W, model, j, buf, W[at(OFF_P, DT, j)])
