@@ -9,6 +9,7 @@ Where things live:
   is built from;
 * ``stepper`` – the one time loop and its entry points, for every model;
 * ``switching`` – the Coulomb stick/slip decisions (MODEL.md section 4);
+* ``events`` – the scalar path that redoes a lane's step with its switches located;
 * ``stages`` – the RK4 stage arithmetic fused into each model's derivative loop;
 * ``models`` – the hooks the stepper calls, chosen per model at compile time;
 * ``rattleback/`` – the 3-D model: ``layout`` (its rows), ``geometry`` (contact
