@@ -39,7 +39,7 @@ from . import models
 from .jit import allocating_kernel, kernel, parallel_kernel
 from .events import LOCATE_ROWS, locate_marked, switch_marked
 from .stages import set_step_fractions
-from .switching import any_slipping, flag_switches, note_slip
+from .switching import STOP_HORIZON, any_slipping, flag_switches, note_slip
 from .workspace import (
     at, BEYOND, BLOCK, CAPSIZED, CROSSED, DT, ENDS_AS_IS, EPS_U, H_HALF_DT, H_SIXTH_DT,
     K_BAND, K_FIRST_REV, K_MARK_END, K_MARK_REVERSAL, K_N_REV, K_OPEN, K_RUN, K_SIDE,
@@ -339,12 +339,12 @@ def advance_block(model, P, Y, nsteps, method, record_every, band, O, REC):
         evaluate_state(W, model, slipping, can_slip or recording)
         if can_slip:
             if locating and step > 0:
-                if flag_switches(W, True) > 0:
+                if flag_switches(W, True, 0.0) > 0:
                     locate_marked(W, model, buf)
-            elif flag_switches(W, True) > 0:  # the mode changes at the step start
+            elif flag_switches(W, True, STOP_HORIZON) > 0:  # the mode changes now
                 switch_marked(W, model)
                 evaluate_state(W, model, True, True)
-                if flag_switches(W, False) > 0:  # re-stuck outside the cone: slips on
+                if flag_switches(W, False, STOP_HORIZON) > 0:  # re-stuck outside the cone
                     switch_marked(W, model)
                     evaluate_state(W, model, True, True)
             slipping = any_slipping(W)

@@ -7,9 +7,11 @@
 * slipping → sticking where the slip velocity u reaches zero. That is a zero of a
   2-vector, which no sign change of one function marks on a curved path, so each
   evaluation at a step start predicts it instead: the time to stop at the present
-  deceleration, |u|² / (−u · u̇) (``X_TSTOP``). A slip whose prediction at the start of
-  the last step fell within ``STOP_HORIZON`` steps, or whose slip velocity turned
-  against its value there, may have stopped inside that step.
+  deceleration, |u|² / (−u · u̇) (``X_TSTOP``). A slip whose slip velocity turned
+  against its value at the start of the last step stopped inside it (exact for a model
+  whose held slip continues smoothly past the stop, as the planar one's does); where
+  modes change at step starts, a slip whose prediction at the last step start fell
+  within ``STOP_HORIZON`` steps sticks too.
 
 :func:`flag_switches` marks these lanes. With RK4 the stepper then redoes each marked
 lane's last step with the switch located inside it (:mod:`.events`) for the models that
@@ -37,8 +39,9 @@ __all__ = [
 ]
 
 STOP_HORIZON = 1.5
-"""A slip predicted to stop within this many steps is checked for a stop inside the
-step: the margin covers a deceleration that grows during the step."""
+"""Where modes change at step starts, a slip predicted (at the last step start) to stop
+within this many steps sticks: the margin covers a deceleration that grows during the
+step."""
 
 
 @kernel
@@ -107,12 +110,14 @@ def cone_margin(W, j):
 
 
 @kernel
-def flag_switches(W, stops):
+def flag_switches(W, stops, horizon):
     """Mark (``SWITCHES`` in ``K_MARK_SWITCH``) the sticking lanes whose friction left the
     cone and, when ``stops`` (a literal), the slipping lanes (μ_s > 0) that may have
-    stopped inside the last step (see the module docstring); in the same pass the
-    unmarked slipping lanes then remember this step's slip velocity and stop time (as
-    :func:`note_slip`). Returns how many lanes it marked."""
+    stopped inside the last step: their slip velocity turned against its value at the
+    step start, or their predicted stop time there was at most ``horizon`` steps (0 for
+    a model whose held slip continues smoothly past a stop, so that the turn marks every
+    stop). In the same pass the unmarked slipping lanes then remember this step's slip
+    velocity and stop time (as :func:`note_slip`). Returns how many lanes it marked."""
     numba.literally(stops)
     n = 0
     for j in range(BLOCK):
@@ -129,7 +134,7 @@ def flag_switches(W, stops):
         leaves_cone = ((not slipping) & (mu_s < math.inf) & (normal >= 0.0)
                        & (math.sqrt(fx * fx + fy * fy) > mu_s * normal))
         stopped = slipping & (mu_s > 0.0) & (
-            (W[at(OFF_S, S_TSTOP, j)] <= STOP_HORIZON * W[at(OFF_P, DT, j)])
+            (W[at(OFF_S, S_TSTOP, j)] <= horizon * W[at(OFF_P, DT, j)])
             | (ux * usx + uy * usy < 0.0))
         mark = run & (leaves_cone | (stops & stopped))
         W[at(OFF_K, K_MARK_SWITCH, j)] = SWITCHES if mark else NOT_MARKED
