@@ -13,9 +13,9 @@ The vector RK4 step holds every lane's mode through the step; afterwards
   accurate to O(h⁴), one order below RK4's local error; the root of the cone margin
   along it, found by the Illinois variant of regula falsi (one evaluation per iterate,
   to a step fraction of ``THETA_TOL``), is the switching instant;
-* slip → stick: a slip stops where the 2-vector u reaches zero, and past that instant the
-  held step is not a continuation of anything (the friction turns with u). So the slip
-  is integrated forward to its stop instead, by steps of the predicted time to stop,
+* slip → stick: a slip stops where the 2-vector u reaches zero; past that instant a 3-D
+  held step is no continuation of the slip (the friction turns with u), so the slip is
+  integrated forward to its stop instead, in either model, by steps of the predicted time to stop,
   |u|² / (−u · u̇) (Newton's method on the slip speed from the slipping side, converging
   quadratically), until that time is below ``THETA_TOL`` of the step. The plastic impulse
   then removes the residual slip (what the located instant leaves: it is reported in the
@@ -32,9 +32,11 @@ the located state be unusable (not finite, or capsized), the lane keeps the held
 from __future__ import annotations
 
 import numba
+from numba import types
+from numba.extending import overload
 
 from . import models
-from .jit import kernel
+from .jit import OVERLOAD_OPTIONS, kernel
 from .stages import set_step_fractions
 from .switching import cone_margin, note_slip, start_slip
 from .workspace import (
@@ -43,8 +45,8 @@ from .workspace import (
     at,
 )
 
-__all__ = ["LOCATE_ROWS", "MAX_SWITCHES", "THETA_TOL", "locate_marked", "stick_lane",
-           "switch_marked"]
+__all__ = ["LOCATE_ROWS", "MAX_SWITCHES", "THETA_TOL", "locate_marked", "locate_where_located",
+           "located", "stick_lane", "switch_marked"]
 
 THETA_TOL = 1e-10
 """Convergence of the located instant, as a fraction of the (rest of the) step."""
@@ -314,3 +316,30 @@ def locate_marked(W, model, buf):
     for j in range(BLOCK):
         if W[at(OFF_K, K_MARK_SWITCH, j)] == SWITCHES:
             locate_lane(W, model, j, buf, W[at(OFF_P, DT, j)])
+
+
+def locate_where_located(W, model, buf):
+    """:func:`locate_marked` for a model that locates its switches
+    (:func:`.models.locates_switches`); for another, nothing, and nothing of this
+    module is compiled into its stepper."""
+
+
+@overload(locate_where_located, prefer_literal=True, jit_options=OVERLOAD_OPTIONS)
+def _locate_where_located(W, model, buf):
+    if isinstance(model, types.IntegerLiteral) and models.locates_switches(
+            model.literal_value):
+        return lambda W, model, buf: locate_marked(W, model, buf)
+    return lambda W, model, buf: None
+
+
+def located(model):
+    """:func:`.models.locates_switches` of a literal model, inside a kernel."""
+
+
+@overload(located, prefer_literal=True, inline="always", jit_options=OVERLOAD_OPTIONS)
+def _located(model):
+    if not isinstance(model, types.IntegerLiteral):
+        raise numba.core.errors.TypingError("the model must be a literal integer")
+    if models.locates_switches(model.literal_value):
+        return lambda model: True
+    return lambda model: False

@@ -65,13 +65,10 @@ def _state_regions(model):
 
 def locates_switches(model):
     """True when the model's RK4 steps locate stick/slip switches inside the step
-    (:mod:`.events`); False when its modes change at step starts."""
-
-
-@_hook(locates_switches, inline="always")
-def _locates_switches(model):
-    return _pick(model, lambda model: rattleback_model.LOCATES_SWITCHES,
-                 lambda model: planar_model.LOCATES_SWITCHES)
+    (:mod:`.events`); False when its modes change at step starts. A plain function of
+    the model number, for typing time."""
+    return {RATTLEBACK: rattleback_model.LOCATES_SWITCHES,
+            PLANAR: planar_model.LOCATES_SWITCHES}[model]
 
 
 # --- the right-hand side and the Euler step -------------------------------------------

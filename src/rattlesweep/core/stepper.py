@@ -37,7 +37,7 @@ from numba import prange
 
 from . import models
 from .jit import allocating_kernel, kernel, parallel_kernel
-from .events import LOCATE_ROWS, locate_marked, switch_marked
+from .events import LOCATE_ROWS, locate_where_located, located, switch_marked
 from .stages import set_step_fractions
 from .switching import STOP_HORIZON, any_slipping, flag_switches, note_slip
 from .workspace import (
@@ -330,7 +330,7 @@ def advance_block(model, P, Y, nsteps, method, record_every, band, O, REC):
     # step), corrects the lanes whose contact mode changed inside the last step, observes
     # the last step, then takes the next one.
     stop = next_stop(W)  # kept up to date whenever a lane is written out
-    locating = method == RK4 and models.locates_switches(model)
+    locating = method == RK4 and located(model)
     for step in range(max_steps + 1):
         slipping = can_slip and any_slipping(W)
         recording = n_rec > 0 and step % record_every == 0 and step // record_every < n_rec
@@ -340,7 +340,7 @@ def advance_block(model, P, Y, nsteps, method, record_every, band, O, REC):
         if can_slip:
             if locating and step > 0:
                 if flag_switches(W, True, 0.0) > 0:
-                    locate_marked(W, model, buf)
+                    locate_where_located(W, model, buf)
             elif flag_switches(W, True, STOP_HORIZON) > 0:  # the mode changes now
                 switch_marked(W, model)
                 evaluate_state(W, model, True, True)
