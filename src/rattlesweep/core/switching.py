@@ -53,18 +53,26 @@ def any_slipping(W):
     return False
 
 
-@kernel
-def note_slip(W, j):
-    """Remember lane j's slip velocity at the start of this step (and its direction)."""
+@inline_kernel
+def remember_slip(W, j, note):
+    """When ``note``, remember lane j's slip velocity at the start of this step, its stop
+    time and (when not negligible) its direction; otherwise leave them. Written as
+    selects, so that a vector pass over the lanes stays branch-free."""
     ux = W[at(OFF_X, X_UX, j)]
     uy = W[at(OFF_X, X_UY, j)]
     uu = math.sqrt(ux * ux + uy * uy)
-    W[at(OFF_S, S_USX, j)] = ux
-    W[at(OFF_S, S_USY, j)] = uy
-    W[at(OFF_S, S_TSTOP, j)] = W[at(OFF_X, X_TSTOP, j)]
-    if uu > W[at(OFF_P, EPS_U, j)]:
-        W[at(OFF_S, S_UHX, j)] = ux / uu
-        W[at(OFF_S, S_UHY, j)] = uy / uu
+    W[at(OFF_S, S_USX, j)] = ux if note else W[at(OFF_S, S_USX, j)]
+    W[at(OFF_S, S_USY, j)] = uy if note else W[at(OFF_S, S_USY, j)]
+    W[at(OFF_S, S_TSTOP, j)] = W[at(OFF_X, X_TSTOP, j)] if note else W[at(OFF_S, S_TSTOP, j)]
+    turn = note & (uu > W[at(OFF_P, EPS_U, j)])
+    W[at(OFF_S, S_UHX, j)] = ux / uu if turn else W[at(OFF_S, S_UHX, j)]
+    W[at(OFF_S, S_UHY, j)] = uy / uu if turn else W[at(OFF_S, S_UHY, j)]
+
+
+@kernel
+def note_slip(W, j):
+    """Remember lane j's slip velocity at the start of this step (and its direction)."""
+    remember_slip(W, j, True)
 
 
 @kernel
@@ -97,16 +105,15 @@ def stop_time(ux, uy, dux, duy, uhx, uhy, eps):
     return t_moving if moving else t_rest
 
 
-@kernel
+@inline_kernel
 def cone_margin(W, j):
     """μ_s N − |F_t| of a sticking lane j, from the contact outputs of an evaluation at
     its state (N); inf when its static friction is infinite."""
     mu_s = W[at(OFF_P, MU_S, j)]
-    if mu_s == math.inf:
-        return math.inf
     fx = W[at(OFF_X, X_FX, j)]
     fy = W[at(OFF_X, X_FY, j)]
-    return mu_s * W[at(OFF_X, X_N, j)] - math.sqrt(fx * fx + fy * fy)
+    margin = mu_s * W[at(OFF_X, X_N, j)] - math.sqrt(fx * fx + fy * fy)
+    return math.inf if mu_s == math.inf else margin
 
 
 @kernel
@@ -123,31 +130,15 @@ def flag_switches(W, stops, horizon):
     for j in range(BLOCK):
         run = W[at(OFF_K, K_RUN, j)] > 0.5
         slipping = W[at(OFF_S, S_MODE, j)] > 0.5
-        normal = W[at(OFF_X, X_N, j)]
-        fx = W[at(OFF_X, X_FX, j)]
-        fy = W[at(OFF_X, X_FY, j)]
-        ux = W[at(OFF_X, X_UX, j)]
-        uy = W[at(OFF_X, X_UY, j)]
-        usx = W[at(OFF_S, S_USX, j)]
-        usy = W[at(OFF_S, S_USY, j)]
-        mu_s = W[at(OFF_P, MU_S, j)]
-        leaves_cone = ((not slipping) & (mu_s < math.inf) & (normal >= 0.0)
-                       & (math.sqrt(fx * fx + fy * fy) > mu_s * normal))
-        stopped = slipping & (mu_s > 0.0) & (
-            (W[at(OFF_S, S_TSTOP, j)] <= horizon * W[at(OFF_P, DT, j)])
-            | (ux * usx + uy * usy < 0.0))
+        leaves_cone = ((not slipping) & (W[at(OFF_X, X_N, j)] >= 0.0)
+                       & (cone_margin(W, j) < 0.0))
+        turned = (W[at(OFF_X, X_UX, j)] * W[at(OFF_S, S_USX, j)]
+                  + W[at(OFF_X, X_UY, j)] * W[at(OFF_S, S_USY, j)]) < 0.0
+        stopped = slipping & (W[at(OFF_P, MU_S, j)] > 0.0) & (
+            (W[at(OFF_S, S_TSTOP, j)] <= horizon * W[at(OFF_P, DT, j)]) | turned)
         mark = run & (leaves_cone | (stops & stopped))
         W[at(OFF_K, K_MARK_SWITCH, j)] = SWITCHES if mark else NOT_MARKED
         n += 1 if mark else 0
-        if not stops:
-            continue
-
-        note = run & slipping & (not mark)
-        uu = math.sqrt(ux * ux + uy * uy)
-        W[at(OFF_S, S_USX, j)] = ux if note else usx
-        W[at(OFF_S, S_USY, j)] = uy if note else usy
-        W[at(OFF_S, S_TSTOP, j)] = W[at(OFF_X, X_TSTOP, j)] if note else W[at(OFF_S, S_TSTOP, j)]
-        turn = note & (uu > W[at(OFF_P, EPS_U, j)])
-        W[at(OFF_S, S_UHX, j)] = ux / uu if turn else W[at(OFF_S, S_UHX, j)]
-        W[at(OFF_S, S_UHY, j)] = uy / uu if turn else W[at(OFF_S, S_UHY, j)]
+        if stops:
+            remember_slip(W, j, run & slipping & (not mark))
     return n
