@@ -115,6 +115,16 @@ def copy_state(W, model, j, buf, row, off):
 
 
 @kernel
+def load_state(W, model, j, buf, row, off):
+    """Lane j's state rows of the region at ``off`` = buf[row] (:func:`copy_state`
+    undone)."""
+    numba.literally(model)
+    n_state = models.state_regions(model)[4]
+    for k in range(n_state):
+        W[at(off, k, j)] = buf[row, k]
+
+
+@kernel
 def begin_lane_step(W, model, j, h):
     """Make lane j, evaluated at its state (derivative in A), ready for the inner RK4
     stages of a step of length h (s): its step fractions and first stage state."""
@@ -189,9 +199,8 @@ def forward_to_stop(W, model, j, buf, t_stop, dt):
     if g_after >= 0.0:
         return t_stop <= THETA_TOL * dt, t_stop
     step = t_stop * g_before / (g_before - g_after)
-    for k in range(models.state_regions(model)[4]):
-        W[at(off_y, k, j)] = buf[Y0, k]
-        W[at(off_a, k, j)] = buf[F0, k]
+    load_state(W, model, j, buf, Y0, off_y)
+    load_state(W, model, j, buf, F0, off_a)
     lane_step(W, model, j, step)
     return True, step
 
@@ -228,15 +237,14 @@ def locate_lane(W, model, j, buf, dt):
     its first stage for the next step in A and contact outputs in X; on exit the same
     for the located step."""
     numba.literally(model)
-    off_y, _, off_a, off_b, n_state, _ = models.state_regions(model)
+    off_y, _, off_a, off_b, _, _ = models.state_regions(model)
     mode0 = W[at(OFF_S, S_MODE, j)]
     g1 = cone_margin(W, j)
     copy_state(W, model, j, buf, HELD, off_y)
     copy_state(W, model, j, buf, Y1, off_y)
     copy_state(W, model, j, buf, F1, off_a)
     copy_state(W, model, j, buf, Y0, off_b)
-    for k in range(n_state):  # back to the step start
-        W[at(off_y, k, j)] = buf[Y0, k]
+    load_state(W, model, j, buf, Y0, off_y)  # back to the step start
     evaluate_lane(W, model, j)
 
     t = 0.0  # time into the step, s
@@ -295,8 +303,7 @@ def locate_lane(W, model, j, buf, dt):
 
     bad_value, capsized = models.check_step(W, model, j)  # renormalises the quaternion
     if bad_value or capsized:  # keep the held step
-        for k in range(n_state):
-            W[at(off_y, k, j)] = buf[HELD, k]
+        load_state(W, model, j, buf, HELD, off_y)
         W[at(OFF_S, S_MODE, j)] = mode0
         slip_time = mode0 * dt
         evaluate_lane(W, model, j)
