@@ -42,6 +42,11 @@ def main() -> None:
         sim = run_sweep(demo, Path(tmp) / "demo", progress=False)
         reversal_map(sim, x="spin", y="delta_deg", facet="mu").savefig(
             OUT / "reversal_map.png", dpi=DPI)
+        reversal_map(sim, x="spin", y="delta_deg", var="computed", facet="mu",
+                     title=f"{sim.attrs['points_simulated']} of {sim.computed.size} points "
+                     "simulated").savefig(OUT / "refinement.png", dpi=DPI)
+        reversal_map(sim, x="spin", y="delta_deg", var="first_reversal_time",
+                     facet="mu").savefig(OUT / "reversal_time.png", dpi=DPI)
         stability_map(stability.stability_dataset(demo), x="spin", y="delta_deg",
                       select={"mu": math.inf}, overlay=sim.sel(mu=[math.inf]),
                       title="linear growth rate, simulated reversals (rolling)").savefig(

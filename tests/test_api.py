@@ -24,6 +24,7 @@ from rattlesweep.io import write_netcdf
     (dict(t_end=[1.0, math.inf]), r"t_end must be finite and > 0.*index \(1,\)"),
     (dict(spin=1.0, omega=(0, 0, 1)), "either spin .* or omega"),
     (dict(orientation=(1, 0, 0, 0), roll=0.1), "either orientation or roll"),
+    (dict(orientation=(1, 0, 0, 0), roll=[[0.1], [0.2, 0.3]]), "roll must be a number"),
     (dict(orientation=(1.0, 0.1, 0.0, 0.0)), "unit quaternion"),
     (dict(omega=(1.0, 2.0)), "omega must have a last axis of length 3"),
     (dict(spin=[1.0, 2.0], mu=[0.1, 0.2, 0.3]), "cannot be broadcast"),
@@ -31,6 +32,8 @@ from rattlesweep.io import write_netcdf
     (dict(method="rk45"), "method must be one of"),
     (dict(record_every=0), "record_every must be a positive integer"),
     (dict(reversal_band=1.5), "reversal_band must be in"),
+    (dict(reversal_band="abc"), "reversal_band must be in"),
+    (dict(reversal_band=None), "reversal_band must be in"),
     (dict(threads=0), "threads must be an integer"),
     (dict(t_end=None), "t_end"),
 ])
@@ -141,6 +144,8 @@ def test_an_empty_batch_gives_an_empty_result():
         "batch_shape"] == [2, 0]
     planar = run_planar_batch(PlanarBody(0.1, 0.05, 1.0), theta=[], t_end=0.1)
     assert planar.sizes["trajectory"] == 0 and planar.max_angle.shape == (0,)
+    # counting the steps of an empty batch (what a sweep asks of its corners) is no error
+    assert rs.batch.max_steps(toy, spin=[], t_end=0.1) == 0
 
 
 def test_a_record_that_cannot_fit_is_refused_before_compute(kl):
@@ -148,6 +153,29 @@ def test_a_record_that_cannot_fit_is_refused_before_compute(kl):
         rs.simulate(kl, spin=5.0, t_end=1e5, record_every=1)
     # the same run recorded sparsely is fine
     assert rs.simulate(kl, spin=5.0, t_end=0.5, record_every=50).sizes["time"] > 1
+
+
+def test_more_steps_than_the_kernel_can_count_are_refused(kl):
+    """t_end / dt beyond 2**53 steps (and beyond int64, where the step count wrapped to
+    a negative number and the run came back "ok" with a negative end time) is refused
+    naming both arguments."""
+    from rattlesweep.planar import PlanarBody, run_planar_batch
+
+    for t_end in (1e300, 1.34e17):
+        with pytest.raises(ValueError, match=r"t_end / dt must be at most 2\*\*53 steps.*"
+                                             r"t_end = .* dt = "):
+            rs.run_batch(kl, spin=[1.0, 2.0], t_end=[1.0, t_end], dt=0.0145)
+    with pytest.raises(ValueError, match=r"t_end / dt .* at index \(1,\)"):
+        run_planar_batch(PlanarBody(0.1, 0.05, 1.0), theta=0.1, t_end=[1.0, 1e300])
+    assert 2**52 < rs.batch.max_steps(kl, spin=1.0, t_end=2.0**53, dt=1.0) <= 2**53
+    # the step is the default one of that g or damping: the message names them
+    with pytest.raises(ValueError, match=r"dt = .* \(the body's default step at g = 1e\+200"):
+        rs.run_batch(kl, spin=1.0, t_end=1.0, g=1e200)
+    with pytest.raises(ValueError, match=r"default step at g = 9.81, damping = 1e\+300\)"):
+        rs.run_batch(kl, spin=1.0, t_end=1.0, damping=1e300)
+    # a g so large that the default step overflows
+    with pytest.raises(ValueError, match=r"g = 1.7e\+308 m s-2 is too large for body"):
+        rs.run_batch(kl, spin=1.0, t_end=1.0, g=1.7e308)
 
 
 def test_launch_angles_follow_the_documented_rotation_order():
@@ -197,3 +225,26 @@ def test_a_coarse_time_step_is_flagged_at_the_callers_line():
     with warnings.catch_warnings():
         warnings.simplefilter("error", CoarseStepWarning)
         rs.simulate(toy, spin=5.0, dt=2 * default, t_end=0.1)  # fine: no warning
+
+
+def test_the_default_step_follows_strong_damping():
+    """Damping relaxes the angular velocity at damping / I about a principal axis; a step
+    much longer than that made RK4 unstable (the energy of a damped run grew 1e5-fold in
+    one default step with status ok). The default step is at most I_min / damping, and a
+    given step beyond 4 times that warns."""
+    from rattlesweep.engine import CoarseStepWarning
+
+    body = rs.Body.semi_ellipsoid(0.01, 0.004, 0.003, 0.01)
+    i_min = np.linalg.eigvalsh(body.inertia)[0]
+    damping = 50 * i_min / body.default_dt()
+    ds = rs.run_batch(body, spin=[0.0, 3.0], roll=0.03, damping=damping,
+                      t_end=5 * body.default_dt(), record_every=1)
+    np.testing.assert_allclose(ds.dt.values, i_min / damping, rtol=1e-12)
+    assert (ds.status == 0).all()
+    energy = ds.energy.values
+    assert np.all(np.diff(energy, axis=1) <= 0), "damping only removes energy"
+    # the light damping of Kane and Levinson's body leaves its default step as it was
+    kl = rs.Body.preset("kane_levinson")
+    assert float(rs.run_batch(kl, damping=1e-4, t_end=0.1).dt[0]) == kl.default_dt()
+    with pytest.warns(CoarseStepWarning, match="follows its damping"):
+        rs.run_batch(body, roll=0.03, damping=damping, dt=body.default_dt(), t_end=0.01)

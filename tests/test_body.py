@@ -106,6 +106,31 @@ def test_invalid_bodies_are_refused(kwargs, message):
         Body(**args)
 
 
+def test_a_radius_of_curvature_that_overflows_is_refused():
+    """c so small against a that a**2/c overflows: the body was accepted, and its
+    default step was NaN (found by the property tests)."""
+    with pytest.raises(ValueError, match=r"a\*\*2/c overflows float64.*c = 5e-324"):
+        Body.ellipsoid(966.0, 1.0, 5e-324, 1.0)
+
+
+def test_scales_too_far_apart_for_float64_are_refused():
+    """Radii of curvature that fit float64 but rocking frequencies that do not: the body
+    was accepted with a NaN default step (found by the property tests)."""
+    with pytest.raises(ValueError, match="too far apart in scale for float64"):
+        Body.ellipsoid(486.0, 0.058, 1e-300, 3.4e165)
+    kl = Body.preset("kane_levinson")
+    with pytest.raises(ValueError, match=r"g = 1.7e\+308 m s-2 is too large for body "
+                                         r"'kane_levinson'"):
+        kl.default_dt(1.7e308)
+
+
+@pytest.mark.parametrize("delta", ["abc", None, [0.1], math.nan, math.inf])
+def test_semi_ellipsoid_refuses_a_misalignment_that_is_no_number(delta):
+    # a string raised math.isfinite's TypeError (found by the property tests)
+    with pytest.raises(ValueError, match="delta must be a finite number"):
+        Body.semi_ellipsoid(0.05, 0.01, 0.01, 0.02, delta)
+
+
 def test_neutral_sphere_is_allowed():
     sphere = Body.ellipsoid(0.05, 0.05, 0.05, 1.0)
     assert sphere.com_height == pytest.approx(0.05)

@@ -78,7 +78,7 @@ def test_friction_impulses_are_recorded_whatever_the_stride(kl):
     runs = [rs.simulate(kl, spin=5.0, roll=HALF_DEGREE, mu=0.3, t_end=4.0, record_every=k)
             for k in (1, 7)]
     fine, coarse = (r.friction_impulse.values for r in runs)
-    assert np.abs(fine).sum() > 0.01  # this launch does re-stick
+    assert np.count_nonzero(np.abs(fine).sum(axis=1)) > 10  # this launch re-sticks often
     # sums over each coarse sample's window of fine steps ((k-1)*7, k*7]
     n = coarse.shape[0]
     windows = np.add.reduceat(fine[1:7 * (n - 1) + 1], np.arange(0, 7 * (n - 1), 7))

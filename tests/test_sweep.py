@@ -18,31 +18,10 @@ from rattlesweep.cli import main
 from rattlesweep.sweep import OUTCOME_NAMES, Sweep, classify, resume, run_sweep
 from rattlesweep.sweep.grid import uniform01
 from rattlesweep.sweep.run import RESULT_NAME
+from sweep_helpers import (KILL_TOML, assert_same_file, file_stats, small_sweep,
+                           without_history)
 
 TOY = rs.Body.preset("toy")
-
-
-def small_sweep(**overrides) -> Sweep:
-    """A few dozen short launches of toy semi-ellipsoids, a random roll per repeat."""
-    args = dict(
-        axes={"spin": {"start": -12.0, "stop": 12.0, "num": 4},
-              "delta_deg": [-4.0, 3.0], "mu": [0.3, math.inf]},
-        fixed={"t_end": 3.0, "damping": 1e-7},
-        random={"roll_deg": {"uniform": [0.3, 0.8]}},
-        repeats=2, seed=7, tile_size=5)
-    args.update(overrides)
-    return Sweep(**args)
-
-
-def without_history(ds: xr.Dataset) -> xr.Dataset:
-    ds = ds.copy()
-    ds.attrs.pop("history")
-    return ds
-
-
-def assert_same_file(path_a, path_b):
-    with xr.open_dataset(path_a) as a, xr.open_dataset(path_b) as b:
-        xr.testing.assert_identical(without_history(a.load()), without_history(b.load()))
 
 
 # --- specification ---------------------------------------------------------------------
@@ -119,6 +98,9 @@ def test_ranges_are_inclusive_linear_or_log():
     (dict(axes={"mass": [0.01, -0.02]}), r"axes\.mass: mass must be finite and > 0; got -0\.02"),
     (dict(axes={"spin": [1.0, 1.0]}), r"axes\.spin: axis has duplicate values"),
     (dict(axes={"spin": [1.0, float("nan")]}), r"axes\.spin: values must not be NaN"),
+    (dict(axes={"b": [[1, 2], 0.0096]}), r"axes\.b: values must be numbers"),
+    (dict(axes={"mu": {"start": 1.0, "stop": 0.0, "num": 1, "scale": "log"}}),
+     r"axes\.mu: a log range needs start > 0 and stop > 0"),
     (dict(axes={"spin": {"values": [1.0], "units": "furlong"}}), r"units 'furlong' are not "
      r"allowed for 'spin'"),
     (dict(axes={"mu": [0.2, 0.5]}, fixed={"t_end": 1.0, "mu_static": 0.3}),
@@ -232,9 +214,12 @@ def test_written_file_carries_cf_metadata_and_configuration(tmp_path):
             assert nc.getncattr(key)
     with xr.open_dataset(path) as ds:
         assert Sweep.from_toml(ds.attrs["sweep_config"]) == s
-        assert ds.outcome.attrs["flag_meanings"].split() == list(OUTCOME_NAMES)
-        assert list(ds.outcome.attrs["flag_values"]) == list(range(len(OUTCOME_NAMES)))
+        # the flags end with not_computed (-1), which only a store being written shows
+        assert ds.outcome.attrs["flag_meanings"].split() == [*OUTCOME_NAMES, "not_computed"]
+        assert list(ds.outcome.attrs["flag_values"]) == [*range(len(OUTCOME_NAMES)), -1]
         assert ds.status.attrs["flag_meanings"].split()[0] == "ok"
+        assert ds.status.attrs["flag_meanings"].split()[-1] == "not_computed"
+        assert int(ds.outcome.min()) >= 0 and int(ds.status.min()) >= 0
         for name in ds.data_vars:
             assert ds[name].attrs.get("long_name"), name
             if name not in ("outcome", "status"):
@@ -243,23 +228,6 @@ def test_written_file_carries_cf_metadata_and_configuration(tmp_path):
 
 
 # --- resume ----------------------------------------------------------------------------
-
-KILL_TOML = """\
-name = "kill test"
-tile_size = 256
-[axes]
-spin = { start = -20, stop = 20, num = 32 }
-delta_deg = { start = -6, stop = 6, num = 64 }
-[fixed]
-t_end = 30.0
-mu = 0.3
-roll_deg = 0.5
-"""
-
-
-def _tile_stats(tiles_dir):
-    return {p.name: (p.stat().st_ino, p.stat().st_mtime_ns) for p in tiles_dir.glob("*.nc")}
-
 
 def test_sigkill_then_resume_gives_the_uninterrupted_file(tmp_path):
     config = tmp_path / "kill.toml"
@@ -275,13 +243,13 @@ def test_sigkill_then_resume_gives_the_uninterrupted_file(tmp_path):
         time.sleep(0.02)
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
-    before = _tile_stats(tiles)
+    before = file_stats(tiles, "*.nc")
     n_tiles = Sweep.from_toml(config).n_tiles
     assert 2 <= len(before) < n_tiles, "the kill must land mid-sweep"
     assert not (killed / RESULT_NAME).exists()
 
     resume(killed, progress=False)
-    after = _tile_stats(tiles)
+    after = file_stats(tiles, "*.nc")
     assert len(after) == n_tiles
     assert {k: after[k] for k in before} == before, "finished tiles must not be recomputed"
     assert not list(tiles.glob(".*.tmp"))
@@ -301,9 +269,9 @@ def test_corrupt_tile_is_recomputed_and_changed_config_refused(tmp_path):
     with open(victim, "r+b") as f:
         f.truncate(size // 2)
     (tiles / ".tile-000001.nc.abc.tmp").write_bytes(b"partial")
-    before = _tile_stats(tiles)
+    before = file_stats(tiles, "*.nc")
     run_sweep(s, tmp_path, progress=False)
-    after = _tile_stats(tiles)
+    after = file_stats(tiles, "*.nc")
     changed = {k for k in after if after[k] != before.get(k)}
     assert changed == {victim.name}
     assert victim.stat().st_size > size // 2
@@ -340,23 +308,6 @@ def test_ctrl_c_stops_cleanly_and_resume_finishes(tmp_path):
     assert not list(tiles.glob(".*.tmp"))
     assert main(["resume", str(out), "--quiet"]) == 0
     assert (out / RESULT_NAME).exists()
-
-
-# --- distributed -----------------------------------------------------------------------
-
-def test_distributed_local_cluster_writes_the_same_file(tmp_path):
-    distributed = pytest.importorskip("distributed")
-    s = small_sweep()
-    run_sweep(s, tmp_path / "threads", progress=False)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster, \
-            distributed.Client(cluster) as client:
-        run_sweep(s, tmp_path / "cluster", client=client, progress=False)
-        # the same cluster through its address, as the CLI's --scheduler does
-        run_sweep(s, tmp_path / "address", scheduler=cluster.scheduler_address,
-                  progress=False)
-    assert_same_file(tmp_path / "threads" / RESULT_NAME, tmp_path / "cluster" / RESULT_NAME)
-    assert_same_file(tmp_path / "threads" / RESULT_NAME, tmp_path / "address" / RESULT_NAME)
 
 
 def test_run_sweep_argument_errors(tmp_path):
@@ -405,14 +356,15 @@ def test_cli_demo_info_plot(tmp_path, capsys):
     assert "reversed" in printed
     assert main(["info", str(out / RESULT_NAME)]) == 0
     info = capsys.readouterr().out
-    assert "spin (41), delta_deg (33), mu (2)" in info and "outcomes:" in info
+    assert "spin (321), delta_deg (257), mu (2)" in info and "outcomes:" in info
+    assert "simulated:" in info
     # the directory the sweep wrote is summarised the same way
     assert main(["info", str(out)]) == 0
     assert capsys.readouterr().out == info
     # an unfinished sweep directory reports its progress
     (out / RESULT_NAME).unlink()
     assert main(["info", str(out)]) == 0
-    assert "tiles written: 11 of 11" in capsys.readouterr().out
+    assert "levels started: 4 of 4" in capsys.readouterr().out
     # anything unreadable is named, with what was expected, and the exit status says so
     junk = tmp_path / "junk.nc"
     junk.write_text("not netCDF")
@@ -429,4 +381,6 @@ def test_cli_demo_info_plot(tmp_path, capsys):
     assert main(["plot", str(out / RESULT_NAME), "--x", "nope"]) == 2
     capsys.readouterr()
     assert main(["demo", "--print-config"]) == 0
-    assert Sweep.from_toml(capsys.readouterr().out).size == 41 * 33 * 2
+    demo = Sweep.from_toml(capsys.readouterr().out)
+    assert demo.size == 41 * 33 * 2 and demo.finest().size == 321 * 257 * 2
+    assert demo.stop == "first_reversal"

@@ -200,6 +200,25 @@ def test_choose_tile_size(max_steps, size, expected):
     assert tile == expected and tile % 32 == 0
 
 
+@pytest.mark.parametrize("tile_size", [1, 2, 5, 7, 64, 66, 67, 256, 10_000])
+def test_tiles_are_grid_blocks_of_consecutive_points_covering_the_grid(tile_size):
+    s = Sweep(axes={"spin": list(range(41)), "delta_deg": list(range(33)), "mu": [0.3, 1.0]},
+              fixed={"t_end": 1.0}, tile_size=tile_size)
+    cover = np.zeros(s.shape, dtype=int)
+    for tile in range(s.n_tiles):
+        start, stop = s.tile_range(tile)
+        assert 0 < stop - start <= tile_size
+        block = np.zeros(s.shape, dtype=bool)
+        block[s.tile_region(tile)] = True
+        # the block's points are exactly the flat range, in order
+        np.testing.assert_array_equal(np.flatnonzero(block.ravel()), np.arange(start, stop))
+        cover[block] += 1
+    assert np.all(cover == 1)
+    # full tiles hold more than half of tile_size points (runs are cut evenly)
+    full = np.prod(s.tile_shape)
+    assert tile_size / 2 < full <= tile_size or full == s.size
+
+
 # --- the value object --------------------------------------------------------------------
 
 def test_sweep_is_immutable_picklable_and_does_not_touch_its_arguments():
@@ -219,14 +238,14 @@ def test_sweep_is_immutable_picklable_and_does_not_touch_its_arguments():
     assert back == s and back.shape == (2, 2) and back.tile_size == 3
     np.testing.assert_array_equal(back.points(0, 4)[1]["spin"], s.points(0, 4)[1]["spin"])
     assert repr(s).startswith("Sweep(axes={'spin': {'values': [2.0, 1.0]}, 'delta_deg'")
-    assert repr(s).endswith("tile_size=3, name='sweep')")
+    assert repr(s).endswith("tile_size=3, output='netcdf', name='sweep')")
 
 
 def test_the_order_of_the_axes_is_part_of_the_configuration(tmp_path):
     """The axes' order is the result's dimension order: a reordered configuration is a
     different sweep (a resume into its directory would otherwise merge tiles laid out
     the other way)."""
-    from rattlesweep.sweep.run import prepare_directory
+    from rattlesweep.sweep.directory import TileDirectory
 
     fixed = {"t_end": 0.1}
     a = Sweep(axes={"spin": [1.0, 2.0], "mu": [0.3, math.inf]}, fixed=fixed)
@@ -235,6 +254,8 @@ def test_the_order_of_the_axes_is_part_of_the_configuration(tmp_path):
     assert a == Sweep.from_toml(a.to_toml()) and a.config_hash() == Sweep.from_toml(
         a.to_toml()).config_hash()
     assert a.differences(b) == ["axes: order spin, mu -> mu, spin"]
-    prepare_directory(a, tmp_path)
+    first = TileDirectory(a, tmp_path)
+    first.open()
+    first.close()
     with pytest.raises(ValueError, match="holds a different sweep.*order spin, mu -> mu, spin"):
-        prepare_directory(b, tmp_path)
+        TileDirectory(b, tmp_path).open()

@@ -24,13 +24,13 @@ from .core.models import RATTLEBACK
 from .core.rattleback import layout
 from .engine import (
     Model, Prepared, as_bodies, check_band, check_method, check_record_every,
-    check_single_step,
+    check_single_step, check_stop,
 )
 from .launch import check_unit_quaternion, quaternion_from_angles, tilt_limit_error, up_vector
 from .metadata import attrs_for
 from .validation import as_float_array, fail_where
 
-__all__ = ["MODEL", "Inputs", "launch_inputs", "max_steps", "prepare",
+__all__ = ["MODEL", "Inputs", "damping_dts", "launch_inputs", "max_steps", "prepare",
            "run_batch"]
 
 MODEL = Model(
@@ -78,7 +78,8 @@ class Inputs:
 
 def launch_inputs(
     body, *, spin=None, omega=None, roll=0.0, pitch=0.0, yaw=0.0, orientation=None,
-    velocity=None, mu=math.inf, mu_static=None, damping=0.0, g=9.81, dt=None, t_end,
+    velocity=None, mu=math.inf, mu_static=None, mu_spin=0.0, mu_roll=0.0, damping=0.0,
+    g=9.81, dt=None, t_end,
 ) -> Inputs:
     """Check and broadcast launch inputs (see :func:`run_batch` for their meaning and
     units), without the kernel. Raises ValueError naming the parameter, the value and
@@ -87,12 +88,15 @@ def launch_inputs(
     ``non_finite``."""
     if spin is not None and omega is not None:
         raise ValueError("give either spin (about the vertical) or omega (body frame), not both")
-    if orientation is not None and any(np.any(np.asarray(x) != 0) for x in (roll, pitch, yaw)):
+    angles = {"roll": roll, "pitch": pitch, "yaw": yaw}
+    if orientation is not None and any(np.any(as_float_array(k, x) != 0)
+                                       for k, x in angles.items()):
         raise ValueError("give either orientation or roll/pitch/yaw, not both")
     if t_end is None:
         raise ValueError("t_end (s) is required")
     scalars = {"roll": roll, "pitch": pitch, "yaw": yaw, "mu": mu,
                "mu_static": mu if mu_static is None else mu_static,
+               "mu_spin": mu_spin, "mu_roll": mu_roll,
                "damping": damping, "g": g, "t_end": t_end}
     if omega is None:
         scalars["spin"] = 0.0 if spin is None else spin
@@ -114,11 +118,16 @@ def launch_inputs(
     shape, n, flat_bodies, flat, flat_vec = engine.broadcast_inputs(as_bodies(body, Body), arrays,
                                                                     vectors)
     table, index = distinct_bodies(flat_bodies)
+    default = np.minimum(engine.default_dts(table, index, flat["g"]),
+                         damping_dts(table, index, flat["damping"]))
+    default_from = None  # the inputs a default step comes from, for messages
     if "dt" not in flat:
-        flat["dt"] = engine.default_dts(table, index, flat["g"])
+        default_from = {"g": flat["g"], "damping": flat["damping"]}
+        flat["dt"] = default
     else:
         # warn at the user's call: run_batch or simulate -> prepare -> launch_inputs
-        engine.warn_coarse_dt(table, index, flat["g"], flat["dt"], stacklevel=4)
+        engine.warn_coarse_dt(table, index, flat["g"], flat["dt"], stacklevel=4,
+                              default=default)
     if "orientation" in flat_vec:
         q = flat_vec["orientation"].copy()
         check_unit_quaternion(q)
@@ -127,13 +136,24 @@ def launch_inputs(
     full = np.array([b.full_ellipsoid for b in table], dtype=bool)[index]
     tilt_limit_error(up_vector(q)[:, 2], full)
     return Inputs(shape, n, table, index, flat, flat_vec,
-                  engine.steps_for(flat["t_end"], flat["dt"]), q)
+                  engine.steps_for(flat["t_end"], flat["dt"], default_from), q)
+
+
+def damping_dts(table: list[Body], index: np.ndarray, damping: np.ndarray) -> np.ndarray:
+    """The longest step that follows each trajectory's viscous damping (inf without
+    damping): the torque -damping * omega makes omega about a principal axis of moment
+    I_k relax at the rate damping / I_k, and RK4 follows that decay monotonically at
+    steps up to I_k / damping (rate times step at most 1, well inside RK4's stability
+    limit of 2.78), so a default step is at most the smallest moment over damping."""
+    i_min = np.array([np.linalg.eigvalsh(b.inertia)[0] for b in table])[index]
+    with np.errstate(divide="ignore"):
+        return np.where(damping > 0, i_min / damping, np.inf)
 
 
 def max_steps(body, **kwargs) -> int:
-    """The largest number of steps a trajectory of these launches takes (checks every
-    input as :func:`launch_inputs` does, without the kernel)."""
-    return int(launch_inputs(body, **kwargs).nsteps.max())
+    """The largest number of steps a trajectory of these launches takes, 0 for an empty
+    batch (checks every input as :func:`launch_inputs` does, without the kernel)."""
+    return int(launch_inputs(body, **kwargs).nsteps.max(initial=0))
 
 
 def _launch_state(inputs: Inputs) -> dict[str, np.ndarray]:
@@ -160,7 +180,7 @@ def _coords(inputs: Inputs, columns: dict[str, np.ndarray], velocity) -> dict[st
         coords["launch_spin"] = (dim, flat["spin"])
     if velocity is not None:
         coords["launch_velocity"] = ((dim, "horizontal"), velocity)
-    for k in ("mu", "mu_static", "damping", "g", "dt", "t_end"):
+    for k in ("mu", "mu_static", "mu_spin", "mu_roll", "damping", "g", "dt", "t_end"):
         coords[k] = (dim, flat[k])
     for k in BODY_COLUMNS:
         coords[k] = (dim, columns[k])
@@ -169,12 +189,13 @@ def _coords(inputs: Inputs, columns: dict[str, np.ndarray], velocity) -> dict[st
     return coords
 
 
-def prepare(body, **kwargs) -> Prepared:
+def prepare(body, *, stop: str | None = None, **kwargs) -> Prepared:
     """Check, broadcast and pack launches for the kernel; arguments as for
     :func:`run_batch`."""
+    rule = check_stop(stop)
     inputs = launch_inputs(body, **kwargs)
     n = inputs.n
-    columns = {**inputs.body_columns(), **inputs.flat}
+    columns = {**inputs.body_columns(), **inputs.flat, "stop_rule": np.full(n, rule)}
     Y = engine.pack(layout.STATE, _launch_state(inputs), n)
     prep = engine.prepared(MODEL, columns, Y, inputs.nsteps, n, inputs.shape, {})
     # G's velocity: rolling (material contact point at rest) unless given
@@ -195,56 +216,108 @@ def run_batch(
     body: Body | Any,
     *,
     spin=None, omega=None, roll=0.0, pitch=0.0, yaw=0.0, orientation=None, velocity=None,
-    mu=math.inf, mu_static=None, damping=0.0, g=9.81, dt=None, t_end,
-    method: str = "rk4", record_every: int | None = None, reversal_band: float = 0.05,
-    parallel: bool = True, threads: int | None = None,
+    mu=math.inf, mu_static=None, mu_spin=0.0, mu_roll=0.0, damping=0.0, g=9.81, dt=None,
+    t_end, method: str = "rk4", record_every: int | None = None, reversal_band: float = 0.05,
+    stop: str | None = None, parallel: bool = True, threads: int | None = None,
 ) -> xr.Dataset:
     """Integrate many launches at once; return per-trajectory observables.
 
-    Every argument except ``method``, ``record_every``, ``reversal_band``, ``parallel`` and
-    ``threads`` may be an array; all are broadcast together (vector inputs ``omega``,
-    ``orientation`` and ``velocity`` broadcast on their leading axes) and flattened onto a
-    ``trajectory`` dimension.
+    Every argument except ``method``, ``record_every``, ``reversal_band``, ``stop``,
+    ``parallel`` and ``threads`` may be an array; all are broadcast together (vector
+    inputs ``omega``, ``orientation`` and ``velocity`` broadcast on their leading axes)
+    and flattened onto a ``trajectory`` dimension.
 
     Parameters
     ----------
-    body : Body or array of Body
-    spin : rad/s, rotation about the world vertical (positive counter-clockwise from above).
-    omega : (..., 3) rad/s, body-frame angular velocity instead of ``spin``.
-    roll, pitch, yaw : rad, initial orientation R = R_z(yaw) R_y(pitch) R_x(roll).
-    orientation : (..., 4) unit quaternion (w, x, y, z) instead of the angles.
-    velocity : (..., 2) m/s, horizontal velocity of G (a sliding launch); default rolling.
-    mu, mu_static : kinetic and static Coulomb coefficients; ``inf`` rolls without slip,
-        ``0`` is frictionless. ``mu_static`` defaults to ``mu`` and must be >= ``mu``.
-    damping : N m s, viscous torque −damping·ω.
-    g : m/s², gravitational acceleration.
-    dt : s, time step; default 1/64 of the body's shortest small-oscillation period.
-    t_end : s, end time; each trajectory takes ceil(t_end/dt) steps.
-    method : "rk4" (default) or "euler" (semi-implicit, first order).
-    record_every : record every k-th step into time-series variables over
-        (trajectory, time); needs one dt and t_end for the whole batch. Off by default.
-    reversal_band : hysteresis of the reversal detector, a fraction of |initial spin|.
-    parallel : spread blocks of trajectories over numba threads (``threads`` of them,
-        default all); ``False`` runs on the calling thread only, releasing the GIL, for
-        callers that bring their own parallelism.
+    body : Body or array_like of Body
+        The body of each launch.
+    spin : array_like, optional
+        Rotation about the world vertical (rad/s, positive counter-clockwise seen from
+        above). Default 0.
+    omega : array_like, shape (..., 3), optional
+        Body-frame angular velocity (rad/s) instead of ``spin``.
+    roll, pitch, yaw : array_like, optional
+        Initial orientation (rad), R = R_z(yaw) R_y(pitch) R_x(roll). Default 0.
+    orientation : array_like, shape (..., 4), optional
+        Unit quaternion (w, x, y, z), body to world, instead of the angles.
+    velocity : array_like, shape (..., 2), optional
+        Horizontal velocity of G (m/s): a sliding launch. Default: rolling.
+    mu, mu_static : array_like, optional
+        Kinetic and static Coulomb coefficients; ``inf`` (the default) rolls without
+        slip, ``0`` is frictionless. ``mu_static`` defaults to ``mu`` and must be
+        >= ``mu``.
+    mu_spin : array_like, optional
+        Spin (drilling) friction (m): a couple about the contact normal of at most
+        mu_spin·N opposing the spin about it, which stops that spin while the couple
+        needed stays within the bound. Default 0.
+    mu_roll : array_like, optional
+        Rolling resistance (m): a couple of at most mu_roll·N opposing the horizontal
+        part of ω. In 3-D it does not stick: below a rate of order mu_roll·N dt / I it is
+        proportional to that rate. Default 0.
+    damping : array_like, optional
+        Viscous torque coefficient (N m s): a torque −damping·ω. Default 0.
+    g : array_like, optional
+        Gravitational acceleration (m/s²). Default 9.81.
+    dt : array_like, optional
+        Time step (s). Default: 1/64 of the body's shortest small-oscillation period,
+        or the body's smallest principal moment of inertia / ``damping`` when that is
+        shorter (:func:`damping_dts`).
+    t_end : array_like
+        End time (s); each trajectory takes ceil(t_end/dt) steps, at most 2**53.
+    method : {"rk4", "euler"}, optional
+        Classic RK4 (default) or semi-implicit Euler (first order).
+    record_every : int, optional
+        Record every k-th step into time-series variables over (trajectory, time);
+        needs one ``dt`` and ``t_end`` for the whole batch. Off by default.
+    reversal_band : float, optional
+        Hysteresis of the reversal detector, a fraction of the initial spin's magnitude,
+        in [0, 1). Default 0.05.
+    stop : {None, "first_reversal"}, optional
+        None runs every launch to ``t_end``; ``"first_reversal"`` ends a launch at its
+        first reversal (once the spin is beyond the band on the other side), unless it
+        capsizes or lifts off first. Its ``first_reversal_time``, ``status`` and whether
+        it reversed are then those of the full run, bit for bit; ``n_reversals`` is at
+        most 1, and ``final_spin``, ``energy_final``, ``energy_lost``, ``slip_fraction``
+        and ``max_tilt`` are taken at the stop, ``t_final``; ``mean_final_spin`` is
+        the mean over the part of the last 10 % of ``t_end`` it ran (NaN for none).
+    parallel : bool, optional
+        Spread blocks of trajectories over numba threads (default); ``False`` runs on
+        the calling thread only, releasing the GIL, for callers that bring their own
+        parallelism.
+    threads : int, optional
+        Number of numba threads for a parallel run (default: all).
 
     Returns
     -------
-    xarray.Dataset over ``trajectory`` with ``first_reversal_time`` (s, NaN when none),
-    ``n_reversals``, ``initial_spin``, ``final_spin``, ``mean_final_spin`` (rad/s),
-    ``max_tilt`` (rad), ``energy_initial``, ``energy_final``, ``energy_lost`` (J),
-    ``slip_fraction``, ``t_final`` (s), ``steps`` and ``status`` (CF flags: ok, capsized,
-    lifted_off, non_finite), with every input as a coordinate.
+    xarray.Dataset
+        Over ``trajectory``: ``first_reversal_time`` (s, NaN when none),
+        ``n_reversals``, ``initial_spin``, ``final_spin``, ``mean_final_spin`` (rad/s),
+        ``max_tilt`` (rad), ``energy_initial``, ``energy_final``, ``energy_lost`` (J),
+        ``slip_fraction``, ``t_final`` (s), ``steps`` and ``status`` (CF flags: ok,
+        capsized, lifted_off, non_finite), with every input as a coordinate.
+
+    Raises
+    ------
+    ValueError
+        For any invalid input, naming the parameter, the value and the rule, before any
+        computation. Non-finite launch values are not errors: those trajectories get
+        the status ``non_finite``.
+
+    Warns
+    -----
+    CoarseStepWarning
+        When a given ``dt`` is more than 4 times the default step.
     """
     m = check_method(method)
     rec_every = check_record_every(record_every)
     band = check_band(reversal_band)
     prep = prepare(body, spin=spin, omega=omega, roll=roll, pitch=pitch, yaw=yaw,
                    orientation=orientation, velocity=velocity, mu=mu, mu_static=mu_static,
-                   damping=damping, g=g, dt=dt, t_end=t_end)
+                   mu_spin=mu_spin, mu_roll=mu_roll, damping=damping, g=g, dt=dt,
+                   t_end=t_end, stop=stop)
     if rec_every is not None:
         check_single_step(prep)
     raw = engine.execute(prep, method=m, record_every=rec_every, band=band,
                          parallel=parallel, threads=threads)
     return results.batch_dataset(prep, raw, rec_every, attrs_for,
-                                results.run_attrs(method, rec_every, band))
+                                results.run_attrs(method, rec_every, band, stop))

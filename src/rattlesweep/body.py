@@ -48,7 +48,7 @@ class Body:
     com : (3,) array_like
         Centre of mass G from the centre C of the flat face, body components (m).
     inertia : (3, 3) array_like
-        Inertia tensor about G in body axes (kg m²), I = ∫(|r|²𝟙 − r rᵀ) dm.
+        Inertia tensor about G in body axes (kg m²), ``I = ∫(|r|²𝟙 − r rᵀ) dm``.
     full_ellipsoid : bool
         A full ellipsoid has no rim, so it never capsizes (Kane and Levinson's body).
     name : str
@@ -98,6 +98,10 @@ class Body:
             raise ValueError(f"com {com.tolist()} must lie strictly inside the {where}")
         ell = self.c + gz
         for label, radius in (("a**2/c", self.a**2 / self.c), ("b**2/c", self.b**2 / self.c)):
+            if not math.isfinite(radius):
+                raise ValueError(
+                    f"radius of curvature {label} overflows float64 (a = {self.a!r}, "
+                    f"b = {self.b!r}, c = {self.c!r} m): c is too small for a and b")
             if radius < ell * (1.0 - _REL_TOL):
                 raise ValueError(
                     f"upright pose is unstable: radius of curvature {label} = {radius:.6g} m "
@@ -109,6 +113,19 @@ class Body:
         object.__setattr__(self, "com", com)
         object.__setattr__(self, "inertia", inertia)
         object.__setattr__(self, "full_ellipsoid", bool(self.full_ellipsoid))
+        # Scales so far apart (c = 1e-300 m under a = 486 m, a mass of 1e165 kg) that the
+        # rocking frequencies overflow leave no time step to integrate with.
+        with np.errstate(all="ignore"):
+            try:
+                freqs = (*self.small_oscillation_frequencies(1.0, rolling=True),
+                         *self.small_oscillation_frequencies(1.0, rolling=False))
+            except np.linalg.LinAlgError:
+                freqs = (math.nan,)
+        if not all(math.isfinite(f) for f in freqs):
+            raise ValueError(
+                f"a = {self.a!r}, b = {self.b!r}, c = {self.c!r} m, mass = {self.mass!r} kg "
+                f"and inertia are too far apart in scale for float64: the body's "
+                f"small-oscillation frequencies overflow")
 
     # --- constructors -------------------------------------------------------------
     @classmethod
@@ -124,8 +141,13 @@ class Body:
         """
         a, b, c, mass = (positive("a", a), positive("b", b), positive("c", c),
                          positive("mass", mass))
-        if not math.isfinite(delta):
-            raise ValueError(f"delta must be finite, got {delta!r}")
+        try:
+            angle = float(delta)
+        except (TypeError, ValueError):  # not a number: refused as below
+            angle = math.nan
+        if not math.isfinite(angle):
+            raise ValueError(f"delta must be a finite number (rad), got {delta!r}")
+        delta = angle
         zg = -3.0 * c / 8.0
         i_c = np.array([b * b + c * c, a * a + c * c, a * a + b * b]) * mass / 5.0
         i_g = i_c - mass * zg * zg * np.array([1.0, 1.0, 0.0])
@@ -282,11 +304,16 @@ class Body:
 # costs two small eigenproblems. Bounded, as a sweep over random bodies meets thousands.
 @functools.lru_cache(maxsize=4096)
 def _default_dt(body: Body, g: float) -> float:
-    w = max(*body.small_oscillation_frequencies(g, rolling=True),
-            *body.small_oscillation_frequencies(g, rolling=False))
-    if w == 0.0:
-        w = math.sqrt(g / body.c)
-    return 2.0 * math.pi / w / 64.0
+    with np.errstate(all="ignore"):
+        w = max(*body.small_oscillation_frequencies(g, rolling=True),
+                *body.small_oscillation_frequencies(g, rolling=False))
+        if w == 0.0:
+            w = math.sqrt(g / body.c)
+        dt = 2.0 * math.pi / w / 64.0
+    if not (math.isfinite(dt) and dt > 0.0):
+        raise ValueError(f"g = {g!r} m s-2 is too large for body {body.name!r}: its "
+                         f"small-oscillation frequencies overflow float64")
+    return dt
 
 
 def distinct_bodies(bodies: Sequence[Body] | np.ndarray) -> tuple[list[Body], np.ndarray]:

@@ -35,10 +35,12 @@ def _save_map(ds, png: Path, var: str = "outcome") -> Path:
 def _summary(ds) -> str:
     import numpy as np
 
-    from .sweep.outcomes import OUTCOME_NAMES
-
-    counts = np.bincount(ds.outcome.values.ravel().astype(int), minlength=len(OUTCOME_NAMES))
-    return ", ".join(f"{n.replace('_', ' ')} {c}" for n, c in zip(OUTCOME_NAMES, counts) if c)
+    flags = list(ds.outcome.attrs["flag_values"])
+    names = ds.outcome.attrs["flag_meanings"].split()
+    values, counts = np.unique(np.asarray(ds.outcome.values).ravel(), return_counts=True)
+    found = dict(zip(values.tolist(), counts.tolist()))
+    return ", ".join(f"{n.replace('_', ' ')} {found[f]}" for f, n in zip(flags, names)
+                     if found.get(f))
 
 
 def _sweep_args(args: argparse.Namespace) -> dict:
@@ -49,27 +51,56 @@ def _sweep_args(args: argparse.Namespace) -> dict:
             "progress": not args.quiet}
 
 
-def _run(sweep, out: Path, args, argv) -> int:
+def _points(ds) -> str:
+    """How many points a result holds, and how many of them were simulated."""
+    n = int(ds.outcome.size)
+    if "points_simulated" not in ds.attrs:
+        return f"{n} launches"
+    simulated = int(ds.attrs["points_simulated"])
+    return f"{n} points ({simulated} simulated, {simulated / n:.1%})"
+
+
+def _run(sweep, out: str, args, argv) -> int:
     from .sweep.run import RESULT_NAME, run_sweep
 
     try:
         ds = run_sweep(sweep, out, command=_command(argv), **_sweep_args(args))
     except KeyboardInterrupt:
         return 130
-    print(f"wrote {out / RESULT_NAME}: {sweep.size} launches; {_summary(ds)}")
+    written = out if sweep.output == "zarr" else Path(out) / RESULT_NAME
+    print(f"wrote {written}: {_points(ds)}; {_summary(ds)}")
     return 0
 
 
 def _cmd_sweep(args, argv) -> int:
     from .sweep import Sweep
 
-    return _run(Sweep.from_toml(Path(args.config)), Path(args.out), args, argv)
+    sweep = Sweep.from_toml(Path(args.config))
+    changes = {}
+    if args.output is not None and args.output != sweep.output:
+        changes["output"] = args.output
+    if args.stop is not None:
+        changes["stop"] = None if args.stop == "t_end" else args.stop
+    if args.refine is not None:
+        changes["refine"] = {**(sweep.refine or {}), "levels": args.refine} if (
+            args.refine > 0) else None
+    if changes:
+        sweep = Sweep(**{**sweep.to_dict(), **changes})
+    return _run(sweep, args.out, args, argv)
 
 
 def _cmd_resume(args, argv) -> int:
     from .sweep.run import stored_sweep
 
-    return _run(stored_sweep(args.dir), Path(args.dir), args, argv)
+    return _run(stored_sweep(args.dir), args.dir, args, argv)
+
+
+def _cmd_export(args, argv) -> int:
+    from .sweep.run import export
+
+    path = export(args.store, args.out)
+    print(f"wrote {path}")
+    return 0
 
 
 def _cmd_demo(args, argv) -> int:
@@ -88,8 +119,8 @@ def _cmd_demo(args, argv) -> int:
     except KeyboardInterrupt:
         return 130
     png = _save_map(ds, out / "reversal_map.png")
-    print(f"{ds.attrs['sweep_name']}: {int(ds.outcome.size)} launches in "
-          f"{time.perf_counter() - t0:.1f} s; {_summary(ds)}")
+    print(f"{ds.attrs['sweep_name']}: {_points(ds)} in {time.perf_counter() - t0:.1f} s; "
+          f"{_summary(ds)}")
     print(f"wrote {out / RESULT_NAME} and {png}")
     return 0
 
@@ -153,26 +184,51 @@ def _cmd_plot(args, argv) -> int:
 def _info_directory(path: Path) -> Path | None:
     """The merged result of a sweep directory, or None after printing the progress of an
     unfinished one; ValueError when ``path`` is no sweep directory."""
+    from .sweep.zarr_store import is_zarr_store
+
+    if is_zarr_store(path):
+        return path
     if (path / "sweep.nc").is_file():
         return path / "sweep.nc"
     if not (path / "sweep.toml").is_file():
         raise ValueError(f"{path} is a directory without sweep.nc or sweep.toml: expected a "
                          "sweep directory (what 'rattlesweep sweep --out DIR' writes)")
-    from .sweep import Sweep
+    from .sweep.directory import read_config
 
-    sweep = Sweep.from_toml(path / "sweep.toml")
-    done = len(list((path / "tiles").glob("tile-*.nc")))
+    sweep = read_config(path / "sweep.toml")
     print(f"{path} (unfinished sweep: no sweep.nc yet)")
     print(f"  name: {sweep.name}")
     print("  dimensions: " + ", ".join(f"{d} ({n})" for d, n in zip(sweep.dims, sweep.shape)))
+    if sweep.refine is not None:
+        levels = sorted(path.glob("levels/level-*"))
+        done = len(list(path.glob("levels/level-*/tile-*.nc")))
+        fine = sweep.finest()
+        print("  refined to: " + ", ".join(f"{d} ({n})" for d, n in zip(fine.dims, fine.shape)))
+        print(f"  levels started: {len(levels)} of {sweep.refine['levels'] + 1}, {done} tiles "
+              f"written; 'rattlesweep resume {path}' completes it")
+        return None
+    done = len(list((path / "tiles").glob("tile-*.nc")))
     print(f"  tiles written: {done} of {sweep.n_tiles}; 'rattlesweep resume {path}' "
           "completes it")
     return None
 
 
-def _cmd_info(args, argv) -> int:
+def _open_result(path: Path):
     import xarray as xr
 
+    from .sweep.zarr_store import is_zarr_store, open_result, stored_sweep, tiles_done
+
+    if not is_zarr_store(path):
+        return xr.open_dataset(path)
+    sweep = stored_sweep(str(path))
+    done = tiles_done(str(path), sweep.n_tiles)
+    if done is not None and not done.all():
+        print(f"{path} (unfinished zarr store: {int(done.sum())} of {sweep.n_tiles} tiles "
+              f"written; 'rattlesweep resume {path}' completes it)")
+    return open_result(str(path))
+
+
+def _cmd_info(args, argv) -> int:
     failed = 0
     for name in args.files:
         path = Path(name)
@@ -186,7 +242,7 @@ def _cmd_info(args, argv) -> int:
             failed += 1
             continue
         try:
-            ds = xr.open_dataset(path)
+            ds = _open_result(path)
         except (OSError, ValueError) as exc:
             reason = str(exc).splitlines()[0]
             if "did not find a match" in reason:
@@ -213,6 +269,10 @@ def _cmd_info(args, argv) -> int:
             print("  variables: " + ", ".join(ds.data_vars))
             if "outcome" in ds:
                 print(f"  outcomes: {_summary(ds)}")
+            if "computed" in ds:
+                simulated, n = int(ds.computed.sum()), int(ds.computed.size)
+                print(f"  simulated: {simulated} of {n} points ({simulated / n:.1%}); the "
+                      "others are filled from their refinement cell's corners (computed = 0)")
             for key in ("rattlesweep_version", "history"):
                 if key in ds.attrs:
                     print(f"  {key}: {ds.attrs[key]}")
@@ -293,22 +353,39 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("sweep", help="run a sweep from a TOML file into a directory")
     p.add_argument("config", help="sweep configuration (TOML)")
-    p.add_argument("--out", required=True, help="output directory (resumable)")
+    p.add_argument("--out", required=True,
+                   help="output: a directory (netCDF) or a zarr store (a path or URL)")
+    p.add_argument("--output", choices=["netcdf", "zarr"], default=None,
+                   help="output format (default: the configuration's 'output', netcdf)")
+    p.add_argument("--refine", type=int, default=None, metavar="LEVELS",
+                   help="refine the grid adaptively this many levels (each halves the "
+                   "spacing of the refined axes; 0: no refinement); default: the "
+                   "configuration's [refine]")
+    p.add_argument("--stop", choices=["first_reversal", "t_end"], default=None,
+                   help="end each launch at its first reversal, or run it to t_end "
+                   "(default: the configuration's 'stop', t_end)")
     _add_run_options(p)
     p.set_defaults(func=_cmd_sweep)
 
-    p = sub.add_parser("resume", help="finish an interrupted sweep in DIR")
+    p = sub.add_parser("resume", help="finish an interrupted sweep in DIR (a sweep "
+                       "directory or zarr store)")
     p.add_argument("dir")
     _add_run_options(p)
     p.set_defaults(func=_cmd_resume)
 
     p = sub.add_parser("demo", help="run the default sweep (toy rattleback, spin x "
-                       "misalignment x friction); write the netCDF file and a map PNG")
+                       "misalignment x friction, refined adaptively, each launch stopped "
+                       "at its first reversal); write the netCDF file and a map PNG")
     p.add_argument("--out", default="rattlesweep-demo", help="output directory")
     p.add_argument("--print-config", action="store_true",
                    help="print the demo's TOML configuration and exit")
     _add_run_options(p)
     p.set_defaults(func=_cmd_demo)
+
+    p = sub.add_parser("export", help="write a finished zarr store as one netCDF file")
+    p.add_argument("store", help="zarr store (a path or URL)")
+    p.add_argument("out", help="netCDF file to write")
+    p.set_defaults(func=_cmd_export)
 
     p = sub.add_parser("plot", help="draw a map of a sweep result to PNG")
     p.add_argument("files", nargs="+", help="sweep result netCDF file(s)")
@@ -369,7 +446,7 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as exc:
         print(f"rattlesweep: error: {exc}", file=sys.stderr)
         return 2
-    except FileNotFoundError as exc:
+    except OSError as exc:  # a file that cannot be read or written: the message says which
         print(f"rattlesweep: error: {exc}", file=sys.stderr)
         return 2
 

@@ -22,13 +22,14 @@ import numpy as np
 from numba import types
 
 from .core import stepper
-from .core.workspace import BLOCK, METHODS, OBSERVABLES
+from .core.workspace import BLOCK, METHODS, OBSERVABLES, STOP_RULES
 from .validation import as_float_array, fail_where
 
 __all__ = [
-    "COARSE_DT", "RK4_LIMIT", "CoarseStepWarning", "Model", "Prepared", "Raw",
+    "COARSE_DT", "MAX_STEPS", "RK4_LIMIT", "CoarseStepWarning", "Model", "Prepared", "Raw",
     "as_bodies", "blocked", "broadcast_inputs", "check_band", "check_common", "check_method",
-    "check_record_every", "check_record_size", "check_single_step", "contact_slip_velocity",
+    "check_record_every", "check_record_size", "check_single_step", "check_stop",
+    "contact_slip_velocity",
     "default_dts", "execute", "numba_threads", "pack", "physical_memory", "prepared",
     "run_kernel", "steps_for", "unblock", "warn_coarse_dt",
 ]
@@ -140,6 +141,9 @@ def check_common(arrays: Mapping[str, np.ndarray]) -> None:
     fail_where("mu_static", mu_s, ~(mu_s >= 0), "must be >= 0 (inf for pure rolling)")
     bad = np.broadcast_to(mu_s, np.broadcast_shapes(mu_s.shape, mu_k.shape)) < mu_k
     fail_where("mu_static", np.broadcast_to(mu_s, bad.shape), bad, "must be >= mu")
+    for name in ("mu_spin", "mu_roll"):
+        v = arrays[name]
+        fail_where(name, v, ~(np.isfinite(v) & (v >= 0)), "must be finite and >= 0 (m)")
     for name in ("g", "t_end") + (("dt",) if "dt" in arrays else ()):
         v = arrays[name]
         fail_where(name, v, ~(np.isfinite(v) & (v > 0)), "must be finite and > 0")
@@ -159,28 +163,52 @@ class CoarseStepWarning(RuntimeWarning):
 
 
 def warn_coarse_dt(table: list, index: np.ndarray, g: np.ndarray, dt: np.ndarray,
-                   stacklevel: int) -> None:
-    """Warn when a given time step exceeds COARSE_DT times the default of its body (at
-    its g), naming the worst trajectory's body, its default and RK4's stability limit;
-    ``stacklevel`` as for :func:`warnings.warn`, counted from the caller."""
+                   stacklevel: int, default: np.ndarray | None = None) -> None:
+    """Warn when a given time step exceeds COARSE_DT times the default of its
+    trajectory (``default``, or its body's at its g), naming the worst trajectory's
+    body, its default and RK4's stability limit; ``stacklevel`` as for
+    :func:`warnings.warn`, counted from the caller."""
     if dt.size == 0:
         return
-    default = default_dts(table, index, g)
+    body_default = default_dts(table, index, g)
+    default = body_default if default is None else default
     worst = int(np.argmax(dt / default))
     ratio = dt[worst] / default[worst]
+    why = ("1/64 of its shortest small-oscillation period"
+           if default[worst] == body_default[worst] else
+           "the longest that follows its damping, smallest principal moment / damping")
     if ratio > COARSE_DT:
         warnings.warn(
             f"dt = {dt[worst]:.3g} s is {ratio:.3g} times the default step of body "
-            f"{table[index[worst]].name!r} ({default[worst]:.3g} s, 1/64 of its shortest "
-            f"small-oscillation period): RK4 loses accuracy beyond a few times the default "
+            f"{table[index[worst]].name!r} ({default[worst]:.3g} s, {why}): RK4 loses "
+            f"accuracy beyond a few times the default "
             f"and is unstable from about {RK4_LIMIT:.0f} times it (semi-implicit Euler "
             f"sooner); statuses such as capsized or lifted_off of such a run may be "
             f"numerical artefacts", CoarseStepWarning, stacklevel=stacklevel + 1)
 
 
-def steps_for(t_end: np.ndarray, dt: np.ndarray) -> np.ndarray:
-    """Steps each trajectory takes: ceil(t_end/dt), at least 1."""
-    return np.maximum(np.ceil(t_end / dt * (1.0 - 1e-12)), 1).astype(np.int64)
+MAX_STEPS = 2**53
+"""The most steps a trajectory can take: the kernel counts steps in float64, which
+counts integers exactly up to 2**53."""
+
+
+def steps_for(t_end: np.ndarray, dt: np.ndarray,
+              default_from: Mapping[str, np.ndarray] | None = None) -> np.ndarray:
+    """Steps each trajectory takes: ceil(t_end/dt), at least 1. More than
+    :data:`MAX_STEPS` is a ValueError naming ``t_end`` and ``dt``, and, when ``dt`` is
+    the default step, the inputs ``default_from`` it was derived from (name -> values)."""
+    steps = np.maximum(np.ceil(t_end / dt * (1.0 - 1e-12)), 1)
+    bad = ~(steps <= MAX_STEPS)  # NaN too: a default step that overflowed
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        where = f" at index ({i},)" if steps.ndim else ""
+        source = "" if default_from is None else " (the body's default step at " + ", ".join(
+            f"{k} = {float(v.flat[i])!r}" for k, v in default_from.items()) + ")"
+        raise ValueError(
+            f"t_end / dt must be at most 2**53 steps (the kernel counts steps in float64); "
+            f"got t_end = {float(t_end.flat[i])!r} s and dt = {float(dt.flat[i])!r} s"
+            f"{source}, {float(steps.flat[i]):.3g} steps{where}")
+    return steps.astype(np.int64)
 
 
 def default_dts(table: list, index: np.ndarray, g: np.ndarray) -> np.ndarray:
@@ -296,11 +324,24 @@ def check_single_step(prep: Prepared) -> None:
 
 
 def check_band(reversal_band) -> float:
-    band = float(reversal_band)
+    try:
+        band = float(reversal_band)
+    except (TypeError, ValueError):  # None, a string, a list: refused as below
+        band = np.nan
     if not (0.0 <= band < 1.0):
         raise ValueError(f"reversal_band must be in [0, 1) (a fraction of |initial spin|), "
                          f"got {reversal_band!r}")
     return band
+
+
+def check_stop(stop) -> float:
+    """The ``stop_rule`` row value of a ``stop`` argument: None (run to ``t_end``) or
+    ``"first_reversal"``."""
+    try:
+        return STOP_RULES[stop]
+    except (KeyError, TypeError):
+        raise ValueError(f"stop must be None (run to t_end) or 'first_reversal', got "
+                         f"{stop!r}") from None
 
 
 def physical_memory() -> int | None:

@@ -34,6 +34,8 @@ VARIABLE_ATTRS = {
     "launch_velocity": ("m s-1", "initial horizontal velocity of G (sliding launch)"),
     "mu": ("1", "kinetic friction coefficient"),
     "mu_static": ("1", "static friction coefficient"),
+    "mu_spin": ("m", "spin friction coefficient (couple bound per unit normal force)"),
+    "mu_roll": ("m", "rolling resistance coefficient (couple bound per unit normal force)"),
     "damping": ("N m s", "viscous torque coefficient"),
     "g": ("m s-2", "gravitational acceleration"),
     "dt": ("s", "time step"),

@@ -124,8 +124,10 @@ def run_dataset(prep: Prepared, raw: Raw, record_every: int, attrs_for,
     return ds
 
 
-def run_attrs(method: str, record_every: int | None, band: float | None) -> dict:
-    """Global attributes common to every result (``band`` None: no reversal tracking)."""
+def run_attrs(method: str, record_every: int | None, band: float | None,
+              stop: str | None = None) -> dict:
+    """Global attributes common to every result (``band`` None: no reversal tracking;
+    ``stop`` the stop rule, recorded when one is given)."""
     attrs = {
         "title": "rattlesweep rattleback simulation",
         "source": f"rattlesweep {__version__}",
@@ -141,4 +143,6 @@ def run_attrs(method: str, record_every: int | None, band: float | None) -> dict
     }
     if band is None:
         del attrs["reversal_band"]
+    if stop is not None:
+        attrs["stop"] = stop
     return attrs

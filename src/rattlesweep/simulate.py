@@ -21,7 +21,8 @@ def simulate(
     *,
     spin: float | None = None, omega=None, roll: float = 0.0, pitch: float = 0.0,
     yaw: float = 0.0, orientation=None, velocity=None,
-    mu: float = math.inf, mu_static: float | None = None, damping: float = 0.0,
+    mu: float = math.inf, mu_static: float | None = None, mu_spin: float = 0.0,
+    mu_roll: float = 0.0, damping: float = 0.0,
     g: float = 9.81, dt: float | None = None, t_end: float,
     method: str = "rk4", record_every: int | None = None, reversal_band: float = 0.05,
 ) -> xr.Dataset:
@@ -33,14 +34,26 @@ def simulate(
 
     Returns
     -------
-    xarray.Dataset over ``time`` (s) with ``spin`` (rad/s), ``energy`` (J), ``tilt`` (rad),
-    ``slipping``, ``normal_force`` (N), ``friction_force`` (N), ``friction_impulse`` (N s,
-    the plastic impulses that bring a slipping contact to rest, summed since the previous
-    sample), ``slip_velocity`` and
-    ``slip_speed`` (m/s), ``quaternion``, ``omega`` (rad/s), ``position`` (m) and
-    ``velocity`` (m/s) of G; the per-run observables of :func:`run_batch` as scalar
-    variables; every input as an attribute (units in ``<name>_units``). A status other
-    than ``ok`` also raises a RuntimeWarning.
+    xarray.Dataset
+        Over ``time`` (s): ``spin`` (rad/s), ``energy`` (J), ``tilt`` (rad),
+        ``slipping``, ``normal_force`` (N), ``friction_force`` (N), ``friction_impulse``
+        (N s, the plastic impulses that bring a slipping contact to rest, summed since
+        the previous sample), ``slip_velocity`` and ``slip_speed`` (m/s),
+        ``quaternion``, ``omega`` (rad/s), ``position`` (m) and ``velocity`` (m/s) of G;
+        the per-run observables of :func:`run_batch` as scalar variables; every input as
+        an attribute (units in ``<name>_units``).
+
+    Raises
+    ------
+    ValueError
+        For any invalid input, naming the parameter, the value and the rule.
+
+    Warns
+    -----
+    RuntimeWarning
+        When the run ends with a status other than ``ok``.
+    CoarseStepWarning
+        When a given ``dt`` is more than 4 times the default step.
     """
     if not isinstance(body, Body):
         raise ValueError(f"body must be a Body, got {body!r}")
@@ -49,9 +62,9 @@ def simulate(
     band = check_band(reversal_band)
     inputs = dict(spin=spin, omega=omega, roll=roll, pitch=pitch, yaw=yaw,
                   orientation=orientation, velocity=velocity, mu=mu, mu_static=mu_static,
-                  damping=damping, g=g, dt=dt, t_end=t_end)
-    for name in ("spin", "roll", "pitch", "yaw", "mu", "mu_static", "damping", "g", "dt",
-                 "t_end"):
+                  mu_spin=mu_spin, mu_roll=mu_roll, damping=damping, g=g, dt=dt, t_end=t_end)
+    for name in ("spin", "roll", "pitch", "yaw", "mu", "mu_static", "mu_spin", "mu_roll",
+                 "damping", "g", "dt", "t_end"):
         if inputs[name] is not None and np.ndim(inputs[name]) != 0:
             raise ValueError(f"{name} must be a scalar for simulate(); use run_batch for arrays")
     for name, width in (("omega", 3), ("orientation", 4), ("velocity", 2)):

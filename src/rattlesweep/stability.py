@@ -154,7 +154,7 @@ def eigen(body, spin, *, g=9.81, damping=0.0) -> dict[str, np.ndarray]:
     Returns a dict of arrays over the broadcast shape: ``eigenvalues`` (…, 4) complex
     (1/s), sorted pitch-like pair first; ``pitch_growth_rate``, ``roll_growth_rate``
     (largest real part of each mode pair, 1/s), ``pitch_frequency``,
-    ``roll_frequency`` (largest |imaginary part|, rad/s), ``growth_rate`` (largest real
+    ``roll_frequency`` (largest magnitude of an imaginary part, rad/s), ``growth_rate`` (largest real
     part of all four, 1/s) and ``mode`` (:data:`MODE_NAMES` codes). A mode is pitch-like
     when its eigenvector tilts more about body y (γx) than about body x (γy).
     """
@@ -200,7 +200,7 @@ def small_spin_growth_rates(body, spin, *, g=9.81, damping=0.0
     normalised by φ_kᵀ M φ_k = 1, the growth rate is σ_k = −½ φ_kᵀ C φ_k + O(n²); with
     damping it includes −½ c_v φ_kᵀφ_k (the O(n c_v) stiffness terms of the frozen-spin
     linearisation shift only frequencies at this order). For comparison with :func:`eigen`, valid while
-    |n| is small against the rocking frequencies.
+    ``abs(n)`` is small against the rocking frequencies.
     """
     p = body_arrays(body)
     n, g, cv = _check_inputs(spin, g, damping)
@@ -238,7 +238,8 @@ def small_spin_growth_rates(body, spin, *, g=9.81, damping=0.0
 
 def stability_dataset(sweep, *, command: str | None = None) -> xr.Dataset:
     """Linear stability over the grid of a :class:`rattlesweep.Sweep` (or a TOML path or
-    text): the same dimensions, coordinates and units as the sweep's result.
+    text): the same dimensions, coordinates and units as the sweep's result (for a
+    refined sweep, its finest grid, every point computed).
 
     Uses each point's body, spin, g and damping; launch angles, friction and numerics do
     not enter the linearisation (they are kept as coordinates). Random draws of body
@@ -249,6 +250,7 @@ def stability_dataset(sweep, *, command: str | None = None) -> xr.Dataset:
 
     if not isinstance(sweep, Sweep):
         sweep = Sweep.from_toml(sweep)
+    config, sweep = sweep, sweep.finest()
     bodies, kwargs = sweep.points(0, sweep.size)
     e = eigen(bodies, kwargs["spin"], g=kwargs["g"], damping=kwargs["damping"])
     p0, r0 = zero_spin_frequencies(bodies, g=kwargs["g"])
@@ -291,7 +293,7 @@ def stability_dataset(sweep, *, command: str | None = None) -> xr.Dataset:
                            f"{rp.long_name} (random draw)")
     ds = xr.Dataset(data, coords=grid_coords(sweep))
     ds.attrs.update(sweep_attrs(
-        sweep, f"rattlesweep linear stability of steady spin: {sweep.name}", command))
+        config, f"rattlesweep linear stability of steady spin: {sweep.name}", command))
     ds.attrs.update({
         "Conventions": "CF-1.8",
         "model": "rolling contact linearised about steady upright spin (MODEL.md section 7)",

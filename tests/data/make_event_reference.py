@@ -7,6 +7,7 @@ Cases (launch states read from the public API at t = 0, see ``launch_state``):
 * ``a``: kane_levinson, spin +5 rad/s, pitch 0.5 deg, mu = 0.3, t_end = 3 s
 * ``b``: the same launch, mu = 0.1, t_end = 3 s
 * ``c``: the same launch, mu = 0.3, t_end = 6 s (through the first reversal)
+* ``e``: the same launch, mu = 0.1, t_end = 6.5 s (through its first reversal)
 * ``d03``, ``d01``: planar PlanarBody(0.10, 0.05, 1.0) (the homogeneous lamina of
   make_reference.py), theta0 = 0.3 rad from rest (rolling launch), mu = 0.3 and 0.1,
   t_end = 3 s
@@ -45,7 +46,7 @@ from event_reference import (SCIPY_VERSION, launch_state, planar_events,  # noqa
 
 RTOL, ATOL, METHOD = 1e-10, 1e-12, "LSODA"
 SPIN0, PITCH = 5.0, math.radians(0.5)
-CASES_3D = {"a": (0.3, 3.0), "b": (0.1, 3.0), "c": (0.3, 6.0)}
+CASES_3D = {"a": (0.3, 3.0), "b": (0.1, 3.0), "c": (0.3, 6.0), "e": (0.1, 6.5)}
 THETA0 = 0.3
 CASES_PLANAR = {"d03": (0.3, 3.0), "d01": (0.1, 3.0)}
 SAMPLE_RATE = 1000  # samples per second (+1): 3001 on [0, 3]
@@ -142,7 +143,7 @@ def first_zero_sampled(t, x):
     return t[i] - x[i] * (t[i + 1] - t[i]) / (x[i + 1] - x[i])
 
 
-def compare_kernel(divisors=(1, 4, 16), cases=("a", "b", "c", "d03", "d01")):
+def compare_kernel(divisors=(1, 4, 16), cases=("a", "b", "c", "e", "d03", "d01")):
     """Kernel runs at dt_default/k, recorded at every step, against the references
     (recomputed here for their dense output, so that the error is taken at every kernel
     step; also checked against the stored samples). Prints first zero / first reversal /

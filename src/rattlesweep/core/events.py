@@ -6,13 +6,16 @@ The vector RK4 step holds every lane's mode through the step; afterwards
 :func:`locate_marked` redoes each marked lane's step alone, from the state before it
 (region B), locating every switch:
 
-* stick → slip: the sticking motion is smooth through the instant the friction leaves
-  the cone, so the held step is a smooth continuation of it. The cubic Hermite
-  interpolant of the held step (the states at its ends, y0 and y1, and the derivatives
-  there: f0 from one evaluation at y0, f1 the first stage of the next step, region A) is
-  accurate to O(h⁴), one order below RK4's local error; the root of the cone margin
-  along it, found by the Illinois variant of regula falsi (one evaluation per iterate,
-  to a step fraction of ``THETA_TOL``), is the switching instant;
+* scalar events: a sticking contact's friction leaving the cone, and each couple's
+  switch (MODEL.md section 4b: a slipping couple's held sense times its rate reaching
+  zero, a stuck couple's demand reaching its bound). Each motion is smooth through its
+  switching instant, so a piece of the step integrated in the present modes is a
+  smooth continuation of it. The cubic Hermite interpolant of the piece (its end
+  states and derivatives) is accurate to O(h⁴), one order below RK4's local error; the
+  first root of the smallest switching function along it (:func:`event_margin`),
+  found by the Illinois variant of regula falsi (one evaluation per iterate, to a step
+  fraction of ``THETA_TOL``) and taken just past the crossing, is the switching instant
+  of the event whose function that is;
 * slip → stick: a slip stops where the 2-vector u reaches zero; past that instant a 3-D
   held step is no continuation of the slip (the friction turns with u), so the slip is
   integrated forward to its stop instead, in either model, by steps of the predicted time to stop,
@@ -21,15 +24,18 @@ The vector RK4 step holds every lane's mode through the step; afterwards
   then removes the residual slip (what the located instant leaves: it is reported in the
   record), and the cone is checked at once.
 
-After a switch the rest of the step is integrated in the new mode (RK4 steps of the
-remaining length, or the forward steps to a stop), and further switches in it are
-located the same way, up to ``MAX_SWITCHES`` per step. Every evaluation runs the models'
+The step is integrated as pieces in time order (an RK4 step to the predicted stop of
+a slip that stops inside the step, else to the step's end); after each switch the rest
+of the step continues in the new modes, and further switches are located the same way,
+up to ``MAX_SWITCHES`` per step. Every evaluation runs the models'
 right-hand side on the one lane (``one_lane``), from the same source as the vector
 passes. The lane's fraction of the step spent slipping goes into its slip tally. Should
 the located state be unusable (not finite, or capsized), the lane keeps the held step.
 """
 
 from __future__ import annotations
+
+import math
 
 import numba
 from numba import types
@@ -38,11 +44,12 @@ from numba.extending import overload
 from . import models
 from .jit import OVERLOAD_OPTIONS, kernel
 from .stages import set_step_fractions
-from .switching import cone_margin, note_slip, start_slip
+from .switching import cone_margin, couple_margin, note_slip, start_slip, switch_couples
 from .workspace import (
-    BLOCK, DT, H_HALF_DT, K_MARK_SWITCH, K_SLIP_STEPS, OFF_H, OFF_K, OFF_P, OFF_S, OFF_X,
-    S_JX, S_JY, S_MODE, STAGE_2, STAGE_3, STAGE_4, STAGE_START, SWITCHES, X_TSTOP, X_UX, X_UY,
-    at,
+    BLOCK, COUPLES, DT, H_HALF_DT, K_MARK_SWITCH, K_SLIP_STEPS, NOT_MARKED, OFF_H, OFF_K,
+    OFF_P, OFF_S, OFF_X, ROLL_SWITCHES, S_JX, S_JY, S_MODE, S_ROLL, S_ROLL_SENSE, S_SPIN,
+    S_SPIN_SENSE, SPIN_SWITCHES, STAGE_2, STAGE_3, STAGE_4, STAGE_START, SWITCHES, X_N,
+    X_ROLL_EVENT, X_SPIN_EVENT, X_TSTOP, X_UX, X_UY, at,
 )
 
 __all__ = ["LOCATE_ROWS", "MAX_SWITCHES", "THETA_TOL", "locate_marked", "locate_where_located",
@@ -57,6 +64,9 @@ MAX_ITERATIONS = 40
 MAX_SWITCHES = 4
 """Switches located inside one step of one lane; a further one waits for the step end."""
 
+MAX_PIECES = MAX_ITERATIONS * (MAX_SWITCHES + 1)
+"""Bound on the pieces (RK4 steps between switches or towards a stop) of one step."""
+
 Y0, F0, Y1, F1, HELD = range(5)
 LOCATE_ROWS = 5
 """Rows of the per-block scratch array of :func:`locate_marked` (each ``n_state`` long):
@@ -68,7 +78,7 @@ def evaluate_lane(W, model, j):
     """Evaluate lane j alone at its state Y in its current mode: derivative in A, contact
     outputs in X."""
     numba.literally(model)
-    models.evaluate(W, model, True, STAGE_START, True, j)
+    models.evaluate(W, model, COUPLES, STAGE_START, True, j)
 
 
 @kernel
@@ -76,9 +86,9 @@ def rk4_lane(W, model, j):
     """The three inner RK4 stages of lane j alone, after :func:`evaluate_lane`: Y becomes
     the state one (lane) step later, B the state before."""
     numba.literally(model)
-    models.evaluate(W, model, True, STAGE_2, True, j)
-    models.evaluate(W, model, True, STAGE_3, True, j)
-    models.evaluate(W, model, True, STAGE_4, True, j)
+    models.evaluate(W, model, COUPLES, STAGE_2, True, j)
+    models.evaluate(W, model, COUPLES, STAGE_3, True, j)
+    models.evaluate(W, model, COUPLES, STAGE_4, True, j)
 
 
 @kernel
@@ -146,10 +156,37 @@ def lane_step(W, model, j, h):
 
 
 @kernel
-def cone_exit(W, model, j, buf, h, g0, g1):
-    """The fraction θ* of the interval (length h, s) in ``buf`` at which sticking lane
-    j's cone margin, g0 at its start and g1 < 0 at its end, crosses zero; leaves the lane
-    at y(θ*), evaluated. θ* = 0 when the margin is not positive at the start."""
+def event_margin(W, j):
+    """The smallest switching function of lane j's scalar events, from an evaluation at
+    its state: the cone margin of a sticking contact (N ≥ 0) and each couple's
+    (:func:`.switching.couple_margin`); inf when none applies. Its first root in a step
+    is the first of their switches."""
+    sticks = (W[at(OFF_S, S_MODE, j)] < 0.5) & (W[at(OFF_X, X_N, j)] >= 0.0)
+    return min(cone_margin(W, j) if sticks else math.inf, couple_margin(W, j))
+
+
+@kernel
+def switch_event(W, j):
+    """At a root of :func:`event_margin`, switch the event whose function is the
+    smallest: the one that crossed zero."""
+    sticks = (W[at(OFF_S, S_MODE, j)] < 0.5) & (W[at(OFF_X, X_N, j)] >= 0.0)
+    cone = cone_margin(W, j) if sticks else math.inf
+    spin = W[at(OFF_X, X_SPIN_EVENT, j)]
+    roll = W[at(OFF_X, X_ROLL_EVENT, j)]
+    if cone <= spin and cone <= roll:
+        start_slip(W, j)
+    elif spin <= roll:
+        switch_couples(W, j, SPIN_SWITCHES)
+    else:
+        switch_couples(W, j, ROLL_SWITCHES)
+
+
+@kernel
+def event_root(W, model, j, buf, h, g0, g1):
+    """The fraction θ* of the interval (length h, s) in ``buf`` at which lane j's
+    :func:`event_margin`, g0 at its start and g1 < 0 at its end, crosses zero, taken
+    just past the crossing (by ``2 THETA_TOL`` where the last iterate fell short); leaves
+    the lane at y(θ*), evaluated. θ* = 0 when the margin is not positive at the start."""
     numba.literally(model)
     if not g0 > 0.0:
         interpolate(W, model, j, buf, 0.0, h)
@@ -163,7 +200,7 @@ def cone_exit(W, model, j, buf, h, g0, g1):
         theta = (lo * g_hi - hi * g_lo) / (g_hi - g_lo)
         interpolate(W, model, j, buf, theta, h)
         evaluate_lane(W, model, j)
-        g = cone_margin(W, j)
+        g = event_margin(W, j)
         if g >= 0.0:
             lo, g_lo = theta, g
             if side == 1:  # Illinois: halve the stale end's value
@@ -176,6 +213,10 @@ def cone_exit(W, model, j, buf, h, g0, g1):
             side = -1
         if abs(theta - previous) <= THETA_TOL or hi - lo <= THETA_TOL:
             break
+    if side == 1:  # switch just past the crossing, where the new mode is the consistent one
+        theta = min(hi, theta + 2.0 * THETA_TOL)
+        interpolate(W, model, j, buf, theta, h)
+        evaluate_lane(W, model, j)
     return theta
 
 
@@ -219,15 +260,20 @@ def stick_lane(W, model, j):
 
 @kernel
 def switch_marked(W, model):
-    """Change the mode of every marked lane at the step start: a slipping lane sticks
-    (:func:`stick_lane`), a sticking one starts to slip (:func:`.switching.start_slip`)."""
+    """Change the modes of every marked lane at the step start: for its sliding, a
+    slipping lane sticks (:func:`stick_lane`) and a sticking one starts to slip
+    (:func:`.switching.start_slip`); its marked couples switch
+    (:func:`.switching.switch_couples`)."""
     numba.literally(model)
     for j in range(BLOCK):
-        if W[at(OFF_K, K_MARK_SWITCH, j)] == SWITCHES:
-            if W[at(OFF_S, S_MODE, j)] > 0.5:
-                stick_lane(W, model, j)
-            else:
-                start_slip(W, j)
+        mark = W[at(OFF_K, K_MARK_SWITCH, j)]
+        if mark != NOT_MARKED:
+            if mark % SPIN_SWITCHES == SWITCHES:
+                if W[at(OFF_S, S_MODE, j)] > 0.5:
+                    stick_lane(W, model, j)
+                else:
+                    start_slip(W, j)
+            switch_couples(W, j, mark - mark % SPIN_SWITCHES)
 
 
 @kernel
@@ -238,74 +284,65 @@ def locate_lane(W, model, j, buf, dt):
     for the located step."""
     numba.literally(model)
     off_y, _, off_a, off_b, _, _ = models.state_regions(model)
-    mode0 = W[at(OFF_S, S_MODE, j)]
-    g1 = cone_margin(W, j)
+    modes = (W[at(OFF_S, S_MODE, j)], W[at(OFF_S, S_SPIN, j)], W[at(OFF_S, S_SPIN_SENSE, j)],
+             W[at(OFF_S, S_ROLL, j)], W[at(OFF_S, S_ROLL_SENSE, j)])
     copy_state(W, model, j, buf, HELD, off_y)
-    copy_state(W, model, j, buf, Y1, off_y)
-    copy_state(W, model, j, buf, F1, off_a)
     copy_state(W, model, j, buf, Y0, off_b)
     load_state(W, model, j, buf, Y0, off_y)  # back to the step start
     evaluate_lane(W, model, j)
 
     t = 0.0  # time into the step, s
     slip_time = 0.0  # time spent slipping, s
-    if mode0 < 0.5:  # the cone exit, along the held step
-        copy_state(W, model, j, buf, F0, off_a)
-        theta = cone_exit(W, model, j, buf, dt, cone_margin(W, j), g1)
-        t = theta * dt
-        start_slip(W, j)
-        evaluate_lane(W, model, j)
-    for _ in range(MAX_SWITCHES):
+    switches = 0
+    for _ in range(MAX_PIECES):
         rest = dt - t
-        if W[at(OFF_S, S_MODE, j)] > 0.5:
-            # forward to the stop by the predicted stop times, while one falls in the step
-            t0 = t
-            stops = False
-            for _ in range(MAX_ITERATIONS):
-                t_stop = W[at(OFF_X, X_TSTOP, j)]
-                if not t_stop < dt - t:  # no stop (any more) inside the step
-                    break
-                stops, step = forward_to_stop(W, model, j, buf, t_stop, dt)
-                t += step
-                if stops:
-                    break
-            slip_time += t - t0
-            if not stops:  # slips to the end of the step
-                lane_step(W, model, j, dt - t)
-                slip_time += dt - t
-                t = dt
-                break
+        if not rest > THETA_TOL * dt:
+            break
+        slipping = W[at(OFF_S, S_MODE, j)] > 0.5
+        # the next piece: to the predicted stop of a slip that stops in the step, else to
+        # the step's end
+        copy_state(W, model, j, buf, Y0, off_y)
+        copy_state(W, model, j, buf, F0, off_a)
+        g0 = event_margin(W, j)
+        stops = False
+        if switches < MAX_SWITCHES and slipping and W[at(OFF_X, X_TSTOP, j)] < rest:
+            stops, step = forward_to_stop(W, model, j, buf, W[at(OFF_X, X_TSTOP, j)], dt)
+        else:
+            lane_step(W, model, j, rest)
+            step = rest
+        g1 = event_margin(W, j)
+        if switches < MAX_SWITCHES and g1 < 0.0:  # a stick → slip or a couple switched first
+            copy_state(W, model, j, buf, Y1, off_y)
+            copy_state(W, model, j, buf, F1, off_a)
+            theta = event_root(W, model, j, buf, step, g0, g1)
+            t += theta * step
+            slip_time += theta * step if slipping else 0.0
+            switch_event(W, j)
+            evaluate_lane(W, model, j)
+            switches += 1
+            continue
+        t += step
+        slip_time += step if slipping else 0.0
+        if stops:
             stick_lane(W, model, j)
             evaluate_lane(W, model, j)
+            switches += 1
             if cone_margin(W, j) < 0.0:  # slips on at once, in the new direction
                 start_slip(W, j)
                 evaluate_lane(W, model, j)
-        else:
-            # stick to the end of the step, and locate a cone exit on the way
-            copy_state(W, model, j, buf, Y0, off_y)
-            copy_state(W, model, j, buf, F0, off_a)
-            g0 = cone_margin(W, j)
-            lane_step(W, model, j, rest)
-            g1 = cone_margin(W, j)
-            if not g1 < 0.0:
-                t = dt
-                break
-            copy_state(W, model, j, buf, Y1, off_y)
-            copy_state(W, model, j, buf, F1, off_a)
-            theta = cone_exit(W, model, j, buf, rest, g0, g1)
-            t += theta * rest
-            start_slip(W, j)
-            evaluate_lane(W, model, j)
-    # unfinished after MAX_SWITCHES: the rest in the present mode
-    if t < dt:
+    if t < dt and dt - t > THETA_TOL * dt:  # out of pieces: the rest in the present modes
         slip_time += (dt - t) * W[at(OFF_S, S_MODE, j)]
         lane_step(W, model, j, dt - t)
 
     bad_value, capsized = models.check_step(W, model, j)  # renormalises the quaternion
     if bad_value or capsized:  # keep the held step
         load_state(W, model, j, buf, HELD, off_y)
-        W[at(OFF_S, S_MODE, j)] = mode0
-        slip_time = mode0 * dt
+        W[at(OFF_S, S_MODE, j)] = modes[0]
+        W[at(OFF_S, S_SPIN, j)] = modes[1]
+        W[at(OFF_S, S_SPIN_SENSE, j)] = modes[2]
+        W[at(OFF_S, S_ROLL, j)] = modes[3]
+        W[at(OFF_S, S_ROLL_SENSE, j)] = modes[4]
+        slip_time = modes[0] * dt
         evaluate_lane(W, model, j)
     # ready for the next step: its first stage is the evaluation at the end of this one
     begin_lane_step(W, model, j, dt)
@@ -321,7 +358,7 @@ def locate_marked(W, model, buf):
     its switches located."""
     numba.literally(model)
     for j in range(BLOCK):
-        if W[at(OFF_K, K_MARK_SWITCH, j)] == SWITCHES:
+        if W[at(OFF_K, K_MARK_SWITCH, j)] != NOT_MARKED:
             locate_lane(W, model, j, buf, W[at(OFF_P, DT, j)])
 
 

@@ -142,6 +142,11 @@ def park(W, model, j):
     """Give a lane that is no longer stepped a harmless state."""
 
 
+def couple_rates(W, model, j):
+    """(spin about the contact normal, rate the rolling couple opposes when it has a
+    sense: the planar rocking rate, 0 in 3-D) of lane j's state, rad/s."""
+
+
 _lane_hook(derive, rattleback_dynamics.derive_parameters, planar_model.derive)
 _lane_hook(start_lane, rattleback_model.start_lane, planar_model.start_lane)
 _lane_hook(check_step, rattleback_model.check_step, planar_model.check_step, "always")
@@ -151,6 +156,7 @@ _lane_hook(energy, rattleback_model.energy, planar_model.energy)
 _lane_hook(roll_start, rattleback_model.roll_start, planar_model.roll_start)
 _lane_hook(stick_impulse, rattleback_model.stick_impulse, planar_model.stick_impulse)
 _lane_hook(park, rattleback_model.park, planar_model.park)
+_lane_hook(couple_rates, rattleback_model.couple_rates, planar_model.couple_rates)
 
 
 # --- hooks with more arguments --------------------------------------------------------

@@ -16,11 +16,13 @@ The time loop of :func:`advance_block` works on one block of ``BLOCK`` lanes. Ea
    at the start of the step was negative (lift-off: the lane ends with its state there).
 
 Every step-wide task is a vector pass over the lanes that marks the few lanes needing
-scalar work, each pass in a row of its own. A lane that stops (status other than ok, or
-at the end of its own number of steps) is written out with its last valid state at once
-and then frozen: its time step is set to zero and its state to a harmless one, so the
-passes may go on updating it without masks; nothing reads it again. All work arrays are
-made once per block, none in the loop.
+scalar work, each pass in a row of its own. A lane that stops (status other than ok, at
+the end of its own number of steps, or, under the stop rule STOP_AT_REVERSAL of its
+parameter row ``stop_rule``, at its first reversal) is written out with its last valid
+state at once and then frozen: its time step is set to zero and its state to a harmless
+one, so the passes may go on updating it without masks; nothing reads it again. A frozen
+lane costs as much as a running one, so a block ends as soon as every lane is written
+out (unless it records). All work arrays are made once per block, none in the loop.
 
 The model (:data:`.models.RATTLEBACK` or :data:`.models.PLANAR`) is a literal argument of
 every kernel here: each model gets its own compiled copy of this source, with the
@@ -39,15 +41,18 @@ from . import models
 from .jit import allocating_kernel, kernel, parallel_kernel
 from .events import LOCATE_ROWS, locate_where_located, located, switch_marked
 from .stages import set_step_fractions
-from .switching import STOP_HORIZON, any_slipping, flag_switches, note_slip
+from .switching import (
+    LOCATED_STOP_HORIZON, STOP_HORIZON, any_slipping, flag_switches, note_slip,
+)
 from .workspace import (
-    at, BEYOND, BLOCK, CAPSIZED, CROSSED, DT, ENDS_AS_IS, EPS_U, H_HALF_DT, H_SIXTH_DT,
+    at, BEYOND, BLOCK, COUPLES, MU_ROLL, MU_SPIN, S_ROLL, S_ROLL_SENSE, S_SPIN, S_SPIN_SENSE, CAPSIZED, CROSSED, DT, ENDS_AS_IS, EPS_U, H_HALF_DT, H_SIXTH_DT,
     K_BAND, K_FIRST_REV, K_MARK_END, K_MARK_REVERSAL, K_N_REV, K_OPEN, K_RUN, K_SIDE,
     K_SLIP_STEPS, K_SPIN_PREV, K_STOP, K_T_CAND, K_T_CROSS, K_WATCH_LOW, K_WIN0, K_WIN_CNT,
     K_WIN_SUM, LIFTED_OFF, MU_S, NON_FINITE, NOT_MARKED, O_E0, O_E_END, O_FINAL_SPIN,
     O_FIRST_REV, O_MEAN_FINAL_SPIN, O_N_REV, O_SLIP_FRAC, O_SPIN0, O_STATUS, O_STEPS,
     O_T_END, OFF_H, OFF_K, OFF_P, OFF_S, OFF_X, OK, RK4, S_JX, S_JY, S_MODE,
-    S_TSTOP, S_UHX, STAGE_2, STAGE_3, STAGE_4, STAGE_FIRST, STAGE_START, X_N, X_UX, X_UY,
+    S_TSTOP, S_UHX, STAGE_2, STAGE_3, STAGE_4, STAGE_FIRST, STAGE_START, STOP_AT_REVERSAL,
+    STOP_RULE, X_N, X_UX, X_UY,
 )
 
 __all__ = ["advance_block", "contact_slip_velocity", "integrate_parallel",
@@ -58,10 +63,12 @@ __all__ = ["advance_block", "contact_slip_velocity", "integrate_parallel",
 def evaluate_state(W, model, slip_possible, forces):
     """First RK stage at the step-start state, with the normal force in region X and,
     when ``forces`` or ``slip_possible``, the friction force and slip velocity too.
-    ``slip_possible`` is decided at run time: False only when no lane that is still
-    stepped slips."""
+    ``slip_possible`` is decided at run time: ``COUPLES`` for a block with spin or
+    rolling friction, else False only when no lane that is still stepped slips."""
     numba.literally(model)
-    if slip_possible:
+    if slip_possible == COUPLES:
+        models.evaluate(W, model, COUPLES, STAGE_START, False, 0)
+    elif slip_possible:
         models.evaluate(W, model, True, STAGE_START, False, 0)
     elif forces:
         models.evaluate(W, model, False, STAGE_START, False, 0)
@@ -75,7 +82,11 @@ def rk4_step(W, model, slip_possible):
     leaving the new state in region Y and the old one in region B. ``slip_possible``
     False (every lane sticks) lets the stages skip slip-only work."""
     numba.literally(model)
-    if slip_possible:
+    if slip_possible == COUPLES:
+        models.evaluate(W, model, COUPLES, STAGE_2, False, 0)
+        models.evaluate(W, model, COUPLES, STAGE_3, False, 0)
+        models.evaluate(W, model, COUPLES, STAGE_4, False, 0)
+    elif slip_possible:
         models.evaluate(W, model, True, STAGE_2, False, 0)
         models.evaluate(W, model, True, STAGE_3, False, 0)
         models.evaluate(W, model, True, STAGE_4, False, 0)
@@ -179,8 +190,11 @@ def observe(W, model, step):
 
 
 @kernel
-def note_reversals(W):
-    """Count the reversals of the lanes :func:`observe` marked."""
+def note_reversals(W, step):
+    """Count the reversals of the lanes :func:`observe` marked in the step that reached
+    step ``step``; a lane whose stop rule is STOP_AT_REVERSAL and whose first reversal
+    this is gets ``step`` as its last step. Returns how many lanes it so ended."""
+    n = 0
     for j in range(BLOCK):
         mark = W[at(OFF_K, K_MARK_REVERSAL, j)]
         if mark == CROSSED or mark == CROSSED + BEYOND:
@@ -189,7 +203,12 @@ def note_reversals(W):
             W[at(OFF_K, K_N_REV, j)] += 1.0
             if W[at(OFF_K, K_N_REV, j)] == 1.0:
                 W[at(OFF_K, K_FIRST_REV, j)] = W[at(OFF_K, K_T_CROSS, j)]
+                if (W[at(OFF_P, STOP_RULE, j)] == STOP_AT_REVERSAL
+                        and W[at(OFF_K, K_RUN, j)] > 0.5):
+                    W[at(OFF_K, K_STOP, j)] = step
+                    n += 1
             W[at(OFF_K, K_SIDE, j)] = -W[at(OFF_K, K_SIDE, j)]
+    return n
 
 
 @kernel
@@ -289,6 +308,7 @@ def advance_block(model, P, Y, nsteps, method, record_every, band, O, REC):
 
     # --- initial state: statuses, mode, reference values --------------------------
     max_steps = 0
+    couples = False  # some lane has spin or rolling friction
     for j in range(BLOCK):
         if not load_lane(W, model, P, Y, j):
             status[j] = NON_FINITE
@@ -298,13 +318,25 @@ def advance_block(model, P, Y, nsteps, method, record_every, band, O, REC):
         if status[j] == OK and models.start_lane(W, model, j):
             status[j] = CAPSIZED
         W[at(OFF_K, K_RUN, j)] = 1.0 if status[j] == OK else 0.0
+        # a couple slips in the sense of the rate it opposes; at rest it starts stuck
+        # (and slips at once where the couple needed exceeds its bound)
+        spin_rate, roll_rate = models.couple_rates(W, model, j)
+        W[at(OFF_S, S_SPIN, j)] = (
+            0.0 if spin_rate == 0.0 and W[at(OFF_P, MU_SPIN, j)] > 0.0 else 1.0)
+        W[at(OFF_S, S_SPIN_SENSE, j)] = -1.0 if spin_rate < 0.0 else 1.0
+        W[at(OFF_S, S_ROLL, j)] = (
+            0.0 if roll_rate == 0.0 and W[at(OFF_P, MU_ROLL, j)] > 0.0 else 1.0)
+        W[at(OFF_S, S_ROLL_SENSE, j)] = -1.0 if roll_rate < 0.0 else 1.0
+        couples = couples or (W[at(OFF_K, K_RUN, j)] > 0.5 and (
+            W[at(OFF_P, MU_SPIN, j)] > 0.0 or W[at(OFF_P, MU_ROLL, j)] > 0.0))
         W[at(OFF_K, K_OPEN, j)] = 1.0
         W[at(OFF_K, K_STOP, j)] = nsteps[j] if status[j] == OK else 0
         W[at(OFF_K, K_WIN0, j)] = nsteps[j] - nsteps[j] // 10
         W[at(OFF_K, K_T_CROSS, j)] = np.nan
         W[at(OFF_K, K_FIRST_REV, j)] = np.nan
-    evaluate_state(W, model, True, True)
-    can_slip = False  # some lane may slip now or later: its static friction is finite
+    evaluate_state(W, model, COUPLES if couples else 1, True)
+    can_slip = couples  # some lane may slip now or later: its static friction is finite,
+    # or it has a couple
     for j in range(BLOCK):
         ux = W[at(OFF_X, X_UX, j)]
         uy = W[at(OFF_X, X_UY, j)]
@@ -332,24 +364,27 @@ def advance_block(model, P, Y, nsteps, method, record_every, band, O, REC):
     stop = next_stop(W)  # kept up to date whenever a lane is written out
     locating = method == RK4 and located(model)
     for step in range(max_steps + 1):
-        slipping = can_slip and any_slipping(W)
+        slipping = COUPLES if couples else (1 if can_slip and any_slipping(W) else 0)
         recording = n_rec > 0 and step % record_every == 0 and step // record_every < n_rec
         # the friction force and slip velocity are read only by the stick/slip decisions
         # and the record
         evaluate_state(W, model, slipping, can_slip or recording)
         if can_slip:
+            level = COUPLES if couples else 1
             if locating and step > 0:
-                if flag_switches(W, True, 0.0) > 0:
+                if flag_switches(W, True, LOCATED_STOP_HORIZON, couples) > 0:
                     locate_where_located(W, model, buf)
-            elif flag_switches(W, True, STOP_HORIZON) > 0:  # the mode changes now
+            elif flag_switches(W, True, STOP_HORIZON, couples) > 0:  # modes change now
                 switch_marked(W, model)
-                evaluate_state(W, model, True, True)
-                if flag_switches(W, False, STOP_HORIZON) > 0:  # re-stuck outside the cone
+                evaluate_state(W, model, level, True)
+                # re-stuck outside the cone, or a couple stuck beyond its bound
+                if flag_switches(W, False, STOP_HORIZON, couples) > 0:
                     switch_marked(W, model)
-                    evaluate_state(W, model, True, True)
-            slipping = any_slipping(W)
+                    evaluate_state(W, model, level, True)
+            slipping = COUPLES if couples else (1 if any_slipping(W) else 0)
         if step > 0 and observe(W, model, step - 1) > 0:
-            note_reversals(W)
+            if note_reversals(W, step) > 0:
+                stop = next_stop(W)
         ending = step >= stop
         if ending:
             flag_end(W, step)
@@ -361,8 +396,8 @@ def advance_block(model, P, Y, nsteps, method, record_every, band, O, REC):
         if ending:  # written out only now, so that the record above still shows them
             end_marked(W, model, P, status, Y, O, step, False)
             stop = next_stop(W)
-        if step == max_steps:
-            break
+        if step == max_steps or (stop == math.inf and n_rec == 0):
+            break  # (a record goes on to max_steps: its later samples are NaN)
 
         if method == RK4:
             rk4_step(W, model, slipping)
@@ -411,7 +446,7 @@ def contact_slip_velocity(model, P, Y, U):
     for b in range(P.shape[0]):
         for j in range(BLOCK):
             load_lane(W, model, P[b], Y[b], j)
-        evaluate_state(W, model, True, True)
+        evaluate_state(W, model, 1, True)
         for j in range(BLOCK):
             U[b, 0, j] = W[at(OFF_X, X_UX, j)]
             U[b, 1, j] = W[at(OFF_X, X_UY, j)]
@@ -428,7 +463,7 @@ def rolling_derivative(model, P, Y, D):
     for b in range(P.shape[0]):
         for j in range(BLOCK):
             load_lane(W, model, P[b], Y[b], j)
-        evaluate_state(W, model, False, True)
+        evaluate_state(W, model, 0, True)
         for k in range(n_state):
             for j in range(BLOCK):
                 D[b, k, j] = W[at(off_a, k, j)]  # the first RK stage leaves d in A

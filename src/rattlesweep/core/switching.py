@@ -8,10 +8,11 @@
   2-vector, which no sign change of one function marks on a curved path, so each
   evaluation at a step start predicts it instead: the time to stop at the present
   deceleration, |u|² / (−u · u̇) (``X_TSTOP``). A slip whose slip velocity turned
-  against its value at the start of the last step stopped inside it (exact for a model
-  whose held slip continues smoothly past the stop, as the planar one's does); where
-  modes change at step starts, a slip whose prediction at the last step start fell
-  within ``STOP_HORIZON`` steps sticks too.
+  against its value at the start of the last step stopped inside it, and so may one
+  whose prediction at the last step start fell within the step (``LOCATED_STOP_HORIZON``;
+  a 2-D slip velocity can pass by zero without turning in a step that ignores the stop);
+  where modes change at step starts, a slip predicted to stop within ``STOP_HORIZON``
+  steps sticks.
 
 :func:`flag_switches` marks these lanes. With RK4 the stepper then redoes each marked
 lane's last step with the switch located inside it (:mod:`.events`) for the models that
@@ -28,15 +29,21 @@ import numba
 
 from .jit import inline_kernel, kernel
 from .workspace import (
-    BLOCK, DT, EPS_U, K_MARK_SWITCH, K_RUN, MU_S, OFF_K, OFF_P, OFF_S, OFF_X, NOT_MARKED,
-    S_MODE, S_TSTOP, S_UHX, S_UHY, S_USX, S_USY, SWITCHES, X_FX, X_FY, X_N, X_TSTOP, X_UX,
-    X_UY, at,
+    BLOCK, DT, EPS_U, K_MARK_SWITCH, K_RUN, MU_S, NOT_MARKED, OFF_K, OFF_P, OFF_S, OFF_X,
+    ROLL_SWITCHES, S_DCX, S_DCY, S_MODE, S_ROLL, S_ROLL_SENSE, S_SPIN, S_SPIN_SENSE,
+    S_TSTOP, S_TURN, S_UHX, S_UHY, S_USX, S_USY, SPIN_SWITCHES, SWITCHES, X_FX, X_FY, X_N,
+    X_ROLL_COUPLE, X_ROLL_EVENT, X_SPIN_COUPLE, X_SPIN_EVENT, X_TSTOP, X_UX, X_UY, at,
 )
 
 __all__ = [
-    "STOP_HORIZON", "any_slipping", "cone_margin", "flag_switches", "note_slip",
-    "start_slip", "stop_time",
+    "LOCATED_STOP_HORIZON", "STOP_HORIZON", "any_slipping", "cone_margin", "couple_margin",
+    "flag_switches", "note_slip", "start_slip", "stop_time", "switch_couples",
 ]
+
+LOCATED_STOP_HORIZON = 1.0
+"""Where switches are located, a slip predicted (at the last step start) to stop within
+this many steps has its step redone with the stop located; one that then does not stop
+slips on to the end of the step unchanged."""
 
 STOP_HORIZON = 1.5
 """Where modes change at step starts, a slip predicted (at the last step start) to stop
@@ -89,6 +96,9 @@ def start_slip(W, j):
     W[at(OFF_S, S_USX, j)] = ux  # the slip starts from rest in this direction
     W[at(OFF_S, S_USY, j)] = uy
     W[at(OFF_S, S_TSTOP, j)] = math.inf
+    W[at(OFF_S, S_DCX, j)] = ux
+    W[at(OFF_S, S_DCY, j)] = uy
+    W[at(OFF_S, S_TURN, j)] = 0.0
 
 
 @inline_kernel
@@ -116,15 +126,24 @@ def cone_margin(W, j):
     return math.inf if mu_s == math.inf else margin
 
 
+@inline_kernel
+def couple_margin(W, j):
+    """The smaller of lane j's couples' switching functions (inf without couples), from
+    the contact outputs of an evaluation at its state."""
+    return min(W[at(OFF_X, X_SPIN_EVENT, j)], W[at(OFF_X, X_ROLL_EVENT, j)])
+
+
 @kernel
-def flag_switches(W, stops, horizon):
-    """Mark (``SWITCHES`` in ``K_MARK_SWITCH``) the sticking lanes whose friction left the
-    cone and, when ``stops`` (a literal), the slipping lanes (μ_s > 0) that may have
-    stopped inside the last step: their slip velocity turned against its value at the
-    step start, or their predicted stop time there was at most ``horizon`` steps (0 for
-    a model whose held slip continues smoothly past a stop, so that the turn marks every
-    stop). In the same pass the unmarked slipping lanes then remember this step's slip
-    velocity and stop time (as :func:`note_slip`). Returns how many lanes it marked."""
+def flag_switches(W, stops, horizon, couples):
+    """Mark (in ``K_MARK_SWITCH``) the lanes whose contact modes may have changed over the
+    last step: ``SWITCHES`` for the sticking lanes whose friction left the cone and, when
+    ``stops`` (a literal), the slipping lanes (μ_s > 0) that may have stopped inside it
+    (their slip velocity turned against its value at the step start, or their predicted
+    stop time there was at most ``horizon`` steps); when ``couples``, plus
+    ``SPIN_SWITCHES`` and ``ROLL_SWITCHES`` for the couples whose switching function
+    (``X_SPIN_EVENT``, ``X_ROLL_EVENT``) turned negative. In the same pass the slipping
+    lanes not marked for their sliding remember this step's slip velocity and stop time
+    (as :func:`note_slip`). Returns how many lanes it marked."""
     numba.literally(stops)
     n = 0
     for j in range(BLOCK):
@@ -136,9 +155,34 @@ def flag_switches(W, stops, horizon):
                   + W[at(OFF_X, X_UY, j)] * W[at(OFF_S, S_USY, j)]) < 0.0
         stopped = slipping & (W[at(OFF_P, MU_S, j)] > 0.0) & (
             (W[at(OFF_S, S_TSTOP, j)] <= horizon * W[at(OFF_P, DT, j)]) | turned)
-        mark = run & (leaves_cone | (stops & stopped))
-        W[at(OFF_K, K_MARK_SWITCH, j)] = SWITCHES if mark else NOT_MARKED
-        n += 1 if mark else 0
+        slide = run & (leaves_cone | (stops & stopped))
+        mark = SWITCHES if slide else NOT_MARKED
+        if couples:
+            mark += SPIN_SWITCHES if run & (W[at(OFF_X, X_SPIN_EVENT, j)] < 0.0) else 0.0
+            mark += ROLL_SWITCHES if run & (W[at(OFF_X, X_ROLL_EVENT, j)] < 0.0) else 0.0
+        W[at(OFF_K, K_MARK_SWITCH, j)] = mark
+        n += 1 if mark != NOT_MARKED else 0
         if stops:
-            remember_slip(W, j, run & slipping & (not mark))
+            remember_slip(W, j, run & slipping & (not slide))
     return n
+
+
+@kernel
+def toggle_couple(W, j, mode_row, sense_row, couple_row):
+    """A couple's stick ↔ slip at a switch: a slipping couple sticks; a stuck one slips
+    in the sense opposite the couple that held it (so the couple keeps its sign)."""
+    if W[at(OFF_S, mode_row, j)] > 0.5:
+        W[at(OFF_S, mode_row, j)] = 0.0
+    else:
+        W[at(OFF_S, mode_row, j)] = 1.0
+        W[at(OFF_S, sense_row, j)] = -1.0 if W[at(OFF_X, couple_row, j)] > 0.0 else 1.0
+
+
+@kernel
+def switch_couples(W, j, mark):
+    """Switch the couples of lane j that ``mark`` (a ``K_MARK_SWITCH`` value) names."""
+    if mark >= ROLL_SWITCHES:
+        toggle_couple(W, j, S_ROLL, S_ROLL_SENSE, X_ROLL_COUPLE)
+        mark -= ROLL_SWITCHES
+    if mark >= SPIN_SWITCHES:
+        toggle_couple(W, j, S_SPIN, S_SPIN_SENSE, X_SPIN_COUPLE)

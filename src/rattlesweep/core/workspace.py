@@ -77,6 +77,10 @@ STAGE_2 = 2
 STAGE_3 = 3
 STAGE_4 = 4
 
+COUPLES = 2
+"""The value of an evaluation's ``slip_possible`` flag that also computes the spin and
+rolling couples (MODEL.md section 4b): for blocks where some lane has them."""
+
 # --- contact outputs of an evaluation at the step-start state, rows of region X --------
 # Horizontal vectors are world (X, Y); a planar model leaves the Y components zero.
 CONTACT = Rows(
@@ -87,6 +91,13 @@ CONTACT = Rows(
         "horizontal"),
     Row("stop_time", "s", "time until a slip stops at its present deceleration (inf when "
         "it does not decelerate, or sticks)"),
+    Row("spin_event", "1", "switching function of the spin couple: its sense times the "
+        "spin about the normal while it slips (rad/s), mu_spin N less the couple's "
+        "magnitude while it sticks (N m); inf without spin friction"),
+    Row("roll_event", "1", "switching function of the rolling couple, as spin_event"),
+    Row("spin_couple", "N m", "spin friction couple about the contact normal"),
+    Row("roll_couple", "N m", "rolling resistance couple (planar: about the axis of "
+        "rocking)"),
 )
 X_N = CONTACT.start("normal_force")
 X_FX = CONTACT.start("friction_force")
@@ -94,6 +105,10 @@ X_FY = X_FX + 1
 X_UX = CONTACT.start("slip_velocity")
 X_UY = X_UX + 1
 X_TSTOP = CONTACT.start("stop_time")
+X_SPIN_EVENT = CONTACT.start("spin_event")
+X_ROLL_EVENT = CONTACT.start("roll_event")
+X_SPIN_COUPLE = CONTACT.start("spin_couple")
+X_ROLL_COUPLE = CONTACT.start("roll_couple")
 
 # --- switching state of each lane, rows of region S ----------------------------------
 SWITCH = Rows(
@@ -105,6 +120,16 @@ SWITCH = Rows(
     Row("step_stop_time", "s", "stop_time at the start of the step"),
     Row("impulse_tally", "N s", "re-stick friction impulses since the last sample", 2,
         "horizontal"),
+    Row("consistent_direction", "1", "consistent slip direction at the start of the "
+        "step (unit; 3-D model)", 2, "horizontal"),
+    Row("consistent_turn_rate", "rad s-1", "rate at which the consistent slip direction "
+        "turns, over the last step (3-D model)"),
+    Row("spin_slipping", "1", "spin couple mode: 0 stuck (no spin about the normal), 1 "
+        "slipping"),
+    Row("spin_sense", "1", "sense (+1, -1) of the spin about the normal, held while it "
+        "slips"),
+    Row("roll_slipping", "1", "rolling couple mode: 0 stuck, 1 slipping"),
+    Row("roll_sense", "1", "sense of the rocking rate, held while it slips (planar)"),
 )
 S_MODE = SWITCH.start("slipping")
 S_UHX = SWITCH.start("slip_direction")
@@ -114,6 +139,13 @@ S_USY = S_USX + 1
 S_TSTOP = SWITCH.start("step_stop_time")
 S_JX = SWITCH.start("impulse_tally")
 S_JY = S_JX + 1
+S_DCX = SWITCH.start("consistent_direction")
+S_DCY = S_DCX + 1
+S_TURN = SWITCH.start("consistent_turn_rate")
+S_SPIN = SWITCH.start("spin_slipping")
+S_SPIN_SENSE = SWITCH.start("spin_sense")
+S_ROLL = SWITCH.start("roll_slipping")
+S_ROLL_SENSE = SWITCH.start("roll_sense")
 
 # --- time-loop bookkeeping of each lane, rows of region K ----------------------------
 # Float rows of the workspace rather than separate arrays, so the once-per-step passes
@@ -138,7 +170,8 @@ BOOK = Rows(
     Row("window_count", "1", "steps in the final window so far"),
     Row("watch_low", "1", "smallest value so far of the model's watched quantity"),
     Row("slip_steps", "1", "steps taken slipping"),
-    Row("mark_switch", "1", "marked by a switching pass: SWITCHES"),
+    Row("mark_switch", "1", "marked by a switching pass: the sum of SWITCHES, "
+        "SPIN_SWITCHES and ROLL_SWITCHES for the contact's modes that change"),
     Row("mark_end", "1", "how the run ends at this step: ENDS_AS_IS or a status code"),
     Row("mark_reversal", "1", "CROSSED, BEYOND or both (their sum) in this step"),
 )
@@ -162,7 +195,9 @@ K_MARK_END = BOOK.start("mark_end")
 K_MARK_REVERSAL = BOOK.start("mark_reversal")
 
 NOT_MARKED = 0.0
-SWITCHES = 1.0  # K_MARK_SWITCH: the lane changes mode
+SWITCHES = 1.0  # K_MARK_SWITCH: the lane's sliding mode changes
+SPIN_SWITCHES = 2.0  # K_MARK_SWITCH: its spin couple's mode changes
+ROLL_SWITCHES = 4.0  # K_MARK_SWITCH: its rolling couple's mode changes
 ENDS_AS_IS = -1.0  # K_MARK_END: the run ends with its status unchanged (the status codes
 # CAPSIZED, LIFTED_OFF and NON_FINITE, all > 0, mark a run that ends with that status)
 CROSSED = 1.0  # K_MARK_REVERSAL: the spin crossed zero
@@ -180,15 +215,32 @@ COMMON_PARAMS = Rows(
     Row("mu", "1", "kinetic friction coefficient", pack=lambda f: f["mu"]),
     Row("mu_static", "1", "static friction coefficient", pack=lambda f: f["mu_static"]),
     Row("g", "m s-2", "gravitational acceleration", pack=lambda f: f["g"]),
+    Row("mu_spin", "m", "spin friction coefficient: bound of the couple about the normal "
+        "per unit normal force", pack=lambda f: f["mu_spin"]),
+    Row("mu_roll", "m", "rolling resistance coefficient: bound of the rolling couple per "
+        "unit normal force", pack=lambda f: f["mu_roll"]),
     Row("slip_speed_floor", "m s-1",
         "slip speed below which the stored slip direction is used",
         pack=lambda f: 1e-6 * f["g"] * f["dt"]),
+    Row("stop_rule", "1", "when the run ends: 0 at its last step, 1 at its first spin "
+        "reversal when that comes sooner",
+        pack=lambda f: f.get("stop_rule", 0.0 * f["dt"])),
 )
 DT = COMMON_PARAMS.start("dt")
 MU_K = COMMON_PARAMS.start("mu")
 MU_S = COMMON_PARAMS.start("mu_static")
 GRAV = COMMON_PARAMS.start("g")
+MU_SPIN = COMMON_PARAMS.start("mu_spin")
+MU_ROLL = COMMON_PARAMS.start("mu_roll")
 EPS_U = COMMON_PARAMS.start("slip_speed_floor")
+STOP_RULE = COMMON_PARAMS.start("stop_rule")
+
+# --- values of the stop_rule row -------------------------------------------------------
+# A parameter row rather than a literal argument: the rule costs no compiled variant.
+RUN_TO_END = 0.0
+STOP_AT_REVERSAL = 1.0
+STOP_RULES = {None: RUN_TO_END, "first_reversal": STOP_AT_REVERSAL}
+"""The ``stop`` argument of the batch layer and the row value it packs to."""
 
 OFF_X = 0
 OFF_S = OFF_X + CONTACT.size

@@ -41,7 +41,7 @@ MODEL = Model(
 
 
 def prepare_planar(body, *, theta, rate=0.0, velocity=None, mu=math.inf, mu_static=None,
-                   g=9.81, dt=None, t_end) -> Prepared:
+                   mu_roll=0.0, g=9.81, dt=None, t_end) -> Prepared:
     """Check, broadcast and pack planar launches for the kernel.
 
     See :func:`run_planar_batch` for the arguments. Raises ValueError naming the parameter,
@@ -53,7 +53,8 @@ def prepare_planar(body, *, theta, rate=0.0, velocity=None, mu=math.inf, mu_stat
     if t_end is None:
         raise ValueError("t_end (s) is required")
     inputs = {"theta": theta, "rate": rate, "mu": mu,
-              "mu_static": mu if mu_static is None else mu_static, "g": g, "t_end": t_end}
+              "mu_static": mu if mu_static is None else mu_static, "mu_roll": mu_roll,
+              "mu_spin": 0.0, "g": g, "t_end": t_end}
     if velocity is not None:
         inputs["velocity"] = velocity
     if dt is not None:
@@ -66,7 +67,9 @@ def prepare_planar(body, *, theta, rate=0.0, velocity=None, mu=math.inf, mu_stat
                "the floor)")
     engine.check_common(flat)
     table, index = distinct_bodies(flat_bodies)
+    default_from = None  # the inputs a default step comes from, for messages
     if "dt" not in flat:
+        default_from = {"g": flat["g"]}
         flat["dt"] = engine.default_dts(table, index, flat["g"])
     else:
         # warn at the user's call: run_planar_batch or simulate_planar -> prepare_planar
@@ -89,12 +92,13 @@ def prepare_planar(body, *, theta, rate=0.0, velocity=None, mu=math.inf, mu_stat
     dim = "trajectory"
     coords = {
         "launch_angle": flat["theta"], "launch_rate": rate0, "launch_velocity": v0,
-        "mu": flat["mu"], "mu_static": flat["mu_static"], "g": flat["g"], "dt": flat["dt"],
+        "mu": flat["mu"], "mu_static": flat["mu_static"], "mu_roll": flat["mu_roll"],
+        "g": flat["g"], "dt": flat["dt"],
         "t_end": flat["t_end"], **columns,
         "body_name": np.array([b.name for b in table])[index],
     }
     return engine.prepared(MODEL, {**columns, **flat}, engine.pack(layout.STATE, state, n),
-                           engine.steps_for(flat["t_end"], flat["dt"]), n, shape,
+                           engine.steps_for(flat["t_end"], flat["dt"], default_from), n, shape,
                            {k: (dim, v) for k, v in coords.items()})
 
 
@@ -109,8 +113,8 @@ def planar_run_attrs(method: str, record_every: int | None) -> dict:
 def run_planar_batch(
     body: PlanarBody | Any,
     *,
-    theta, rate=0.0, velocity=None, mu=math.inf, mu_static=None, g=9.81, dt=None, t_end,
-    method: str = "rk4", record_every: int | None = None, parallel: bool = True,
+    theta, rate=0.0, velocity=None, mu=math.inf, mu_static=None, mu_roll=0.0, g=9.81,
+    dt=None, t_end, method: str = "rk4", record_every: int | None = None, parallel: bool = True,
     threads: int | None = None,
 ) -> xr.Dataset:
     """Integrate many planar launches at once; return per-trajectory observables.
@@ -120,35 +124,60 @@ def run_planar_batch(
 
     Parameters
     ----------
-    body : PlanarBody or array of PlanarBody
-    theta : rad, initial rocking angle, |theta| < pi/2 (counter-clockwise).
-    rate : rad/s, initial dθ/dt.
-    velocity : m/s, initial horizontal velocity of G; default rolling, ẋ_G = −rate·h(θ).
-        A velocity other than the rolling one launches the body sliding.
-    mu, mu_static : kinetic and static Coulomb coefficients; ``inf`` rolls without slip,
-        ``0`` is frictionless; ``mu_static`` defaults to ``mu`` and must be >= ``mu``.
-    g : m/s², gravitational acceleration.
-    dt : s, time step; default 1/64 of the body's shorter small-rocking period.
-    t_end : s, end time; each trajectory takes ceil(t_end/dt) steps.
-    method : "rk4" (default) or "euler" (semi-implicit, first order).
-    record_every : record every k-th step into time series over (trajectory, time); needs
-        one dt and t_end for the whole batch. Off by default.
-    parallel : spread blocks of trajectories over numba threads (``threads`` of them,
-        default all); ``False`` runs on the calling thread only, releasing the GIL.
+    body : PlanarBody or array_like of PlanarBody
+        The body of each launch.
+    theta : array_like
+        Initial rocking angle (rad, counter-clockwise), ``abs(theta) < pi/2``.
+    rate : array_like, optional
+        Initial dθ/dt (rad/s). Default 0.
+    velocity : array_like, optional
+        Initial horizontal velocity of G (m/s). Default: rolling, ẋ_G = −rate·h(θ); any
+        other velocity launches the body sliding.
+    mu, mu_static : array_like, optional
+        Kinetic and static Coulomb coefficients; ``inf`` (the default) rolls without
+        slip, ``0`` is frictionless; ``mu_static`` defaults to ``mu`` and must be
+        >= ``mu``.
+    mu_roll : array_like, optional
+        Rolling resistance (m): a couple of at most mu_roll·N opposing the rocking, which
+        holds the body still while the couple needed stays within the bound (the
+        dry-friction oscillator). Default 0.
+    g : array_like, optional
+        Gravitational acceleration (m/s²). Default 9.81.
+    dt : array_like, optional
+        Time step (s). Default: 1/64 of the body's shorter small-rocking period.
+    t_end : array_like
+        End time (s); each trajectory takes ceil(t_end/dt) steps, at most 2**53.
+    method : {"rk4", "euler"}, optional
+        Classic RK4 (default) or semi-implicit Euler (first order).
+    record_every : int, optional
+        Record every k-th step into time series over (trajectory, time); needs one
+        ``dt`` and ``t_end`` for the whole batch. Off by default.
+    parallel : bool, optional
+        Spread blocks of trajectories over numba threads (default); ``False`` runs on
+        the calling thread only, releasing the GIL.
+    threads : int, optional
+        Number of numba threads for a parallel run (default: all).
 
     Returns
     -------
-    xarray.Dataset over ``trajectory`` with ``energy_initial``, ``energy_final``,
-    ``energy_lost`` (J), ``slip_fraction``, ``max_angle``, ``final_angle`` (rad),
-    ``final_rate`` (rad/s), ``t_final`` (s), ``steps`` and ``status`` (CF flags: ok,
-    capsized, lifted_off, non_finite), with every input as a coordinate (``launch_angle``,
-    ``launch_rate``, ``launch_velocity`` — the velocity actually used —, ``mu``, ...,
-    and the body's ``a``, ``b``, ``mass``, ``com_depth``, ``inertia``, ``body_name``).
+    xarray.Dataset
+        Over ``trajectory``: ``energy_initial``, ``energy_final``, ``energy_lost`` (J),
+        ``slip_fraction``, ``max_angle``, ``final_angle`` (rad), ``final_rate`` (rad/s),
+        ``t_final`` (s), ``steps`` and ``status`` (CF flags: ok, capsized, lifted_off,
+        non_finite), with every input as a coordinate (``launch_angle``,
+        ``launch_rate``, ``launch_velocity`` — the velocity actually used —, ``mu``, ...,
+        and the body's ``a``, ``b``, ``mass``, ``com_depth``, ``inertia``,
+        ``body_name``).
+
+    Raises
+    ------
+    ValueError
+        For any invalid input, naming the parameter, the value and the rule.
     """
     m = check_method(method)
     rec_every = check_record_every(record_every)
     prep = prepare_planar(body, theta=theta, rate=rate, velocity=velocity, mu=mu,
-                          mu_static=mu_static, g=g, dt=dt, t_end=t_end)
+                          mu_static=mu_static, mu_roll=mu_roll, g=g, dt=dt, t_end=t_end)
     if rec_every is not None:
         check_single_step(prep)
     raw = engine.execute(prep, method=m, record_every=rec_every, parallel=parallel,

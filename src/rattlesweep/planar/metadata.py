@@ -22,6 +22,7 @@ VARIABLE_ATTRS = {
     "launch_velocity": ("m s-1", "initial horizontal velocity of the centre of mass"),
     "mu": ("1", "kinetic friction coefficient"),
     "mu_static": ("1", "static friction coefficient"),
+    "mu_roll": ("m", "rolling resistance coefficient (couple bound per unit normal force)"),
     "g": ("m s-2", "gravitational acceleration"),
     "dt": ("s", "time step"),
     "t_end": ("s", "requested end time"),

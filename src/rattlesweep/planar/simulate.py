@@ -20,34 +20,47 @@ def simulate_planar(
     body: PlanarBody,
     *,
     theta: float, rate: float = 0.0, velocity: float | None = None,
-    mu: float = math.inf, mu_static: float | None = None, g: float = 9.81,
+    mu: float = math.inf, mu_static: float | None = None, mu_roll: float = 0.0,
+    g: float = 9.81,
     dt: float | None = None, t_end: float, method: str = "rk4",
     record_every: int | None = None,
 ) -> xr.Dataset:
     """Simulate one launch of a rocking semi-ellipse and return its time series.
 
     Arguments are those of :func:`run_planar_batch`, as scalars: ``theta`` (rad, initial
-    angle, |theta| < π/2), ``rate`` (rad/s), ``velocity`` (m/s, initial ẋ_G; default the
+    angle, ``abs(theta) < pi/2``), ``rate`` (rad/s), ``velocity`` (m/s, initial ẋ_G; default the
     rolling one, −rate·h(θ)), ``mu``/``mu_static`` (``inf`` rolling, ``0`` frictionless),
+    ``mu_roll`` (m, rolling resistance),
     ``g`` (m/s²), ``dt`` (s, default :meth:`PlanarBody.default_dt`), ``t_end`` (s),
     ``method`` ("rk4" or "euler"). ``record_every`` defaults to the smallest stride that
     keeps at most 10 000 samples.
 
     Returns
     -------
-    xarray.Dataset over ``time`` (s) with ``angle`` (rad), ``rate`` (rad/s), ``x_G``,
-    ``y_G`` (m), ``velocity_x``, ``velocity_y`` (m/s, of G), ``slip_velocity`` and
-    ``slip_speed`` (m/s, of the material contact point), ``normal_force`` and
-    ``friction_force`` (N), ``energy`` (J), ``slipping`` (0/1); the per-run observables of
-    :func:`run_planar_batch` as scalar variables; every input as an attribute (units in
-    ``<name>_units``). A status other than ``ok`` also raises a RuntimeWarning.
+    xarray.Dataset
+        Over ``time`` (s): ``angle`` (rad), ``rate`` (rad/s), ``x_G``, ``y_G`` (m),
+        ``velocity_x``, ``velocity_y`` (m/s, of G), ``slip_velocity`` and ``slip_speed``
+        (m/s, of the material contact point), ``normal_force`` and ``friction_force``
+        (N), ``energy`` (J), ``slipping`` (0/1); the per-run observables of
+        :func:`run_planar_batch` as scalar variables; every input as an attribute (units
+        in ``<name>_units``).
+
+    Raises
+    ------
+    ValueError
+        For any invalid input, naming the parameter, the value and the rule.
+
+    Warns
+    -----
+    RuntimeWarning
+        When the run ends with a status other than ``ok``.
     """
     if not isinstance(body, PlanarBody):
         raise ValueError(f"body must be a PlanarBody, got {body!r}")
     m = check_method(method)
     rec_every = check_record_every(record_every)
     inputs = dict(theta=theta, rate=rate, velocity=velocity, mu=mu, mu_static=mu_static,
-                  g=g, dt=dt, t_end=t_end)
+                  mu_roll=mu_roll, g=g, dt=dt, t_end=t_end)
     for name, value in inputs.items():
         if value is not None and np.ndim(value) != 0:
             raise ValueError(f"{name} must be a scalar for simulate_planar(); "

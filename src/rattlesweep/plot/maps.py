@@ -9,8 +9,8 @@ from matplotlib.figure import Figure
 from .labels import axis_label as _label
 
 __all__ = [
-    "OUTCOME_COLOURS", "reversal_map", "mpl_cmap", "reversed_fraction", "stability_map",
-    "reversal_vs_growth",
+    "FLAG_COLOURS", "OUTCOME_COLOURS", "reversal_map", "mpl_cmap", "reversed_fraction",
+    "stability_map", "reversal_vs_growth",
 ]
 
 
@@ -20,6 +20,10 @@ OUTCOME_COLOURS = {
     "numerical_failure": "#000000",
 }
 """Fixed colours of outcome classes, so maps from different sweeps read alike."""
+
+FLAG_COLOURS = {**OUTCOME_COLOURS, "filled": "#d9d9d9", "simulated": "#1f77b4"}
+"""Colours of every category a map draws: outcomes, and a refined result's ``computed``
+flag (simulated points dark, filled ones light)."""
 
 
 def _select(da: xr.DataArray, select: dict) -> xr.DataArray:
@@ -118,7 +122,7 @@ def reversal_map(ds: xr.Dataset, x: str, y: str, var: str = "outcome", *,
     if categorical:
         meanings = da.attrs["flag_meanings"].split()
         flags = list(da.attrs["flag_values"])
-        colours = [OUTCOME_COLOURS.get(m, f"C{i}") for i, m in enumerate(meanings)]
+        colours = [FLAG_COLOURS.get(m, f"C{i}") for i, m in enumerate(meanings)]
         cm = ListedColormap(colours)
         norm = BoundaryNorm(np.arange(len(flags) + 1) - 0.5, len(flags))
     else:

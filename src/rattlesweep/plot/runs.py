@@ -68,13 +68,23 @@ def time_series(run: xr.Dataset, variables: Sequence[str] | None = None, *,
 
     Parameters
     ----------
-    run : a :func:`rattlesweep.simulate` or :func:`rattlesweep.planar.simulate_planar`
+    run : xarray.Dataset
+        A :func:`rattlesweep.simulate` or :func:`rattlesweep.planar.simulate_planar`
         result, possibly merged with :func:`rattlesweep.contact.contact_dataset`.
-    variables : names of series over ``time``; default ``spin, tilt, energy, slip_speed,
-        normal_force`` for a rattleback and ``angle, rate, energy, slip_velocity,
-        normal_force`` for the planar model. A series with a second dimension (e.g.
-        ``friction_force`` over ``horizontal``) gets one line per component.
-    shade_slip : shade the intervals where ``slipping`` is 1 on every panel.
+    variables : sequence of str, optional
+        Names of series over ``time``; default ``spin``, ``tilt``, ``energy``,
+        ``slip_speed``, ``normal_force`` for a rattleback and ``angle``, ``rate``,
+        ``energy``, ``slip_velocity``, ``normal_force`` for the planar model. A series
+        with a second dimension (e.g. ``friction_force`` over ``horizontal``) gets one
+        line per component.
+    shade_slip : bool, optional
+        Shade the intervals where ``slipping`` is 1 on every panel (default).
+    title : str, optional
+        The figure's title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
 
     Each panel's label is the series' long name with its units; the spin panel marks
     the first reversal.

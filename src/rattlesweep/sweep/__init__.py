@@ -1,4 +1,5 @@
-"""Parameter sweeps: specification, tiled execution on dask, resumable netCDF output.
+"""Parameter sweeps: specification, tiled execution on threads or dask, resumable netCDF
+or zarr output.
 
 :func:`run_sweep` and :func:`resume` are imported on first use, so making or reading a
 :class:`Sweep` does not import dask or netCDF4.

@@ -17,7 +17,7 @@ from .. import batch
 from .grid import Axis, RandomParam, batch_inputs
 from .params import resolve
 
-__all__ = ["TILE_STEPS", "check_corners", "choose_tile_size"]
+__all__ = ["TILE_STEPS", "check_corners", "choose_tile_size", "tile_block"]
 
 TILE_STEPS = 2e7
 """Trajectory-steps per tile aimed at by the automatic tile size."""
@@ -90,6 +90,28 @@ def choose_tile_size(max_steps: int, size: int) -> int:
     65536."""
     tile = min(TILE_STEPS / max_steps, size / 16)
     return int(min(max(32 * math.ceil(tile / 32), 256), 65536))
+
+
+def tile_block(shape: tuple[int, ...], tile_size: int) -> tuple[int, ...]:
+    """The shape of a tile: a block of the grid of at most ``tile_size`` points whose
+    points are consecutive in the flattened (C-order) grid.
+
+    The trailing dimensions that fit in a tile are whole, the next one is cut into runs
+    of even length, the leading ones into single indices. Such a block is both a
+    contiguous range of flat point indices (what a task computes) and a rectangular
+    region of the grid (a chunk of a zarr array).
+    """
+    block = list(shape)
+    trailing = 1
+    for j in reversed(range(len(shape))):
+        if trailing * shape[j] <= tile_size:
+            trailing *= shape[j]
+            continue
+        runs = -(-shape[j] // max(1, tile_size // trailing))
+        block[j] = -(-shape[j] // runs)
+        block[:j] = [1] * j
+        break
+    return tuple(block)
 
 
 def _show(value, param: str, key: str) -> str:

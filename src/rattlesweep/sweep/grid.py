@@ -148,7 +148,8 @@ def batch_inputs(columns: dict[str, np.ndarray], body_column: np.ndarray | None,
     else:
         bodies = _object_array([body_for(fixed_body, {})])[np.zeros(n, dtype=np.intp)]
     kwargs = {k: columns.get(k, DEFAULTS.get(k)) for k in
-              ("spin", "roll", "pitch", "yaw", "mu", "damping", "g", "t_end")}
+              ("spin", "roll", "pitch", "yaw", "mu", "mu_spin", "mu_roll", "damping", "g",
+               "t_end")}
     for k in ("mu_static", "dt"):
         if k in columns:
             kwargs[k] = columns[k]

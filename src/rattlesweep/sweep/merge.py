@@ -1,11 +1,12 @@
-"""Merging tile files into one labelled dataset over the sweep axes."""
+"""A sweep's result as one labelled dataset over its axes: coordinates, attributes, and
+the merge of its tiles."""
 
 from __future__ import annotations
 
 import datetime
 import platform
 import sys
-from pathlib import Path
+from typing import Iterable
 
 import dask
 import netCDF4
@@ -17,9 +18,9 @@ from .. import __version__
 from ..results import run_attrs
 from .params import resolve
 from .spec import Sweep
-from .tiles import RESULT_VARS, extra_vars, read_tile, tile_path, variable_attrs
+from .tiles import variable_attrs
 
-__all__ = ["grid_coords", "merge_tiles", "sweep_attrs", "versions"]
+__all__ = ["grid_coords", "merge_arrays", "result_attrs", "sweep_attrs", "versions"]
 
 
 def versions() -> dict[str, str]:
@@ -69,27 +70,28 @@ def grid_coords(sweep: Sweep) -> dict:
     return coords
 
 
-def merge_tiles(sweep: Sweep, tiles_dir: Path, *, command: str | None = None) -> xr.Dataset:
-    """Read every tile of ``sweep`` from ``tiles_dir`` into a Dataset over the sweep's
-    dimensions, with CF attributes, the configuration and versions as global attributes.
+def result_attrs(sweep: Sweep, command: str | None) -> dict:
+    """Global attributes of a sweep's result: the run's settings, the configuration,
+    versions and ``history``."""
+    attrs = run_attrs(sweep.method, None, sweep.reversal_band, sweep.stop)
+    del attrs["record_every"]
+    attrs.update(sweep_attrs(sweep, f"rattlesweep parameter sweep: {sweep.name}", command))
+    return attrs
+
+
+def merge_arrays(sweep: Sweep, tiles: Iterable[tuple[tuple[int, int], dict[str, np.ndarray]]],
+                 *, command: str | None = None) -> xr.Dataset:
+    """A Dataset over the sweep's dimensions, with CF attributes and the configuration
+    and versions as global attributes, from every tile's ``((start, stop), arrays)``.
 
     Memory: one array per variable over the whole grid (about 120 bytes per point).
     """
-    names = (*RESULT_VARS, "outcome", *extra_vars(sweep))
     flat: dict[str, np.ndarray] = {}
-    for tile in range(sweep.n_tiles):
-        start, stop = sweep.tile_range(tile)
-        arrays = read_tile(tile_path(tiles_dir, tile), names)
+    for (start, stop), arrays in tiles:
         for name, values in arrays.items():
             if name not in flat:
                 flat[name] = np.empty(sweep.size, dtype=values.dtype)
             flat[name][start:stop] = values
-    dims = sweep.dims
-    data = {name: (dims, flat[name].reshape(sweep.shape), variable_attrs(sweep, name))
-            for name in names}
-    coords = grid_coords(sweep)
-    ds = xr.Dataset(data, coords=coords)
-    ds.attrs.update(run_attrs(sweep.method, None, sweep.reversal_band))
-    ds.attrs.update(sweep_attrs(sweep, f"rattlesweep parameter sweep: {sweep.name}", command))
-    del ds.attrs["record_every"]
-    return ds
+    data = {name: (sweep.dims, values.reshape(sweep.shape), variable_attrs(sweep, name))
+            for name, values in flat.items()}
+    return xr.Dataset(data, coords=grid_coords(sweep), attrs=result_attrs(sweep, command))

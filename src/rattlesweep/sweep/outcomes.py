@@ -8,7 +8,7 @@ from ..core import workspace as _status
 from ..metadata import flag_attrs
 
 __all__ = ["CAPSIZED", "FAILED", "LIFTED_OFF", "NO_REVERSAL", "OUTCOME_ATTRS",
-           "OUTCOME_NAMES", "REVERSED", "SEVERAL", "STOPPED", "classify"]
+           "OUTCOME_NAMES", "REVERSED", "SEVERAL", "STOPPED", "at_first_reversal", "classify"]
 
 OUTCOME_NAMES = ("no_reversal", "reversed", "several_reversals", "stopped", "capsized",
                  "lifted_off", "numerical_failure")
@@ -26,7 +26,7 @@ def classify(status: np.ndarray, n_reversals: np.ndarray, mean_final_spin: np.nd
              initial_spin: np.ndarray, band: float) -> np.ndarray:
     """Outcome codes (int8, see :data:`OUTCOME_NAMES`) from kernel observables.
 
-    ``band`` is the reversal band, a fraction of |initial spin|: a run without reversal
+    ``band`` is the reversal band, a fraction of the initial spin's magnitude: a run without reversal
     whose final mean spin is inside it has stopped spinning.
     """
     out = np.full(np.shape(status), NO_REVERSAL, dtype=np.int8)
@@ -38,4 +38,13 @@ def classify(status: np.ndarray, n_reversals: np.ndarray, mean_final_spin: np.nd
     out[status == _status.CAPSIZED] = CAPSIZED
     out[status == _status.LIFTED_OFF] = LIFTED_OFF
     out[status == _status.NON_FINITE] = FAILED
+    return out
+
+
+def at_first_reversal(outcome: np.ndarray, n_reversals: np.ndarray) -> np.ndarray:
+    """The outcome a launch run to ``t_end`` would have had with ``stop =
+    "first_reversal"``: ``reversed`` once it reversed at all (several reversals, or a
+    capsize, lift-off or failure after the first), otherwise the same."""
+    out = np.array(outcome, dtype=np.int8, copy=True)
+    out[np.asarray(n_reversals) >= 1] = REVERSED
     return out

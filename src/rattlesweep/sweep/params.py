@@ -52,6 +52,8 @@ PARAMS: dict[str, Param] = {p.name: p for p in (
     Param("yaw", _ANGLE, "finite", "initial yaw about the vertical", "launch"),
     Param("mu", _ONE, "nonneg_inf", "kinetic friction coefficient", "friction"),
     Param("mu_static", _ONE, "nonneg_inf", "static friction coefficient", "friction"),
+    Param("mu_spin", _LENGTH, "nonneg", "spin friction coefficient", "friction"),
+    Param("mu_roll", _LENGTH, "nonneg", "rolling resistance coefficient", "friction"),
     Param("damping", _DAMPING, "nonneg", "viscous torque coefficient", "friction"),
     Param("g", _ACCEL, "positive", "gravitational acceleration", "numerics"),
     Param("dt", _TIME, "positive", "time step", "numerics"),
@@ -62,7 +64,7 @@ BODY_PARAMS = ("a", "b", "c", "mass", "delta")
 """Parameters of a homogeneous semi-ellipsoid (:meth:`rattlesweep.Body.semi_ellipsoid`)."""
 
 DEFAULTS = {"spin": 0.0, "roll": 0.0, "pitch": 0.0, "yaw": 0.0, "mu": math.inf,
-            "damping": 0.0, "g": 9.81}
+            "mu_spin": 0.0, "mu_roll": 0.0, "damping": 0.0, "g": 9.81}
 """Values (SI) of launch, friction and numerics parameters a sweep leaves out."""
 
 _RULES = {

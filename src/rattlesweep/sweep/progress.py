@@ -67,6 +67,13 @@ class Progress:
                     f"computed, {self.reused} reused, {self.new_points:,} trajectories "
                     f"in {elapsed:.1f} s ({self.rate:,.0f} traj/s)\n")
 
+    def interrupted(self, location: str) -> None:
+        """Close on Ctrl-C, saying how to continue the sweep in ``location``."""
+        self.close("interrupted")
+        if self.enabled:
+            self._write(f"stopped; finished tiles are kept. Continue with: rattlesweep "
+                        f"resume {location}\n")
+
     def _write(self, text: str) -> None:
         self.stream.write(text)
         self.stream.flush()

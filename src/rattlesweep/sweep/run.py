@@ -1,35 +1,26 @@
-"""Running a sweep: tiles as dask tasks on the local threaded scheduler or a
-dask.distributed cluster, resumable output directories, the merged netCDF file.
-
-An output directory holds ``sweep.toml`` (the configuration), ``tiles/tile-NNNNNN.nc``
-(one file per finished tile, written atomically) and ``sweep.nc`` (the merged result).
-Workers of a distributed cluster write tile files themselves, so the directory must be on
-a filesystem they share with the client (always true for a LocalCluster).
-"""
+"""Running a sweep: tiles on local threads or a dask.distributed cluster, results written
+by this process only (workers send them back through dask), into a resumable output: a
+directory of netCDF tiles merged into ``sweep.nc`` (:mod:`.directory`) or a zarr store
+(:mod:`.zarr_store`)."""
 
 from __future__ import annotations
 
+import contextlib
 import os
-import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping
 
-import dask
 import xarray as xr
-from dask.callbacks import Callback
 
-from ..io import write_netcdf
-from .merge import merge_tiles
+from .directory import CONFIG_NAME, RESULT_NAME, TILES_DIR, TileDirectory, read_config
+from .execute import run_tiles
 from .progress import Progress
 from .spec import Sweep
-from .tiles import CANCEL, compute_tile, tile_is_valid, tile_path
+from .store import TileStore
+from .tiles import TileResult
 
-__all__ = ["CONFIG_NAME", "RESULT_NAME", "TILES_DIR", "prepare_directory", "resume",
+__all__ = ["CONFIG_NAME", "RESULT_NAME", "TILES_DIR", "export", "open_output", "resume",
            "run_sweep", "stored_sweep"]
-
-CONFIG_NAME = "sweep.toml"
-RESULT_NAME = "sweep.nc"
-TILES_DIR = "tiles"
 
 
 def _cores() -> int:
@@ -39,103 +30,54 @@ def _cores() -> int:
         return os.cpu_count() or 1
 
 
-def _write_text_atomic(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
+def open_output(sweep: Sweep, out: str | os.PathLike, *, command: str | None = None,
+                storage_options: Mapping[str, Any] | None = None) -> TileStore:
+    """The output ``sweep.output`` names, at ``out`` (not opened yet)."""
+    if sweep.output == "zarr":
+        from .zarr_store import ZarrStore
+
+        return ZarrStore(sweep, out, storage_options=storage_options, command=command)
+    if storage_options or "://" in str(out):
+        raise ValueError(f"output {out!r}: a netCDF sweep writes into a local directory; "
+                         "URLs and storage_options are for output = \"zarr\"")
+    return TileDirectory(sweep, out, command=command)
 
 
-def prepare_directory(sweep: Sweep, out_dir: Path) -> list[int]:
-    """Create or check ``out_dir`` for ``sweep``; return the tiles still to compute.
-
-    A directory holding a different configuration is refused with a list of what changed;
-    leftover temporary files are removed; truncated, corrupt or foreign tile files are
-    deleted so they are recomputed.
-    """
-    out_dir.mkdir(parents=True, exist_ok=True)
-    config = out_dir / CONFIG_NAME
-    if config.exists():
-        try:
-            stored = Sweep.from_toml(config)
-        except ValueError as exc:
-            raise ValueError(f"{config} exists but is not a valid sweep configuration "
-                             f"({exc}); use another directory") from None
-        if stored != sweep:
-            changes = "; ".join(stored.differences(sweep))
-            raise ValueError(f"{out_dir} holds a different sweep (stored -> new: {changes}); "
-                             f"resume it unchanged with `rattlesweep resume {out_dir}`, or "
-                             f"use a new directory")
-    else:
-        _write_text_atomic(config, sweep.to_toml())
-    tiles_dir = out_dir / TILES_DIR
-    tiles_dir.mkdir(exist_ok=True)
-    for stale in tiles_dir.glob(".*.tmp"):
-        stale.unlink(missing_ok=True)
-    todo = []
-    for tile in range(sweep.n_tiles):
-        path = tile_path(tiles_dir, tile)
-        if not path.exists():
-            todo.append(tile)
-        elif not tile_is_valid(path, sweep, tile):
-            path.unlink()
-            todo.append(tile)
-    return todo
-
-
-class _LocalProgress(Callback):
-    def __init__(self, progress: Progress) -> None:
-        super().__init__()
-        self.progress = progress
-
-    def _posttask(self, key, result, dsk, state, worker_id) -> None:
-        if isinstance(result, dict) and "tile" in result:
-            self.progress.update(result)
-
-
-def _tasks(sweep: Sweep, todo: list[int], tiles_dir: Path) -> list:
-    # the sweep goes into the graph once, shared by every tile task and not traversed
-    shared = dask.delayed(sweep, traverse=False, name=f"rattlesweep-config-"
-                          f"{sweep.config_hash()[:12]}")
-    task = dask.delayed(compute_tile, pure=False)
-    return [task(shared, t, str(tiles_dir), dask_key_name=f"rattlesweep-tile-{t}")
-            for t in todo]
-
-
-def _run_local(tasks: list, workers: int, progress: Progress) -> None:
-    with _LocalProgress(progress):
-        dask.compute(*tasks, scheduler="threads", num_workers=workers)
-
-
-def _run_distributed(tasks: list, client: Any, progress: Progress) -> None:
-    from distributed import as_completed
-
-    futures = client.compute(tasks)
-    try:
-        for future in as_completed(futures):
-            progress.update(future.result())
-    except BaseException:
-        client.cancel(futures)
-        raise
-
-
-def run_sweep(sweep: Sweep, out_dir: str | os.PathLike, *, client: Any = None,
+def run_sweep(sweep: Sweep, out: str | os.PathLike, *, client: Any = None,
               scheduler: str | None = None, workers: int | None = None,
-              progress: bool = True, command: str | None = None) -> xr.Dataset:
-    """Run ``sweep`` into ``out_dir`` and return the merged result.
+              progress: bool = True, command: str | None = None,
+              storage_options: Mapping[str, Any] | None = None) -> xr.Dataset:
+    """Run ``sweep`` into ``out`` and return the result.
 
-    Each tile of ``sweep.tile_size`` points is one dask task running the kernel's
-    single-threaded ``nogil`` entry, so tasks on different threads or workers run in
-    parallel and numba never starts threads of its own inside them. By default tasks run
-    on the local threaded scheduler with ``workers`` threads (default: the usable cores).
-    ``client`` (a ``distributed.Client``) or ``scheduler`` (the address of a running
-    dask scheduler, e.g. ``"tcp://10.0.0.5:8786"``) sends them to that cluster instead;
-    this function never starts a cluster.
+    Each tile (a block of at most ``sweep.tile_size`` points) is one task running the
+    kernel's single-threaded ``nogil`` entry, so tasks on different threads or workers
+    run in parallel and numba never starts threads of its own inside them. By default
+    tasks run on ``workers`` local threads (default: the usable cores). ``client`` (a
+    ``distributed.Client``) or ``scheduler`` (the address of a running dask scheduler,
+    e.g. ``"tcp://10.0.0.5:8786"``) sends them to that cluster instead; this function
+    never starts a cluster. Workers return each tile's results through dask (about 120
+    bytes per point) and this process writes them as they arrive, so the workers need
+    no access to ``out``; a worker lost mid-sweep has its tiles recomputed elsewhere.
 
-    Rerunning the same sweep into the same directory computes only missing or damaged
-    tiles; a different sweep there is refused. Ctrl-C stops after the tiles in flight;
-    what finished is kept. The merged file is ``out_dir/sweep.nc`` (netCDF4, zlib),
-    written atomically; ``command`` is recorded in its ``history`` attribute (default:
-    the process's command line).
+    The output is ``sweep.output``:
+
+    - ``"netcdf"``: ``out`` is a directory holding ``sweep.toml``, a file per finished
+      tile (``tiles/``) and the merged result ``sweep.nc`` (netCDF4, zlib), all written
+      atomically. The merged dataset is returned.
+    - ``"zarr"``: ``out`` is a zarr store, a local path or an fsspec URL
+      (``storage_options`` are passed to fsspec), laid out before compute and filled
+      tile by tile; a lazy dataset over it (``xarray.open_zarr``) is returned.
+
+    A sweep with ``refine`` runs level by level (:mod:`.refined_run`) into a local
+    directory and returns its result on the finest grid.
+
+    Rerunning the same sweep into the same output computes only the tiles not written
+    yet; a different sweep there is refused, and so is a second sweep while one runs
+    (a lock in the output). Ctrl-C stops after the tiles in flight; what finished is
+    kept. A failed write (disk full, no permission) raises
+    :class:`~rattlesweep.sweep.store.SweepWriteError` and leaves what was written
+    intact. ``command`` is recorded in the ``history`` attribute (default: the process's
+    command line).
     """
     if not isinstance(sweep, Sweep):
         raise ValueError(f"sweep must be a rattlesweep.Sweep, got {type(sweep).__name__}")
@@ -149,54 +91,96 @@ def run_sweep(sweep: Sweep, out_dir: str | os.PathLike, *, client: Any = None,
     if workers is not None and (client is not None or scheduler is not None):
         raise ValueError("workers sets the local scheduler's threads; a distributed "
                          "cluster's size is set where the cluster is started")
-    out = Path(out_dir)
-    todo = prepare_directory(sweep, out)
-    tiles_dir = out / TILES_DIR
-    done = sweep.n_tiles - len(todo)
-    done_points = sum(sweep.tile_range(t)[1] - sweep.tile_range(t)[0]
-                      for t in set(range(sweep.n_tiles)) - set(todo))
-    bar = Progress(sweep.n_tiles, sweep.size, done, done_points, enabled=progress)
+    if sweep.refine is not None:
+        from .refined_run import run_refined
+
+        if storage_options or "://" in str(out):
+            raise ValueError(f"output {out!r}: a refined sweep writes into a local "
+                             "directory")
+        with _connect(scheduler) as own_client:
+            return run_refined(sweep, out, client=client or own_client,
+                               workers=workers or _cores(), progress=progress,
+                               command=command)
+    store = open_output(sweep, out, command=command, storage_options=storage_options)
+    todo = store.open()
     own_client = None
-    if scheduler is not None:
-        try:
-            from distributed import Client
-        except ImportError:
-            raise ValueError("scheduler needs dask.distributed: pip install "
-                             "'rattlesweep[distributed]'") from None
-        client = own_client = Client(scheduler)
-    CANCEL.clear()
     try:
-        if todo:
-            tasks = _tasks(sweep, todo, tiles_dir)
-            if client is None:
-                _run_local(tasks, workers or _cores(), bar)
-            else:
-                _run_distributed(tasks, client, bar)
-    except KeyboardInterrupt:
-        CANCEL.set()
-        bar.close("interrupted")
-        if progress:
-            print(f"stopped; finished tiles are kept. Continue with: rattlesweep resume "
-                  f"{out}", file=sys.stderr)
-        raise
+        left = set(todo)
+        done = [t for t in range(sweep.n_tiles) if t not in left]
+        bar = Progress(sweep.n_tiles, sweep.size, len(done),
+                       sum(_points(sweep, t) for t in done), enabled=progress)
+        if scheduler is not None:
+            client = own_client = _client(scheduler)
+
+        def write(result: TileResult) -> None:
+            store.write(result)
+            bar.update(result.summary())
+
+        try:
+            run_tiles(sweep, todo, write, client=client, workers=workers or _cores())
+        except KeyboardInterrupt:
+            bar.interrupted(store.location)
+            raise
+        bar.close()
+        return store.finish()
     finally:
         if own_client is not None:
             own_client.close()
-    bar.close()
-    ds = merge_tiles(sweep, tiles_dir, command=command)
-    write_netcdf(ds, out / RESULT_NAME)
-    return ds
+        store.close()
 
 
-def stored_sweep(out_dir: str | os.PathLike) -> Sweep:
-    """The sweep whose results ``out_dir`` holds (its ``sweep.toml``)."""
-    config = Path(out_dir) / CONFIG_NAME
+def _client(scheduler: str):
+    """A dask.distributed client of the scheduler at ``scheduler``."""
+    try:
+        from distributed import Client
+    except ImportError:
+        raise ValueError("scheduler needs dask.distributed: pip install "
+                         "'rattlesweep[distributed]'") from None
+    return Client(scheduler)
+
+
+@contextlib.contextmanager
+def _connect(scheduler: str | None):
+    """A client of ``scheduler`` for the duration (None without one)."""
+    client = None if scheduler is None else _client(scheduler)
+    try:
+        yield client
+    finally:
+        if client is not None:
+            client.close()
+
+
+def _points(sweep: Sweep, tile: int) -> int:
+    start, stop = sweep.tile_range(tile)
+    return stop - start
+
+
+def stored_sweep(out: str | os.PathLike,
+                 storage_options: Mapping[str, Any] | None = None) -> Sweep:
+    """The sweep whose results ``out`` (a sweep directory or zarr store) holds."""
+    from .zarr_store import is_zarr_store
+
+    if is_zarr_store(out):
+        from .zarr_store import stored_sweep as from_store
+
+        return from_store(str(out), storage_options)
+    config = Path(out) / CONFIG_NAME
     if not config.exists():
-        raise ValueError(f"{out_dir} holds no sweep ({config} not found)")
-    return Sweep.from_toml(config)
+        raise ValueError(f"{out} holds no sweep ({config} not found, and it is no zarr "
+                         "store)")
+    return read_config(config)
 
 
-def resume(out_dir: str | os.PathLike, **kwargs) -> xr.Dataset:
-    """Finish the sweep stored in ``out_dir`` (its ``sweep.toml``); keyword arguments as
-    for :func:`run_sweep`."""
-    return run_sweep(stored_sweep(out_dir), out_dir, **kwargs)
+def resume(out: str | os.PathLike, **kwargs) -> xr.Dataset:
+    """Finish the sweep stored in ``out`` (a sweep directory or zarr store); keyword
+    arguments as for :func:`run_sweep`."""
+    return run_sweep(stored_sweep(out, kwargs.get("storage_options")), out, **kwargs)
+
+
+def export(store: str | os.PathLike, out: str | os.PathLike,
+           storage_options: Mapping[str, Any] | None = None) -> Path:
+    """Write the finished zarr store ``store`` as one netCDF file ``out`` (the file a
+    netCDF sweep writes as ``sweep.nc``)."""
+    from .zarr_store import export_netcdf
+
+    return export_netcdf(str(store), out, storage_options)

@@ -24,13 +24,24 @@ from ..body import PRESETS, Body
 from .grid import RandomParam
 from .params import BODY_PARAMS, DEFAULTS, PARAMS, check_values, resolve
 
-__all__ = ["CONFIG_KEYS", "axis_values", "body_from_table", "check_config_table",
-           "normalise_axis", "normalise_body", "normalise_config", "normalise_fixed",
-           "normalise_random"]
+__all__ = ["CONFIG_KEYS", "MAX_REFINE_LEVELS", "OUTPUTS", "STOPS", "axis_values",
+           "body_from_table", "check_config_table", "normalise_axis", "normalise_body",
+           "normalise_config", "normalise_fixed", "normalise_random", "normalise_refine"]
 
 CONFIG_KEYS = ("name", "axes", "fixed", "random", "repeats", "seed", "method",
-               "reversal_band", "tile_size")
+               "reversal_band", "tile_size", "output", "stop", "refine")
 """The keys a configuration table may have."""
+
+OUTPUTS = ("netcdf", "zarr")
+"""Output formats of a sweep: a directory of netCDF tiles merged into one file, or a
+zarr store written tile by tile (:mod:`rattlesweep.sweep.zarr_store`)."""
+
+STOPS = ("first_reversal",)
+"""Stop rules a sweep may name (:func:`rattlesweep.run_batch`'s ``stop``); without one,
+every launch runs to ``t_end``."""
+
+_REFINE_KEYS = ("levels", "axes", "reversal_time_jump")
+MAX_REFINE_LEVELS = 12
 
 _RANGE_KEYS = {"start", "stop", "num", "units", "scale"}
 _VALUES_KEYS = {"values", "units"}
@@ -99,7 +110,8 @@ def normalise_axis(key: str, spec) -> dict:
     if key == "body":
         return _normalise_body_axis(spec, where)
     if isinstance(spec, (list, tuple, np.ndarray)):
-        spec = {"values": list(np.asarray(spec).tolist())}
+        # as given: _normalise_values refuses what is not a flat list of numbers
+        spec = {"values": spec.tolist() if isinstance(spec, np.ndarray) else list(spec)}
     if not isinstance(spec, Mapping):
         raise ValueError(f"{where}: an axis is a list of values or a table "
                          f"{{start, stop, num[, units, scale]}}; got {spec!r}")
@@ -163,8 +175,9 @@ def _normalise_range(spec: Mapping, where: str) -> dict:
     scale = spec.get("scale", "linear")
     if scale not in ("linear", "log"):
         raise ValueError(f"{where}: scale must be 'linear' or 'log', got {scale!r}")
-    if scale == "log" and not start > 0:
-        raise ValueError(f"{where}: a log range needs start > 0, got {start!r}")
+    if scale == "log" and not (start > 0 and stop > 0):
+        raise ValueError(f"{where}: a log range needs start > 0 and stop > 0, got "
+                         f"start={start!r}, stop={stop!r}")
     out = {"start": float(start), "stop": float(stop), "num": int(num)}
     if scale != "linear":
         out["scale"] = scale
@@ -245,12 +258,61 @@ def _check_each_parameter_once(axes: dict, fixed: dict, random: dict) -> set[str
     return set(seen)
 
 
+def normalise_refine(refine, axes: Mapping[str, dict], output: str) -> dict:
+    """The ``refine`` table in normal form: ``levels`` (int >= 1), ``axes`` (the refined
+    range axes, in dimension order; default every range axis of more than one value) and,
+    when given, ``reversal_time_jump`` (s, > 0)."""
+    if isinstance(refine, bool) or not isinstance(refine, (Mapping, int, np.integer)):
+        raise ValueError(f"refine must be a table {{levels, axes, reversal_time_jump}} or "
+                         f"a number of levels, got {refine!r}")
+    spec = dict(refine) if isinstance(refine, Mapping) else {"levels": refine}
+    unknown = set(spec) - set(_REFINE_KEYS)
+    if unknown:
+        raise ValueError(f"refine: unknown keys {sorted(unknown)}; allowed: "
+                         f"{', '.join(_REFINE_KEYS)}")
+    levels = spec.get("levels")
+    if not (_is_int(levels) and 1 <= levels <= MAX_REFINE_LEVELS):
+        raise ValueError(f"refine.levels must be an integer from 1 to {MAX_REFINE_LEVELS} "
+                         f"(each level halves the spacing of the refined axes), got "
+                         f"{levels!r}")
+    ranges = [k for k, a in axes.items() if "num" in a and a["num"] > 1]
+    chosen = spec.get("axes", ranges)
+    if isinstance(chosen, str) or not isinstance(chosen, (list, tuple)) or not all(
+            isinstance(k, str) for k in chosen):
+        raise ValueError(f"refine.axes must be a list of axis names, got {chosen!r}")
+    for key in chosen:
+        if key not in axes:
+            raise ValueError(f"refine.axes: {key!r} is not an axis of the sweep "
+                             f"({', '.join(axes)})")
+        if key not in ranges:
+            raise ValueError(f"refine.axes: {key!r} is not a range of more than one value "
+                             "({start, stop, num}); only ranges can be refined")
+    if not chosen or len(set(chosen)) != len(chosen):
+        raise ValueError(f"refine.axes must name at least one range axis, each once; got "
+                         f"{list(chosen)!r} (the sweep's ranges: {ranges})")
+    if output != "netcdf":
+        raise ValueError(f"refine: a refined sweep is written as netCDF (output = "
+                         f"\"netcdf\"), got output = {output!r}")
+    out: dict[str, Any] = {"levels": int(levels),
+                           "axes": [k for k in axes if k in chosen]}
+    if "reversal_time_jump" in spec:
+        jump = spec["reversal_time_jump"]
+        if not (_is_number(jump) and math.isfinite(jump) and jump > 0):
+            raise ValueError(f"refine.reversal_time_jump must be a finite number > 0 (s), "
+                             f"got {jump!r}")
+        out["reversal_time_jump"] = float(jump)
+    return out
+
+
 def normalise_config(*, axes: Mapping, fixed: Mapping, random: Mapping, repeats: Any,
                      seed: Any, method: Any, reversal_band: Any, tile_size: Any,
-                     name: Any) -> dict[str, Any]:
-    """The normal form of a configuration: a dict with every key of :data:`CONFIG_KEYS`,
+                     name: Any, output: Any = "netcdf", stop: Any = None,
+                     refine: Any = None) -> dict[str, Any]:
+    """The normal form of a configuration: a dict with the keys of :data:`CONFIG_KEYS`,
     scalars first (the order of the TOML file). ``tile_size`` stays None when not given
-    (:func:`rattlesweep.sweep.corners.choose_tile_size` chooses it).
+    (:func:`rattlesweep.sweep.corners.choose_tile_size` chooses it); ``stop`` and
+    ``refine`` are there only when given, so that the configurations (and hashes) of
+    sweeps without them do not change.
 
     ``fixed`` gains the parameters left out: the ``toy`` body when neither a body nor a
     semi-ellipsoid parameter is given, and :data:`~rattlesweep.sweep.params.DEFAULTS`.
@@ -277,22 +339,26 @@ def normalise_config(*, axes: Mapping, fixed: Mapping, random: Mapping, repeats:
         ("tile_size", tile_size, tile_size is None or (_is_int(tile_size) and tile_size >= 1),
          "an integer >= 1 (or None: automatic)"),
         ("method", method, method in METHODS, f"one of {sorted(METHODS)}"),
+        ("output", output, output in OUTPUTS, f"one of {', '.join(map(repr, OUTPUTS))}"),
         ("name", name, isinstance(name, str), "a string"),
+        ("stop", stop, stop is None or stop in STOPS,
+         f"one of {', '.join(map(repr, STOPS))} (or left out: run to t_end)"),
     ):
         if not ok:
             raise ValueError(f"{label} must be {rule}, got {v!r}")
-    try:
-        band = check_band(reversal_band)
-    except (TypeError, ValueError):
-        raise ValueError(f"reversal_band must be in [0, 1) (a fraction of |initial "
-                         f"spin|), got {reversal_band!r}") from None
+    band = check_band(reversal_band)
     if repeats > 1 and not random_n:
         raise ValueError(f"repeats = {repeats} needs at least one [random] parameter; "
                          f"repeats of identical launches give identical results")
-    return {"name": name, "method": method, "reversal_band": band,
-            "tile_size": None if tile_size is None else int(tile_size),
-            "repeats": int(repeats), "seed": int(seed),
-            "axes": axes_n, "fixed": fixed_n, "random": random_n}
+    config = {"name": name, "method": method, "reversal_band": band,
+              "tile_size": None if tile_size is None else int(tile_size), "output": output,
+              "repeats": int(repeats), "seed": int(seed)}
+    if stop is not None:
+        config["stop"] = stop
+    config.update({"axes": axes_n, "fixed": fixed_n, "random": random_n})
+    if refine is not None:
+        config["refine"] = normalise_refine(refine, axes_n, output)
+    return config
 
 
 def check_config_table(d) -> None:

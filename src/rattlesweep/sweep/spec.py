@@ -6,6 +6,7 @@ values for the other parameters, and optional parameters drawn at random for eac
 
     name = "toy spin x misalignment"
     tile_size = 2048          # points per dask task (optional: automatic by default)
+    output = "netcdf"         # or "zarr"
     method = "rk4"
     reversal_band = 0.05
 
@@ -44,7 +45,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from .corners import check_corners, choose_tile_size
+from .corners import check_corners, choose_tile_size, tile_block
 from .grid import Axis, RandomParam, batch_inputs
 from .params import resolve
 from .schema import axis_values, body_from_table, check_config_table, normalise_config
@@ -54,7 +55,7 @@ __all__ = ["Sweep"]
 
 _NONE: Mapping[str, Any] = MappingProxyType({})
 _ARGUMENTS = ("axes", "fixed", "random", "repeats", "seed", "method", "reversal_band",
-              "tile_size", "name")
+              "tile_size", "output", "name", "stop", "refine")
 
 
 class Sweep:
@@ -77,13 +78,28 @@ class Sweep:
     repeats : int, repeats per grid cell (a ``repeat`` dimension when ``random`` is given).
     seed : int >= 0, seed of the random draws.
     method : "rk4" or "euler".
-    reversal_band : hysteresis of the reversal detector, a fraction of |initial spin|.
-    tile_size : points per tile (one dask task, one file). Default: chosen from the
-        configuration so that a tile is about
+    reversal_band : hysteresis of the reversal detector, a fraction of the initial spin's magnitude.
+    tile_size : the most points in a tile (one dask task; one tile file, or one chunk of
+        a zarr store). Default: chosen from the configuration so that a tile is about
         :data:`~rattlesweep.sweep.corners.TILE_STEPS` trajectory-steps (about 2 s on one
-        core) and the grid has at least 16 tiles, in multiples of 32 from 256 to 65536;
-        the chosen number is part of the stored configuration.
+        core) and the grid has at least 16 tiles (a refined sweep: the grid one level
+        finer than declared), in multiples of 32 from 256 to 65536; the chosen number is
+        part of the stored configuration. A tile is a block of the grid
+        (:func:`~rattlesweep.sweep.corners.tile_block`), so tiles can hold fewer points
+        than this; a refined sweep cuts each level's points into tiles of this size.
+    output : "netcdf" (a directory of tile files merged into ``sweep.nc``) or "zarr" (a
+        zarr store written tile by tile); see :func:`rattlesweep.sweep.run_sweep`.
     name : a label stored with the results.
+    stop : None (every launch runs to ``t_end``) or ``"first_reversal"``: a launch ends at
+        its first reversal, or when it capsizes or lifts off (see
+        :func:`rattlesweep.run_batch`).
+    refine : adaptive refinement (:mod:`rattlesweep.sweep.refine`): a number of levels or
+        a table ``{"levels": L, "axes": [...], "reversal_time_jump": s}``. Each level
+        halves the spacing of the refined axes (default: every range axis), and only the
+        cells where neighbouring outcomes differ (or, with ``reversal_time_jump``, first
+        reversal times jump by more than that many seconds), with a margin of one cell,
+        are simulated; the rest is filled from the cells' corners. The result lies on the
+        finest grid (:meth:`finest`). Needs ``output = "netcdf"``.
 
     Every value is checked when the sweep is made, including every combination of the
     extremes of the axes and random ranges (the rules are monotone in each parameter, so
@@ -100,15 +116,19 @@ class Sweep:
     configuration (``==``) and are not hashable; :meth:`config_hash` is the stable digest.
     """
 
-    __slots__ = ("_config", "_grid_axes", "_random_params", "_shape")
+    __slots__ = ("_config", "_grid_axes", "_random_params", "_shape", "_tile_shape",
+                 "_finest")
 
     def __init__(self, axes: Mapping[str, Any], fixed: Mapping[str, Any] = _NONE,
                  random: Mapping[str, Any] = _NONE, repeats: int = 1, seed: int = 0,
                  method: str = "rk4", reversal_band: float = 0.05,
-                 tile_size: int | None = None, name: str = "sweep") -> None:
+                 tile_size: int | None = None, name: str = "sweep",
+                 output: str = "netcdf", stop: str | None = None,
+                 refine: Mapping[str, Any] | int | None = None) -> None:
         config = normalise_config(axes=axes, fixed=fixed, random=random, repeats=repeats,
                                   seed=seed, method=method, reversal_band=reversal_band,
-                                  tile_size=tile_size, name=name)
+                                  tile_size=tile_size, name=name, output=output, stop=stop,
+                                  refine=refine)
         grid_axes = _grid_axes(config["axes"])
         random_params = _random_params(config["random"])
         shape = tuple(len(a.values) for a in grid_axes) + (
@@ -116,11 +136,14 @@ class Sweep:
         max_steps = check_corners(grid_axes, random_params, _fixed_si(config["fixed"]),
                                   _fixed_body(config["fixed"]))
         if config["tile_size"] is None:
-            config = {**config, "tile_size": choose_tile_size(max_steps, _size(shape))}
+            config = {**config, "tile_size": choose_tile_size(max_steps, _tiled_size(
+                shape, list(config["axes"]), config.get("refine")))}
         self._config = config
         self._grid_axes = grid_axes
         self._random_params = random_params
         self._shape = shape
+        self._tile_shape = tile_block(shape, config["tile_size"])
+        self._finest = None
 
     # --- the normalised configuration ---------------------------------------------------
     @property
@@ -163,6 +186,38 @@ class Sweep:
     def name(self) -> str:
         return self._config["name"]
 
+    @property
+    def output(self) -> str:
+        """Output format: "netcdf" or "zarr"."""
+        return self._config["output"]
+
+    @property
+    def stop(self) -> str | None:
+        """The stop rule: None (run to t_end) or "first_reversal"."""
+        return self._config.get("stop")
+
+    @property
+    def refine(self) -> dict | None:
+        """The normalised refinement table (levels, axes[, reversal_time_jump]), or
+        None."""
+        return self._config.get("refine")
+
+    def finest(self) -> "Sweep":
+        """The sweep on the grid a refined sweep's result lies on: each refined axis with
+        2**levels times finer spacing (``num`` becomes ``(num - 1) * 2**levels + 1``, so
+        every declared value stays on it) and no refinement; the sweep itself when it
+        is not refined."""
+        refine = self.refine
+        if refine is None:
+            return self
+        if self._finest is None:  # made once: its corner check costs milliseconds
+            scale = 2 ** refine["levels"]
+            axes = {k: ({**a, "num": (a["num"] - 1) * scale + 1}
+                        if k in refine["axes"] else a) for k, a in self.axes.items()}
+            config = {k: v for k, v in self.to_dict().items() if k != "refine"}
+            self._finest = Sweep(**{**config, "axes": axes})
+        return self._finest
+
     # --- structure ----------------------------------------------------------------------
     @property
     def grid_axes(self) -> tuple[Axis, ...]:
@@ -201,18 +256,38 @@ class Sweep:
         return _size(self._shape)
 
     @property
+    def tile_shape(self) -> tuple[int, ...]:
+        """The shape of a full tile, a block of the grid of at most ``tile_size`` points
+        (tiles at the ends of a dimension can be smaller)."""
+        return self._tile_shape
+
+    @property
+    def _tile_grid(self) -> tuple[int, ...]:
+        return tuple(-(-n // b) for n, b in zip(self._shape, self._tile_shape))
+
+    @property
     def n_tiles(self) -> int:
-        return -(-self.size // self.tile_size)
+        return _size(self._tile_grid)
+
+    def tile_region(self, tile: int) -> tuple[slice, ...]:
+        """The block of the grid a tile covers, one slice per dimension."""
+        corner = np.unravel_index(tile, self._tile_grid)
+        return tuple(slice(int(i) * b, min((int(i) + 1) * b, n))
+                     for i, b, n in zip(corner, self._tile_shape, self._shape))
 
     def tile_range(self, tile: int) -> tuple[int, int]:
-        """Flat point indices [start, stop) of a tile."""
-        start = tile * self.tile_size
-        return start, min(start + self.tile_size, self.size)
+        """Flat point indices [start, stop) of a tile (its points are consecutive)."""
+        region = self.tile_region(tile)
+        start = int(np.ravel_multi_index([r.start for r in region], self._shape))
+        return start, start + _size(tuple(r.stop - r.start for r in region))
 
     def points(self, start: int, stop: int) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         """Bodies and :func:`rattlesweep.batch.prepare` keyword arguments (SI) for the
         flat point indices [start, stop)."""
-        index = np.arange(start, stop, dtype=np.int64)
+        return self.points_at(np.arange(start, stop, dtype=np.int64))
+
+    def points_at(self, index: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """As :meth:`points`, for any flat point indices ``index`` (int64)."""
         where = np.unravel_index(index, self.shape)
         columns: dict[str, np.ndarray] = {}
         body_column = None
@@ -270,7 +345,7 @@ class Sweep:
     __hash__ = None  # the stored tables are mutable dicts; compare with ==
 
     def __repr__(self) -> str:
-        args = ", ".join(f"{k}={self._config[k]!r}" for k in _ARGUMENTS)
+        args = ", ".join(f"{k}={self._config[k]!r}" for k in _ARGUMENTS if k in self._config)
         return f"Sweep({args})"
 
 
@@ -309,6 +384,17 @@ def _fixed_si(fixed: Mapping[str, Any]) -> dict[str, float]:
 def _fixed_body(fixed: Mapping[str, Any]):
     v = fixed.get("body")
     return body_from_table(v, "fixed.body") if isinstance(v, Mapping) else v
+
+
+def _tiled_size(shape: tuple[int, ...], keys: list[str], refine: Mapping | None) -> int:
+    """The number of points the automatic tile size is chosen for: the grid's, or for a
+    refined sweep that of its grid one level finer, about as many points as its levels
+    simulate each (tiles sized for the declared grid alone would be so small that their
+    overhead shows)."""
+    if refine is None:
+        return _size(shape)
+    return _size(tuple(2 * n - 1 if k in refine["axes"] else n
+                       for k, n in zip(keys + ["repeat"], shape)))
 
 
 def _size(shape: tuple[int, ...]) -> int:

@@ -1,36 +1,49 @@
-"""Tiles: contiguous runs of flat grid points, each computed by one task on one core and
-written atomically to its own netCDF file, so an interrupted sweep loses at most the tiles
-in flight."""
+"""Tiles: blocks of the grid whose points are consecutive flat indices, each computed by
+one task on one core. A task returns its results as plain arrays (:class:`TileResult`,
+about 120 bytes per point); the process that runs the sweep writes them, so workers never
+need the output's filesystem."""
 
 from __future__ import annotations
 
-import threading
 import time
-from pathlib import Path
+from dataclasses import dataclass
 
-import netCDF4
 import numpy as np
-import xarray as xr
 
 from .. import engine, results
 from ..batch import MODEL, prepare
 from ..engine import check_method
-from ..io import NETCDF_LOCK, write_netcdf
 from .outcomes import OUTCOME_ATTRS, classify
 from .spec import Sweep
 
-__all__ = ["CANCEL", "RESULT_VARS", "compute_tile", "extra_vars", "read_tile",
-           "tile_is_valid", "tile_path", "variable_attrs"]
+__all__ = ["NOT_COMPUTED", "RESULT_VARS", "TileResult", "compute_points", "compute_tile",
+           "extra_vars", "result_dtypes", "result_names", "variable_attrs"]
 
 RESULT_VARS = MODEL.observables
 """Kernel observables kept for every point, besides ``outcome``."""
 
-CANCEL = threading.Event()
-"""Set to make tiles not yet started return at once (Ctrl-C on the local scheduler)."""
+NOT_COMPUTED = -1
+"""``status`` and ``outcome`` of a point not computed yet (in a zarr store being
+written); every other variable of such a point is NaN, or -1 for integers."""
 
 
-def tile_path(tiles_dir: Path, tile: int) -> Path:
-    return Path(tiles_dir) / f"tile-{tile:06d}.nc"
+@dataclass(frozen=True)
+class TileResult:
+    """What a tile task returns: the per-point results of flat points [start, stop)
+    (``data``: variable name -> 1-d array), the kernel's trajectory-steps and the
+    task's wall time (s)."""
+
+    tile: int
+    start: int
+    stop: int
+    data: dict[str, np.ndarray]
+    steps: int
+    seconds: float
+
+    def summary(self) -> dict:
+        """What the progress report needs."""
+        return {"tile": self.tile, "n": self.stop - self.start, "steps": self.steps,
+                "seconds": self.seconds}
 
 
 def extra_vars(sweep: Sweep) -> tuple[str, ...]:
@@ -40,10 +53,40 @@ def extra_vars(sweep: Sweep) -> tuple[str, ...]:
     return (("dt",) if "dt" not in given else ()) + tuple(r.key for r in sweep.random_params)
 
 
+def result_names(sweep: Sweep) -> tuple[str, ...]:
+    """Every per-point variable of the sweep's result, in order."""
+    return (*RESULT_VARS, "outcome", *extra_vars(sweep))
+
+
+def result_dtypes(sweep: Sweep) -> dict[str, np.dtype]:
+    """The dtype of every per-point variable, known before anything is computed."""
+    n_obs = 1 + max(MODEL.observable_row(k) for k in RESULT_VARS if k not in MODEL.derived)
+    empty = results.observables_dataset(MODEL, np.zeros((n_obs, 0)), "point")
+    dtypes = {k: empty[k].dtype for k in RESULT_VARS}
+    dtypes["outcome"] = np.dtype(np.int8)
+    dtypes.update({k: np.dtype(float) for k in extra_vars(sweep)})
+    return dtypes
+
+
+_STATUS_COMMENT = "not_computed: the point has not been computed yet (a store being written)."
+_STOP_COMMENT = ("stop = first_reversal: each launch ended at its first reversal, so "
+                 "several_reversals does not occur and capsized, lifted_off and "
+                 "numerical_failure happened before any reversal; t_final says when the "
+                 "launch ended.")
+
+
 def variable_attrs(sweep: Sweep, name: str) -> dict:
-    """CF attributes of a per-point result variable."""
-    if name == "outcome":
-        return dict(OUTCOME_ATTRS)
+    """CF attributes of a per-point result variable. The flags of ``status`` and
+    ``outcome`` include ``not_computed`` (:data:`NOT_COMPUTED`), which only a sweep still
+    being written shows."""
+    if name in ("status", "outcome"):
+        attrs = dict(OUTCOME_ATTRS) if name == "outcome" else MODEL.attrs("status")
+        attrs["flag_values"] = [*attrs["flag_values"], NOT_COMPUTED]
+        attrs["flag_meanings"] = attrs["flag_meanings"] + " not_computed"
+        attrs["comment"] = attrs["comment"] + " " + _STATUS_COMMENT
+        if name == "outcome" and sweep.stop is not None:
+            attrs["comment"] += " " + _STOP_COMMENT
+        return attrs
     if name == "dt":
         return {"units": "s", "long_name": "time step (the body's default)"}
     for rp in sweep.random_params:
@@ -53,59 +96,31 @@ def variable_attrs(sweep: Sweep, name: str) -> dict:
     return MODEL.attrs(name)
 
 
-def compute_tile(sweep: Sweep, tile: int, tiles_dir: str) -> dict:
-    """Run one tile through the kernel on the calling thread (numba's serial ``nogil``
-    entry, so tasks on different threads run in parallel without nesting threads) and
-    write its file atomically. Returns a small summary."""
-    if CANCEL.is_set():
-        return {"tile": tile, "n": 0, "skipped": True}
+def compute_points(sweep: Sweep, index: np.ndarray) -> tuple[dict[str, np.ndarray], int]:
+    """Run the points at flat indices ``index`` of the sweep's grid through the kernel on
+    the calling thread (numba's serial ``nogil`` entry, so tasks on different threads
+    run in parallel without nesting threads). Returns every per-point variable
+    (:func:`result_names`) and the trajectory-steps taken. Touches no file."""
+    bodies, kwargs = sweep.points_at(index)
+    prep = prepare(bodies, stop=sweep.stop, **kwargs)
+    raw = engine.execute(prep, method=check_method(sweep.method), record_every=None,
+                         band=sweep.reversal_band, parallel=False)
+    obs = results.observables_dataset(MODEL, raw.observables, "point")
+    data = {k: obs[k].values for k in RESULT_VARS}
+    data["outcome"] = classify(data["status"], data["n_reversals"], data["mean_final_spin"],
+                               data["initial_spin"], sweep.reversal_band)
+    if "dt" in extra_vars(sweep):
+        data["dt"] = np.asarray(prep.coords["dt"][1], dtype=float)
+    for rp in sweep.random_params:
+        data[rp.key] = rp.draw(sweep.seed, index)
+    return data, int(np.sum(data["steps"]))
+
+
+def compute_tile(sweep: Sweep, tile: int) -> TileResult:
+    """Run one tile of the sweep's grid (:func:`compute_points`) and return its
+    results."""
     t0 = time.perf_counter()
     start, stop = sweep.tile_range(tile)
-    bodies, kwargs = sweep.points(start, stop)
-    prep = prepare(bodies, **kwargs)
-    raw = engine.execute(prep, method=check_method(sweep.method), record_every=None,
-                        band=sweep.reversal_band, parallel=False)
-    data = results.observables_dataset(MODEL, raw.observables, "point")
-    ds = xr.Dataset({k: data[k] for k in RESULT_VARS})
-    ds["outcome"] = ("point", classify(ds.status.values, ds.n_reversals.values,
-                                       ds.mean_final_spin.values, ds.initial_spin.values,
-                                       sweep.reversal_band), variable_attrs(sweep, "outcome"))
-    index = np.arange(start, stop, dtype=np.int64)
-    if "dt" in extra_vars(sweep):
-        ds["dt"] = ("point", prep.coords["dt"][1], variable_attrs(sweep, "dt"))
-    for rp in sweep.random_params:
-        ds[rp.key] = ("point", rp.draw(sweep.seed, index), variable_attrs(sweep, rp.key))
-    ds = ds.assign_coords(point=("point", index))
-    ds.attrs.update({"config_hash": sweep.config_hash(), "tile": tile, "start": start,
-                     "stop": stop})
-    write_netcdf(ds, tile_path(Path(tiles_dir), tile))
-    steps = int(np.sum(prep.nsteps))
-    return {"tile": tile, "n": stop - start, "steps": steps,
-            "seconds": time.perf_counter() - t0, "skipped": False}
+    data, steps = compute_points(sweep, np.arange(start, stop, dtype=np.int64))
+    return TileResult(tile, start, stop, data, steps, time.perf_counter() - t0)
 
-
-def tile_is_valid(path: Path, sweep: Sweep, tile: int) -> bool:
-    """True when ``path`` is a complete tile file of this sweep (a truncated, corrupt or
-    foreign file is not)."""
-    start, stop = sweep.tile_range(tile)
-    try:
-        with NETCDF_LOCK, netCDF4.Dataset(path) as nc:
-            if nc.getncattr("config_hash") != sweep.config_hash():
-                return False
-            if int(nc.getncattr("tile")) != tile:
-                return False
-            for name in (*RESULT_VARS, "outcome", "point", *extra_vars(sweep)):
-                var = nc.variables[name]
-                if var.shape != (stop - start,):
-                    return False
-                var[:]  # read the data: a truncated file fails here
-            return bool(nc.variables["point"][0] == start)
-    except Exception:  # any failure to read means: recompute
-        return False
-
-
-def read_tile(path: Path, names: tuple[str, ...]) -> dict[str, np.ndarray]:
-    """The named variables of a tile file as plain arrays."""
-    with NETCDF_LOCK, netCDF4.Dataset(path) as nc:
-        nc.set_auto_mask(False)
-        return {name: nc.variables[name][:] for name in names}

@@ -49,8 +49,9 @@ from ..jit import kernel
 from ..stages import first_stage, put_derivative
 from ..switching import stop_time
 from ..workspace import (
-    BLOCK, DT, EPS_U, GRAV, MU_K, OFF_P, OFF_S, OFF_X, S_MODE, S_UHX, X_FX, X_FY, X_N, X_TSTOP, X_UX,
-    X_UY, at, lane_range,
+    BLOCK, COUPLES, DT, EPS_U, GRAV, MU_K, MU_ROLL, OFF_P, OFF_S, OFF_X, S_MODE, S_ROLL,
+    S_ROLL_SENSE, S_UHX, X_FX, X_FY, X_N, X_ROLL_COUPLE, X_ROLL_EVENT, X_SPIN_COUPLE,
+    X_SPIN_EVENT, X_TSTOP, X_UX, X_UY, at, lane_range,
 )
 from .layout import (
     A2, AB2, B2, DEPTH, INERTIA, MASS, OFF_A, OFF_B, OFF_T, OFF_Y, RATE, THETA, VXG, XG,
@@ -100,12 +101,16 @@ def contact_impulse(m, inertia, h, hp, u):
 def eval_block(W, slip_possible, stage, one_lane, lane):
     """Time derivative of every lane, used as ``stage`` asks (:mod:`..stages`), with the
     contact outputs N, F and u (region X) at the first stages; reads each lane's mode and
-    held slip direction (region S). ``slip_possible`` is accepted for the stepper's sake:
-    this model's loop is short and computes both modes' terms anyway.
+    held slip direction (region S). ``slip_possible`` matters only as ``COUPLES``, which
+    adds the rolling couple (MODEL.md section 4b): this model's loop is short and computes
+    both sliding modes' terms anyway.
 
     Stick: θ̈ = −m h′(g + (h + h″)θ̇²)/(I + m(h² + h′²)), F = −m(h θ̈ + h′θ̇²).
     Slip:  θ̈ = −k N₀/(I + m h′ k), k = h′ + μ_k s h, N₀ = m(g + h″θ̇²), F = −μ_k s N.
     Both:  N = N₀ + m h′ θ̈, ẍ_G = F/m.
+    Rolling resistance (``COUPLES``): a slipping couple −c N, c = μ_roll r (r the held
+    sense of θ̇), adds c to the lever of N (k + c in slip, h′ + c in stick); a stuck one
+    holds θ̈ = 0 with the couple h′N − hF.
     """
     numba.literally(one_lane)
     state = OFF_Y if first_stage(stage) else OFF_T
@@ -124,16 +129,29 @@ def eval_block(W, slip_possible, stage, one_lane, lane):
         sgn = W[at(OFF_S, S_UHX, j)]  # slip direction, held through the step
         mu = W[at(OFF_P, MU_K, j)] if slip else 0.0  # a stick lane may carry mu = inf
         n_free = m * (g + (rho - h) * w2)  # m(g + h″θ̇²)
+        # rolling resistance: a couple −c N while the rocking slips (c = μ_roll times its
+        # held sense), which adds c to the lever arm h′ of N; a stuck one holds θ̈ = 0
+        mu_roll = W[at(OFF_P, MU_ROLL, j)] if slip_possible == COUPLES else 0.0
+        # (without rolling resistance there is nothing to stick)
+        roll_slips = (W[at(OFF_S, S_ROLL, j)] > 0.5) | (mu_roll == 0.0)
+        c = mu_roll * W[at(OFF_S, S_ROLL_SENSE, j)] if roll_slips else 0.0
         if slip:
             k = hp + mu * sgn * h
             alpha = -k * n_free / (inertia + m * hp * k)
+            with_couple = -(k + c) * n_free / (inertia + m * hp * (k + c))
         else:
             alpha = -m * hp * (g + rho * w2) / (inertia + m * (h * h + hp * hp))
+            with_couple = -(m * hp * (g + rho * w2) + c * n_free) / (
+                inertia + m * (h * h + hp * hp) + m * hp * c)
+        alpha = alpha if c == 0.0 else with_couple
+        alpha = alpha if roll_slips else 0.0
         normal = n_free + m * hp * alpha
         if slip:
             force = -mu * sgn * normal
         else:
             force = -m * (alpha * h + hp * w2)  # keeps u̇ = ẍ_G + θ̈ h + θ̇² h′ = 0
+        # the couple: −c N while slipping; while stuck, what I θ̈ = 0 needs
+        couple = -c * normal if roll_slips else hp * normal - h * force
         if first_stage(stage):
             u = vx + rate * h
             W[at(OFF_X, X_N, j)] = normal
@@ -144,6 +162,13 @@ def eval_block(W, slip_possible, stage, one_lane, lane):
             # u̇ = ẍ_G + θ̈ h + θ̇² h′ (zero while sticking)
             du = force / m + alpha * h + w2 * hp if slip else 0.0
             W[at(OFF_X, X_TSTOP, j)] = stop_time(u, 0.0, du, 0.0, sgn, 0.0, W[at(OFF_P, EPS_U, j)])
+            if slip_possible == COUPLES:
+                event = (W[at(OFF_S, S_ROLL_SENSE, j)] * rate if roll_slips
+                         else mu_roll * normal - abs(couple))
+                W[at(OFF_X, X_ROLL_EVENT, j)] = event if mu_roll > 0.0 else math.inf
+                W[at(OFF_X, X_ROLL_COUPLE, j)] = couple
+                W[at(OFF_X, X_SPIN_EVENT, j)] = math.inf
+                W[at(OFF_X, X_SPIN_COUPLE, j)] = 0.0
         put_derivative(W, j, THETA * BLOCK + j, stage, rate, True, OFF_Y, OFF_T, OFF_A, OFF_B)
         put_derivative(W, j, RATE * BLOCK + j, stage, alpha, True, OFF_Y, OFF_T, OFF_A, OFF_B)
         put_derivative(W, j, XG * BLOCK + j, stage, vx, False, OFF_Y, OFF_T, OFF_A, OFF_B)

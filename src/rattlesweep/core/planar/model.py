@@ -18,7 +18,7 @@ from .layout import (
 )
 
 __all__ = [
-    "LOCATES_SWITCHES", "check_step", "derive", "energy", "finish", "park", "record",
+    "LOCATES_SWITCHES", "check_step", "couple_rates", "derive", "energy", "finish", "park", "record",
     "roll_start", "spin_and_watch", "start_lane", "stick_impulse",
 ]
 
@@ -88,6 +88,13 @@ def stick_impulse(W, j):
     W[at(OFF_Y, VXG, j)] += dv
     W[at(OFF_Y, RATE, j)] += dw
     return m * dv, 0.0
+
+
+@kernel
+def couple_rates(W, j):
+    """(0, θ̇) of lane j's state, rad/s: no spin about the normal here; the rocking rate
+    the rolling couple opposes."""
+    return 0.0, W[at(OFF_Y, RATE, j)]
 
 
 @kernel

@@ -3,8 +3,9 @@
 One function, :func:`eval_block`, evaluates the time derivative of every lane of a block
 in a few short straight loops over the lanes. The contact mode of each lane (stick or
 slip) is an input, held through the stages of a step; stick and slip share one 3×3
-solve, with the matrix and right-hand side chosen per lane, so the loops have no data-dependent branches
-and LLVM vectorises them across lanes.
+solve, with the matrix and right-hand side chosen per lane, so the loops have no
+data-dependent branches and LLVM vectorises them across lanes. Only the friction
+direction of slow slips (:func:`slip_direction`) is scalar work, per slipping lane.
 """
 
 from __future__ import annotations
@@ -17,19 +18,37 @@ from ..jit import inline_kernel, kernel
 from ..stages import first_stage, put_derivative
 from ..switching import stop_time
 from ..workspace import (
-    BLOCK, EPS_U, GRAV, MU_K, OFF_P, OFF_S, OFF_X, S_MODE, S_UHX, S_UHY, STAGE_FIRST,
-    STAGE_START, X_FX, X_FY, X_N, X_TSTOP, X_UX, X_UY, at, lane_range,
+    BLOCK, COUPLES, DT, EPS_U, GRAV, MU_K, MU_ROLL, MU_SPIN, OFF_P, OFF_S, OFF_X, S_DCX,
+    S_DCY, S_MODE, S_SPIN, S_SPIN_SENSE, S_TURN, S_UHX, S_UHY, STAGE_FIRST, STAGE_START,
+    X_FX, X_FY, X_N, X_ROLL_COUPLE, X_ROLL_EVENT, X_SPIN_COUPLE, X_SPIN_EVENT, X_TSTOP,
+    X_UX, X_UY, at, lane_range,
 )
 from .geometry import adjugate_solve, cross
 from .layout import (
     A2, ALPHA_X, ALPHA_Y, ALPHA_Z, B2, C2, COM_X, COM_Y, COM_Z, DAMPING, DAMPING_PM, DET,
     INV_QQ, INV_SIGMA, I_XX, I_XY, I_XZ, I_YY, I_YZ, I_ZZ, J_XX, J_XY, J_XZ, J_YY, J_YZ,
-    J_ZZ, MASS, NORMAL_PM, OFF_A, OFF_B, OFF_E, OFF_G, OFF_T, OFF_Y, OMEGA_X, OMEGA_Y, OMEGA_Z,
-    POS_X, POS_Y, Q0, Q1, Q2, Q3, RHO_X, RHO_Y, RHO_Z, SLIP_X, SLIP_Y, UHAT_X, UHAT_Y, UP_X,
+    J_ZZ, JI_XX, JI_XY, JI_XZ, JI_YY, JI_YZ, JI_ZZ, MASS, NORMAL_PM, OFF_A, OFF_B, OFF_E,
+    OFF_G, OFF_T, OFF_Y, OMEGA_X, OMEGA_Y, OMEGA_Z, POS_X, POS_Y, Q0, Q1, Q2, Q3, RHO_X,
+    RHO_Y, RHO_Z, ROLL_FRACTION, SLIP_X, SLIP_Y, SPIN_LAMBDA, SPIN_RATE, UHAT_X, UHAT_Y, UP_X,
     UP_Y, UP_Z, VEL_X, VEL_Y, WW_X, WW_Y, WW_Z,
 )
 
 __all__ = ["derive_parameters", "eval_block"]
+
+CONSISTENT_ITERATIONS = 5
+"""Newton iterations for the consistent slip direction, from the direction of the slip at
+the step start (usually a few hundredths of a radian away; quadratic convergence reaches
+rounding in three)."""
+
+SLOPE_BOUND = 4.0
+"""A slip faster than this many times μ g (1 + |ρ|² tr J⁻¹) dt / ``RELAX_STEPS`` is not
+steered, without computing d*: the bound exceeds the relaxation's s (μ N times the
+contact's response, at most 1 + |ρ|² tr J⁻¹ per unit mass) with a margin for N > m g."""
+
+RELAX_STEPS = 2.0
+"""A slip whose direction relaxes within fewer than ``1 / RELAX_STEPS`` steps is steered
+(:func:`slip_direction`): its relaxation is slowed to this many per step, inside the
+interval (−2.79, 0) of the real axis on which classic RK4 is stable."""
 
 
 @kernel
@@ -39,6 +58,22 @@ def derive_parameters(W, j):
     for src, dst in ((I_XX, J_XX), (I_YY, J_YY), (I_ZZ, J_ZZ), (I_XY, J_XY), (I_XZ, J_XZ),
                      (I_YZ, J_YZ), (DAMPING, DAMPING_PM)):
         W[at(OFF_E, dst, j)] = W[at(OFF_P, src, j)] / m
+    a = W[at(OFF_E, J_XX, j)]
+    b = W[at(OFF_E, J_YY, j)]
+    c = W[at(OFF_E, J_ZZ, j)]
+    d = W[at(OFF_E, J_XY, j)]
+    e = W[at(OFF_E, J_XZ, j)]
+    f = W[at(OFF_E, J_YZ, j)]
+    cxx = b * c - f * f
+    cxy = e * f - d * c
+    cxz = d * f - b * e
+    inv = 1.0 / (a * cxx + d * cxy + e * cxz)
+    W[at(OFF_E, JI_XX, j)] = cxx * inv
+    W[at(OFF_E, JI_YY, j)] = (a * c - e * e) * inv
+    W[at(OFF_E, JI_ZZ, j)] = (a * b - d * d) * inv
+    W[at(OFF_E, JI_XY, j)] = cxy * inv
+    W[at(OFF_E, JI_XZ, j)] = cxz * inv
+    W[at(OFF_E, JI_YZ, j)] = (d * e - a * f) * inv
 
 
 @kernel
@@ -81,12 +116,21 @@ def eval_block(W, slip_possible, stage, one_lane, lane):
     numba.literally(one_lane)
     if stage == STAGE_START:
         contact_kinematics(W, True, OFF_Y, one_lane, lane)  # the slip velocity is an output
+        if slip_possible:
+            if one_lane:
+                slip_direction(W, OFF_Y, True, lane, False)
+            else:
+                slip_direction(W, OFF_Y, False, lane, True)  # once per step: measure φ̇*
         accelerations(W, slip_possible, OFF_Y, one_lane, lane)
     elif stage == STAGE_FIRST:
         contact_kinematics(W, slip_possible, OFF_Y, one_lane, lane)
+        if slip_possible:
+            slip_direction(W, OFF_Y, one_lane, lane, False)
         accelerations(W, slip_possible, OFF_Y, one_lane, lane)
     else:
         contact_kinematics(W, slip_possible, OFF_T, one_lane, lane)
+        if slip_possible:
+            slip_direction(W, OFF_T, one_lane, lane, False)
         accelerations(W, slip_possible, OFF_T, one_lane, lane)
     if slip_possible or first_stage(stage):
         divide_out(W, True, one_lane, lane)
@@ -195,6 +239,199 @@ def contact_kinematics(W, slip_velocity, state, one_lane, lane):
                                        + (e10 * wr0 + e11 * wr1 + e12 * wr2) * inv_q)
 
 
+@inline_kernel
+def consistency(k_xx, k_yy, k_zz, k_xy, k_xz, k_yz, ax, ay, mu, ex, ey):
+    """(f, f′, D) of the consistent slip direction's equation at the direction (ex, ey):
+    u̇ / N = V(d) = a D(d) + K_hz − μ K_hh d with D = K_zz − μ K_zh · d (a the free
+    horizontal acceleration over what the normal force holds up), f = V × d, zero at
+    consistency, and f′ its derivative along the angle of d."""
+    dd = k_zz - mu * (k_xz * ex + k_yz * ey)
+    vx = ax * dd + k_xz - mu * (k_xx * ex + k_xy * ey)
+    vy = ay * dd + k_yz - mu * (k_xy * ex + k_yy * ey)
+    # derivatives along d⊥ = (−e_y, e_x)
+    ddd = -mu * (k_yz * ex - k_xz * ey)
+    dvx = ax * ddd - mu * (k_xy * ex - k_xx * ey)
+    dvy = ay * ddd - mu * (k_yy * ex - k_xy * ey)
+    return vx * ey - vy * ex, (dvx * ey - dvy * ex) + (vx * ex + vy * ey), dd
+
+
+@inline_kernel
+def consistent_direction(W, j, state, mu, dx, dy):
+    """The consistent slip direction of lane j at its state, and its normal force.
+
+    With friction −μ N d (d a horizontal unit vector, world), the contact point's
+    acceleration is u̇ = A_h + N (K_hz − μ K_hh d), N = −A_z / (K_zz − μ K_zh · d), where
+    A is its acceleration without contact force and K (per unit mass, 𝟙 + [ρ]ᵀ J⁻¹ [ρ])
+    its response to one, both in the world axes. The consistent direction d* is the one
+    along which the slip speed grows or shrinks without turning, u̇ ∥ d*: Newton's method
+    on the angle, from (dx, dy). A slow slip's direction locks onto it on the time scale
+    |u| / (μ N k), far below the step (MODEL.md section 4).
+
+    Returns (d*_x, d*_y, s) with s (m/s²) such that u's direction relaxes onto d* at the
+    rate s / |u|; s ≤ 0 where d* does not attract it or no consistent slip exists (then
+    d* = (dx, dy)).
+    """
+    q0 = W[at(state, Q0, j)]
+    q1 = W[at(state, Q1, j)]
+    q2 = W[at(state, Q2, j)]
+    q3 = W[at(state, Q3, j)]
+    inv_q = W[at(OFF_G, INV_QQ, j)]
+    e00, e01, e02, e10, e11, e12 = horizontal_rows(q0, q1, q2, q3)
+    x0 = e00 * inv_q  # world x, y and up in body components
+    x1 = e01 * inv_q
+    x2 = e02 * inv_q
+    y0 = e10 * inv_q
+    y1 = e11 * inv_q
+    y2 = e12 * inv_q
+    n0 = W[at(OFF_G, UP_X, j)] * inv_q
+    n1 = W[at(OFF_G, UP_Y, j)] * inv_q
+    n2 = W[at(OFF_G, UP_Z, j)] * inv_q
+    r0 = W[at(OFF_G, RHO_X, j)]
+    r1 = W[at(OFF_G, RHO_Y, j)]
+    r2 = W[at(OFF_G, RHO_Z, j)]
+    kxx = W[at(OFF_E, JI_XX, j)]
+    kyy = W[at(OFF_E, JI_YY, j)]
+    kzz = W[at(OFF_E, JI_ZZ, j)]
+    kxy = W[at(OFF_E, JI_XY, j)]
+    kxz = W[at(OFF_E, JI_XZ, j)]
+    kyz = W[at(OFF_E, JI_YZ, j)]
+    px0, px1, px2 = cross(r0, r1, r2, x0, x1, x2)
+    py0, py1, py2 = cross(r0, r1, r2, y0, y1, y2)
+    pn0, pn1, pn2 = cross(r0, r1, r2, n0, n1, n2)
+    jn0 = kxx * pn0 + kxy * pn1 + kxz * pn2
+    jn1 = kxy * pn0 + kyy * pn1 + kyz * pn2
+    jn2 = kxz * pn0 + kyz * pn1 + kzz * pn2
+    jy0 = kxx * py0 + kxy * py1 + kxz * py2
+    jy1 = kxy * py0 + kyy * py1 + kyz * py2
+    jy2 = kxz * py0 + kyz * py1 + kzz * py2
+    k_xx = 1.0 + (px0 * (kxx * px0 + kxy * px1 + kxz * px2)
+                  + px1 * (kxy * px0 + kyy * px1 + kyz * px2)
+                  + px2 * (kxz * px0 + kyz * px1 + kzz * px2))
+    k_yy = 1.0 + (py0 * jy0 + py1 * jy1 + py2 * jy2)
+    k_zz = 1.0 + (pn0 * jn0 + pn1 * jn1 + pn2 * jn2)
+    k_xy = px0 * jy0 + px1 * jy1 + px2 * jy2
+    k_xz = px0 * jn0 + px1 * jn1 + px2 * jn2
+    k_yz = py0 * jn0 + py1 * jn1 + py2 * jn2
+    # acceleration of the contact point without contact force: −g n̂ + α₀ × ρ + w, with
+    # α₀ = J⁻¹(−ω × Jω − (c_v/m) ω)
+    w0 = W[at(state, OMEGA_X, j)]
+    w1 = W[at(state, OMEGA_Y, j)]
+    w2 = W[at(state, OMEGA_Z, j)]
+    jxx = W[at(OFF_E, J_XX, j)]
+    jyy = W[at(OFF_E, J_YY, j)]
+    jzz = W[at(OFF_E, J_ZZ, j)]
+    jxy = W[at(OFF_E, J_XY, j)]
+    jxz = W[at(OFF_E, J_XZ, j)]
+    jyz = W[at(OFF_E, J_YZ, j)]
+    cvm = W[at(OFF_E, DAMPING_PM, j)]
+    g0, g1, g2 = cross(w0, w1, w2, jxx * w0 + jxy * w1 + jxz * w2,
+                       jxy * w0 + jyy * w1 + jyz * w2, jxz * w0 + jyz * w1 + jzz * w2)
+    g0 = -g0 - cvm * w0
+    g1 = -g1 - cvm * w1
+    g2 = -g2 - cvm * w2
+    a0, a1, a2 = cross(kxx * g0 + kxy * g1 + kxz * g2, kxy * g0 + kyy * g1 + kyz * g2,
+                       kxz * g0 + kyz * g1 + kzz * g2, r0, r1, r2)
+    g = W[at(OFF_P, GRAV, j)]
+    a0 += W[at(OFF_G, WW_X, j)] - g * n0
+    a1 += W[at(OFF_G, WW_Y, j)] - g * n1
+    a2 += W[at(OFF_G, WW_Z, j)] - g * n2
+    press = -(a0 * n0 + a1 * n1 + a2 * n2)  # −A_z, what the normal force must hold up
+    ax = (a0 * x0 + a1 * x1 + a2 * x2) / press
+    ay = (a0 * y0 + a1 * y1 + a2 * y2) / press
+    ex = dx
+    ey = dy
+    for _ in range(CONSISTENT_ITERATIONS):
+        f, df, _ = consistency(k_xx, k_yy, k_zz, k_xy, k_xz, k_yz, ax, ay, mu, ex, ey)
+        # the direction of u turns at a rate ∝ −f: only roots where f rises attract it.
+        # Newton towards those; elsewhere the largest step along the turn
+        step = -f / df if df > 0.0 else (-0.5 if f > 0.0 else 0.5)
+        step = min(max(step, -0.5), 0.5)
+        ex, ey = ex - step * ey, ey + step * ex
+        norm = 1.0 / math.sqrt(ex * ex + ey * ey)
+        ex *= norm
+        ey *= norm
+        if abs(step) < 1e-12:
+            break
+    _, df, dd = consistency(k_xx, k_yy, k_zz, k_xy, k_xz, k_yz, ax, ay, mu, ex, ey)
+    nm = press / dd
+    # |u| times the rate at which u's direction relaxes onto d*: N f'(φ*) for the angle φ
+    # of u, whose rate is −N f(φ) / |u|, m/s²
+    slope = nm * df
+    found = (press > 0.0) & (dd > 0.0) & (slope > 0.0) & (ex * dx + ey * dy > 0.5)
+    if not found:
+        return dx, dy, -1.0
+    return ex, ey, slope
+
+
+@kernel
+def slip_direction(W, state, one_lane, lane, history):
+    """Phase between :func:`contact_kinematics` and :func:`accelerations`: the friction
+    direction û of every slipping lane, world horizontal, into UHAT.
+
+    A slip whose direction relaxes slowly enough for the step, τ = |u| / s ≥ dt /
+    ``RELAX_STEPS`` (:func:`consistent_direction`), uses û = u/|u|. A faster one lies on
+    a slow manifold: u's direction trails the consistent direction d* by τ φ̇* (φ̇* the
+    rate at which d* turns), and the friction acts along u. There the friction is steered,
+    û ∝ w u/|u| + (1 − w) t̂ with t̂ = d* turned back by τ φ̇* and w = ``RELAX_STEPS`` τ /
+    dt < 1: on the manifold û is unchanged, and off it u's direction relaxes onto it at
+    the rate ``RELAX_STEPS`` / dt, which the step follows. φ̇* is measured over the last
+    step; ``history`` (a literal, True for the block's step-start evaluation) updates it.
+    Sticking lanes keep their stored direction; the stepper reads it only in slip.
+    """
+    numba.literally(state)
+    numba.literally(one_lane)
+    numba.literally(history)
+    first, stop = lane_range(one_lane, lane)
+    for j in range(first, stop):
+        sx = W[at(OFF_S, S_UHX, j)]
+        sy = W[at(OFF_S, S_UHY, j)]
+        dx = sx
+        dy = sy
+        if W[at(OFF_S, S_MODE, j)] > 0.5:
+            ux = W[at(OFF_G, SLIP_X, j)]
+            uy = W[at(OFF_G, SLIP_Y, j)]
+            uu = math.sqrt(ux * ux + uy * uy)
+            if uu > W[at(OFF_P, EPS_U, j)]:
+                dx = ux / uu
+                dy = uy / uu
+            mu = W[at(OFF_P, MU_K, j)]
+            h = W[at(OFF_P, DT, j)]
+            if mu > 0.0 and RELAX_STEPS * uu < SLOPE_BOUND * mu * W[at(OFF_P, GRAV, j)] * (
+                    1.0 + (W[at(OFF_G, RHO_X, j)] ** 2 + W[at(OFF_G, RHO_Y, j)] ** 2
+                           + W[at(OFF_G, RHO_Z, j)] ** 2)
+                    * (W[at(OFF_E, JI_XX, j)] + W[at(OFF_E, JI_YY, j)]
+                       + W[at(OFF_E, JI_ZZ, j)])) * h:
+                cx, cy, slope = consistent_direction(W, j, state, mu, sx, sy)
+                turn = W[at(OFF_S, S_TURN, j)]
+                if history:
+                    px = W[at(OFF_S, S_DCX, j)]
+                    py = W[at(OFF_S, S_DCY, j)]
+                    turn = math.atan2(px * cy - py * cx, px * cx + py * cy) / h
+                    turn = turn if slope > 0.0 else 0.0
+                    W[at(OFF_S, S_TURN, j)] = turn
+                    W[at(OFF_S, S_DCX, j)] = cx
+                    W[at(OFF_S, S_DCY, j)] = cy
+                if slope > 0.0 and RELAX_STEPS * uu < slope * h:
+                    lag = -turn * uu / slope  # the manifold's angle from d*, rad
+                    lag = min(max(lag, -0.5), 0.5)
+                    tx = cx - lag * cy
+                    ty = cy + lag * cx
+                    scale = RELAX_STEPS / (slope * h)
+                    bx = scale * ux + (1.0 - scale * uu) * tx
+                    by = scale * uy + (1.0 - scale * uu) * ty
+                    bb = math.sqrt(bx * bx + by * by)
+                    dx = bx / bb if bb > 1e-3 else cx
+                    dy = by / bb if bb > 1e-3 else cy
+            elif history:  # a fast slip: its direction stands in for d*
+                px = W[at(OFF_S, S_DCX, j)]
+                py = W[at(OFF_S, S_DCY, j)]
+                W[at(OFF_S, S_TURN, j)] = math.atan2(px * dy - py * dx, px * dx + py * dy) / h
+                W[at(OFF_S, S_DCX, j)] = dx
+                W[at(OFF_S, S_DCY, j)] = dy
+        W[at(OFF_G, UHAT_X, j)] = dx
+        W[at(OFF_G, UHAT_Y, j)] = dy
+
+
 @kernel
 def accelerations(W, slip_possible, state, one_lane, lane):
     """Phase 2 of :func:`eval_block`: the angular acceleration, as adj(M) b and det M
@@ -258,17 +495,8 @@ def accelerations(W, slip_possible, state, one_lane, lane):
         t0, t1, t2 = cross(r0, r1, r2, gq * u0 - ww0, gq * u1 - ww1, gq * u2 - ww2)
         if slip_possible:
             slip = W[at(OFF_S, S_MODE, j)] > 0.5
-            ux = W[at(OFF_G, SLIP_X, j)]
-            uy = W[at(OFF_G, SLIP_Y, j)]
-            uu = math.sqrt(ux * ux + uy * uy)
-            if uu > W[at(OFF_P, EPS_U, j)]:
-                uhx = ux / uu
-                uhy = uy / uu
-            else:
-                uhx = W[at(OFF_S, S_UHX, j)]
-                uhy = W[at(OFF_S, S_UHY, j)]
-            W[at(OFF_G, UHAT_X, j)] = uhx
-            W[at(OFF_G, UHAT_Y, j)] = uhy
+            uhx = W[at(OFF_G, UHAT_X, j)]
+            uhy = W[at(OFF_G, UHAT_Y, j)]
             mu = W[at(OFF_P, MU_K, j)] if slip else 0.0  # a stick lane may carry mu = inf
             # û in body components: R̃ᵀ (û_x, û_y, 0) / |q|²
             q0 = W[at(state, Q0, j)]
@@ -293,11 +521,58 @@ def accelerations(W, slip_possible, state, one_lane, lane):
                 t0 = n_free * k0
                 t1 = n_free * k1
                 t2 = n_free * k2
+        if slip_possible == COUPLES:
+            # sliding couples −(N/m) c, with N/m = N₀/m − l·ω̇ as for the friction force:
+            # (M − c lᵀ) ω̇ = b − (N₀/m) c
+            wn = w0 * n0 + w1 * n1 + w2 * n2
+            wh0 = w0 - wn * n0
+            wh1 = w1 - wn * n1
+            wh2 = w2 - wn * n2
+            wh = math.sqrt(wh0 * wh0 + wh1 * wh1 + wh2 * wh2)
+            mu_spin = W[at(OFF_P, MU_SPIN, j)]
+            mu_roll = W[at(OFF_P, MU_ROLL, j)]
+            spin_slips = W[at(OFF_S, S_SPIN, j)] > 0.5
+            cs = mu_spin * W[at(OFF_S, S_SPIN_SENSE, j)] if spin_slips else 0.0
+            # the rolling couple's direction ω_h/|ω_h| turns faster than the step can follow
+            # below |ω_h| ~ μ_roll g tr(J⁻¹) dt: there it is proportional to ω_h
+            floor = (mu_roll * g * (W[at(OFF_E, JI_XX, j)] + W[at(OFF_E, JI_YY, j)]
+                                    + W[at(OFF_E, JI_ZZ, j)]) * W[at(OFF_P, DT, j)]
+                     / RELAX_STEPS)
+            cr = mu_roll / max(wh, floor) if mu_roll > 0.0 else 0.0
+            c0 = cs * n0 + cr * wh0
+            c1 = cs * n1 + cr * wh1
+            c2 = cs * n2 + cr * wh2
+            m00 -= c0 * l0
+            m01 -= c0 * l1
+            m02 -= c0 * l2
+            m10 -= c1 * l0
+            m11 -= c1 * l1
+            m12 -= c1 * l2
+            m20 -= c2 * l0
+            m21 -= c2 * l1
+            m22 -= c2 * l2
+            t0 -= n_free * c0
+            t1 -= n_free * c1
+            t2 -= n_free * c2
+            W[at(OFF_G, SPIN_RATE, j)] = wn
+            W[at(OFF_G, ROLL_FRACTION, j)] = wh / max(wh, floor) if mu_roll > 0.0 else 0.0
         # Cramer's rule, without the division: that is left to store_derivative, so that
         # its latency does not lengthen this loop's chain
         x0, x1, x2, det = adjugate_solve(m00, m01, m02, m10, m11, m12, m20, m21, m22,
                                          t0 - gy0 - cvm * w0, t1 - gy1 - cvm * w1,
                                          t2 - gy2 - cvm * w2)
+        if slip_possible == COUPLES:
+            # a stuck spin: the couple λ n̂ (per unit mass) that keeps ω̇ · n̂ = 0, with
+            # ω̇ = M⁻¹(b + λ n̂)
+            y0, y1, y2, _ = adjugate_solve(m00, m01, m02, m10, m11, m12, m20, m21, m22,
+                                           n0, n1, n2)
+            stuck = (W[at(OFF_S, S_SPIN, j)] < 0.5) & (W[at(OFF_P, MU_SPIN, j)] > 0.0)
+            lam = -(n0 * x0 + n1 * x1 + n2 * x2) / (n0 * y0 + n1 * y1 + n2 * y2)
+            lam = lam if stuck else 0.0
+            x0 += lam * y0
+            x1 += lam * y1
+            x2 += lam * y2
+            W[at(OFF_G, SPIN_LAMBDA, j)] = lam
         W[at(OFF_G, ALPHA_X, j)] = x0
         W[at(OFF_G, ALPHA_Y, j)] = x1
         W[at(OFF_G, ALPHA_Z, j)] = x2
@@ -388,6 +663,17 @@ def friction_lane(W, j, slip_possible, stage, q0, q1, q2, q3):
         W[at(OFF_X, X_UY, j)] = uy
         W[at(OFF_X, X_TSTOP, j)] = stop_time(ux, uy, dux, duy, W[at(OFF_G, UHAT_X, j)],
                                              W[at(OFF_G, UHAT_Y, j)], W[at(OFF_P, EPS_U, j)])
+        if slip_possible == COUPLES:
+            mu_spin = W[at(OFF_P, MU_SPIN, j)]
+            lam = W[at(OFF_G, SPIN_LAMBDA, j)]
+            sense = W[at(OFF_S, S_SPIN_SENSE, j)]
+            slips = W[at(OFF_S, S_SPIN, j)] > 0.5
+            event = sense * W[at(OFF_G, SPIN_RATE, j)] if slips else mu_spin * nm - abs(lam)
+            W[at(OFF_X, X_SPIN_EVENT, j)] = event if mu_spin > 0.0 else math.inf
+            W[at(OFF_X, X_SPIN_COUPLE, j)] = m * (-mu_spin * nm * sense if slips else lam)
+            W[at(OFF_X, X_ROLL_EVENT, j)] = math.inf  # the 3-D rolling couple never sticks
+            W[at(OFF_X, X_ROLL_COUPLE, j)] = (m * W[at(OFF_P, MU_ROLL, j)] * nm
+                                              * W[at(OFF_G, ROLL_FRACTION, j)])
     return fx, fy
 
 

@@ -54,7 +54,9 @@ N_PARAM = PARAMS.size
 # The right-hand side works per unit mass: the inertia and damping divided by the mass.
 J_XX, J_YY, J_ZZ, J_XY, J_XZ, J_YZ = range(6)  # inertia about G / mass, m^2
 DAMPING_PM = 6  # damping / mass, m^2/s
-N_DERIVED = 7
+# (I/m)⁻¹, 1/m^2: the contact's response to a force, for the consistent slip direction
+JI_XX, JI_YY, JI_ZZ, JI_XY, JI_XZ, JI_YZ = range(7, 13)
+N_DERIVED = 13
 
 # --- integrated state, rows of Y -------------------------------------------------------
 STATE = Rows(
@@ -90,7 +92,10 @@ ALPHA_X, ALPHA_Y, ALPHA_Z = 14, 15, 16  # angular acceleration, rad/s^2 (first t
 DET = 17  # determinant of the 3×3 system for the angular acceleration
 NORMAL_PM = 18  # N/m, normal force per unit mass, m/s^2
 INV_SIGMA = 19  # 1/σ̃, 1/m
-N_SCRATCH = 20
+SPIN_LAMBDA = 20  # couple about the normal holding a stuck spin, per unit mass, m^2/s^2
+SPIN_RATE = 21  # ω · n̂, rad/s
+ROLL_FRACTION = 22  # the rolling couple over its bound, |ω_h| / max(|ω_h|, floor)
+N_SCRATCH = 23
 
 # --- the block workspace: the shared regions, then this model's ------------------------
 OFF_E = OFF_P + N_PARAM  # derived parameters

@@ -24,15 +24,14 @@ from .layout import (
 )
 
 __all__ = [
-    "LOCATES_SWITCHES", "check_step", "energy", "euler_step", "finish", "park",
+    "LOCATES_SWITCHES", "check_step", "couple_rates", "energy", "euler_step", "finish", "park",
     "record", "roll_start", "spin_and_watch", "start_lane", "stick_impulse",
 ]
 
-LOCATES_SWITCHES = False
-"""The rattleback's modes change at step starts (first order in dt). Located switches
-(:mod:`..events`) are exact at the switching instants here too, but the 2-D slip
-direction near u = 0 relaxes on a time scale |u| / (μ g) far below the step, which
-fixed-step RK4 does not follow, so they do not yet raise the order of the runs."""
+LOCATES_SWITCHES = True
+"""The rattleback's stick/slip switches are located inside the step (:mod:`..events`).
+Its slow slips, whose direction relaxes faster than the step follows, are steered onto
+their slow manifold (:func:`.dynamics.slip_direction`)."""
 
 
 @kernel
@@ -161,6 +160,15 @@ def stick_impulse(W, j):
     rest; returns its world-horizontal components (N s)."""
     return plastic_contact_impulse(W, OFF_Y, j, W[at(OFF_X, X_UX, j)],
                                    W[at(OFF_X, X_UY, j)])
+
+
+@kernel
+def couple_rates(W, j):
+    """(ω · n̂, 0) of lane j's state, rad/s: the spin the spin couple opposes; the
+    rolling couple has no sense to hold here."""
+    n0, n1, n2 = up_vector(W, OFF_Y, j)
+    return (W[at(OFF_Y, OMEGA_X, j)] * n0 + W[at(OFF_Y, OMEGA_Y, j)] * n1
+            + W[at(OFF_Y, OMEGA_Z, j)] * n2), 0.0
 
 
 @kernel

@@ -1,0 +1,187 @@
+"""The netCDF output of a sweep: a directory holding ``sweep.toml`` (the configuration),
+``tiles/tile-NNNNNN.nc`` (one file per finished tile, written atomically) and
+``sweep.nc`` (the tiles merged, written when every tile is there)."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import netCDF4
+import numpy as np
+import xarray as xr
+
+from ..io import NETCDF_LOCK, write_netcdf
+from .lock import LOCK_NAME, SweepLock
+from .merge import merge_arrays
+from .spec import Sweep
+from .store import write_failure
+from .tiles import TileResult, result_names, variable_attrs
+
+__all__ = ["CONFIG_NAME", "RESULT_NAME", "TILES_DIR", "TileDirectory", "read_config",
+           "read_tile", "tile_path", "tile_state", "write_text_atomic"]
+
+CONFIG_NAME = "sweep.toml"
+RESULT_NAME = "sweep.nc"
+TILES_DIR = "tiles"
+
+
+def tile_path(tiles_dir: Path, tile: int) -> Path:
+    return Path(tiles_dir) / f"tile-{tile:06d}.nc"
+
+
+def read_config(path: Path) -> Sweep:
+    """The sweep a directory's ``sweep.toml`` holds; a ValueError that names the file and
+    says what to do when it cannot be read or is no valid configuration."""
+    try:
+        return Sweep.from_toml(path)
+    except ValueError as exc:
+        raise ValueError(f"{path} is not a valid sweep configuration ({exc}). It holds the "
+                         "configuration the sweep in this directory was started with: "
+                         "restore it, or start the sweep in a new directory") from None
+
+
+def tile_state(path: Path, sweep: Sweep, tile: int) -> str:
+    """"valid" for a complete tile file of this sweep, "foreign" for a complete tile of
+    another configuration, "damaged" for anything unreadable (truncated, corrupt)."""
+    start, stop = sweep.tile_range(tile)
+    try:
+        with NETCDF_LOCK, netCDF4.Dataset(path) as nc:
+            if nc.getncattr("config_hash") != sweep.config_hash():
+                return "foreign"
+            if int(nc.getncattr("tile")) != tile:
+                return "damaged"
+            for name in (*result_names(sweep), "point"):
+                var = nc.variables[name]
+                if var.shape != (stop - start,):
+                    return "damaged"
+                var[:]  # read the data: a truncated file fails here
+            return "valid" if nc.variables["point"][0] == start else "damaged"
+    except Exception:  # any failure to read means: recompute
+        return "damaged"
+
+
+def read_tile(path: Path, names: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """The named variables of a tile file as plain arrays."""
+    with NETCDF_LOCK, netCDF4.Dataset(path) as nc:
+        nc.set_auto_mask(False)
+        return {name: nc.variables[name][:] for name in names}
+
+
+def tile_dataset(sweep: Sweep, result: TileResult) -> xr.Dataset:
+    """A tile's results as the Dataset of its file, over ``point`` (flat indices)."""
+    ds = xr.Dataset({k: ("point", v, variable_attrs(sweep, k)) for k, v in result.data.items()},
+                    coords={"point": np.arange(result.start, result.stop, dtype=np.int64)})
+    ds.attrs.update({"config_hash": sweep.config_hash(), "tile": result.tile,
+                     "start": result.start, "stop": result.stop})
+    return ds
+
+
+class TileDirectory:
+    """The netCDF output of ``sweep`` in ``out_dir`` (see the module's description)."""
+
+    def __init__(self, sweep: Sweep, out_dir: str | Path, *,
+                 command: str | None = None) -> None:
+        self.sweep = sweep
+        self.command = command
+        self.out = Path(out_dir)
+        self.location = str(self.out)
+        self.tiles_dir = self.out / TILES_DIR
+        self.lock = SweepLock(self.out / LOCK_NAME)
+        self.written = 0
+
+    def open(self) -> list[int]:
+        """Create or check the directory for the sweep and take its lock; return the tiles
+        still to compute.
+
+        A directory holding a different configuration is refused with a list of what
+        changed, and so is one whose tiles belong to another configuration (a
+        ``sweep.toml`` edited after they were written); leftover temporary files are
+        removed; truncated or corrupt tile files are deleted so they are recomputed.
+        """
+        self.out.mkdir(parents=True, exist_ok=True)
+        self.lock.acquire()
+        try:
+            return self._prepare()
+        except BaseException:
+            self.lock.release()
+            raise
+
+    def _check_config(self) -> Path:
+        """Refuse a directory that holds another sweep's configuration; return the path
+        of the configuration file."""
+        sweep, out = self.sweep, self.out
+        config = out / CONFIG_NAME
+        if config.exists():
+            stored = read_config(config)
+            if stored != sweep:
+                changes = "; ".join(stored.differences(sweep))
+                raise ValueError(f"{out} holds a different sweep (stored -> new: {changes}); "
+                                 f"resume it unchanged with `rattlesweep resume {out}`, or "
+                                 f"use a new directory")
+        return config
+
+    def _prepare(self) -> list[int]:
+        sweep = self.sweep
+        config = self._check_config()
+        self.tiles_dir.mkdir(exist_ok=True)
+        for stale in self.tiles_dir.glob(".*.tmp"):
+            stale.unlink(missing_ok=True)
+        todo, damaged, foreign = [], [], []
+        for tile in range(sweep.n_tiles):
+            path = tile_path(self.tiles_dir, tile)
+            state = tile_state(path, sweep, tile) if path.exists() else "missing"
+            if state != "valid":
+                todo.append(tile)
+            if state == "damaged":
+                damaged.append(path)
+            elif state == "foreign":
+                foreign.append(path)
+        if foreign:
+            raise ValueError(
+                f"{self.tiles_dir} holds {len(foreign)} tiles of another configuration "
+                f"(the first: {foreign[0].name}), so {config.name} does not describe them: "
+                "was it edited, or the directory used by another version of rattlesweep? "
+                "Restore the configuration, or use a new directory")
+        for path in damaged:
+            path.unlink()
+        if not config.exists():
+            write_text_atomic(config, sweep.to_toml())
+        self.written = sweep.n_tiles - len(todo)
+        return todo
+
+    def write(self, result: TileResult) -> None:
+        self._write_file(tile_dataset(self.sweep, result),
+                         tile_path(self.tiles_dir, result.tile))
+        self.written += 1
+
+    def finish(self) -> xr.Dataset:
+        """Merge the tiles into ``sweep.nc`` (written atomically) and return it."""
+        names = result_names(self.sweep)
+        ds = merge_arrays(self.sweep, self._tile_arrays(names), command=self.command)
+        self._write_file(ds, self.out / RESULT_NAME)
+        return ds
+
+    def _write_file(self, ds: xr.Dataset, path: Path) -> None:
+        """Write ``ds`` to ``path`` atomically; a failure is a SweepWriteError that names
+        the file, the cause and how to resume."""
+        try:
+            path.parent.mkdir(exist_ok=True)
+            write_netcdf(ds, path)
+        except (OSError, RuntimeError) as exc:  # netCDF4 reports HDF5 failures as RuntimeError
+            raise write_failure(path, exc, self.written,
+                                f"rattlesweep resume {self.out}") from exc
+
+    def _tile_arrays(self, names: tuple[str, ...]):
+        for tile in range(self.sweep.n_tiles):
+            yield self.sweep.tile_range(tile), read_tile(tile_path(self.tiles_dir, tile),
+                                                         names)
+
+    def close(self) -> None:
+        self.lock.release()
+
+
+def write_text_atomic(path: Path, text: str) -> None:
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)

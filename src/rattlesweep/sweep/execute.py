@@ -1,0 +1,92 @@
+"""Running tiles in parallel and handing each finished tile's results to the caller, in
+the calling thread, in the order they finish: on local threads, or as dask tasks on a
+dask.distributed cluster, whose workers send results back through dask and never touch
+the output."""
+
+from __future__ import annotations
+
+from concurrent.futures import FIRST_COMPLETED, Future, ThreadPoolExecutor, wait
+from typing import Any, Callable
+
+from .spec import Sweep
+from .tiles import compute_tile
+
+__all__ = ["run_tiles"]
+
+Handler = Callable[[Any], None]
+
+
+def run_tiles(sweep: Sweep, todo: list, on_result: Handler, *, client: Any = None,
+              workers: int = 1, compute: Callable[[Sweep, Any], Any] = compute_tile
+              ) -> None:
+    """Compute the tiles ``todo`` of ``sweep`` and call ``on_result`` with each result as
+    it arrives. ``client`` (a ``distributed.Client``) runs them on its cluster; without
+    it, ``workers`` local threads run them. A task is ``compute(sweep, item)`` for each
+    item of ``todo``: by default an item is a tile number (:func:`compute_tile`); other
+    items name their task by their ``key`` attribute.
+
+    Ctrl-C stops handing out tiles; on local threads the tiles in flight finish (the
+    kernel cannot be interrupted) and are handed over, on a cluster they are cancelled.
+    An exception in ``on_result`` or a task stops the run and propagates.
+    """
+    if client is None:
+        _run_threads(sweep, todo, on_result, workers, compute)
+    else:
+        _run_cluster(sweep, todo, on_result, client, compute)
+
+
+def _run_threads(sweep: Sweep, todo: list, on_result: Handler, workers: int,
+                 compute: Callable) -> None:
+    # a few tiles queued per thread keeps the threads busy while this thread writes;
+    # the rest are handed out as tiles finish, so results never pile up in memory
+    window = 2 * workers
+    queue = iter(todo)
+    running: set[Future] = set()
+    pool = ThreadPoolExecutor(workers, thread_name_prefix="rattlesweep-tile")
+
+    def refill() -> None:
+        for tile in queue:
+            running.add(pool.submit(compute, sweep, tile))
+            if len(running) >= window:
+                break
+
+    try:
+        refill()
+        while running:
+            finished, _ = wait(running, return_when=FIRST_COMPLETED)
+            for future in finished:
+                running.discard(future)
+                on_result(future.result())
+            refill()
+    except KeyboardInterrupt:
+        for future in running:
+            future.cancel()
+        for future in running:
+            if not future.cancelled():
+                on_result(future.result())
+        raise
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _run_cluster(sweep: Sweep, todo: list, on_result: Handler, client: Any,
+                 compute: Callable) -> None:
+    import dask
+    from distributed import as_completed
+
+    # the sweep goes into the graph once, as a literal the scheduler can hand to any
+    # worker again (a worker that dies takes nothing with it that cannot be recomputed)
+    tag = sweep.config_hash()[:12]
+    shared = dask.delayed(sweep, traverse=False, name=f"rattlesweep-config-{tag}")
+    task = dask.delayed(compute, pure=False)
+    futures = client.compute([task(shared, t, dask_key_name=f"rattlesweep-tile-{tag}-"
+                                                            f"{getattr(t, 'key', t)}")
+                              for t in todo])
+    try:
+        for future in as_completed(futures):
+            result = future.result()
+            future.release()  # the worker may drop it now
+            on_result(result)
+    except BaseException:
+        client.cancel(futures)
+        raise

@@ -1,0 +1,80 @@
+"""What the two outputs of a sweep share: the interface the runner writes through, and the
+error a failed write becomes.
+
+An output (:class:`~rattlesweep.sweep.directory.TileDirectory` for netCDF,
+:class:`~rattlesweep.sweep.zarr_store.ZarrStore`) is opened for one sweep, says which
+tiles are still to compute, takes each finished tile's results from the runner (only
+the process that runs the sweep writes), and finishes into the result dataset.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+from pathlib import Path
+from typing import Protocol
+
+import xarray as xr
+
+from .tiles import TileResult
+
+__all__ = ["SweepWriteError", "TileStore", "write_failure"]
+
+
+class SweepWriteError(OSError):
+    """Writing a sweep's output failed (disk full, no permission, a lost connection...).
+    What was written before is intact, and a resume continues from there."""
+
+
+class TileStore(Protocol):
+    location: str
+
+    def open(self) -> list[int]:
+        """Lock and prepare the output; return the tiles still to compute."""
+
+    def write(self, result: TileResult) -> None:
+        """Write one finished tile, so that a crash leaves it whole or absent."""
+
+    def finish(self) -> xr.Dataset:
+        """The result of the finished sweep."""
+
+    def close(self) -> None:
+        """Release the lock."""
+
+
+_NEARLY_FULL = 2**20
+"""Free bytes below which a failed write is put down to a full disk."""
+
+
+def _diagnose(directory: Path) -> tuple[int | None, str]:
+    """The likely cause of a write that failed without saying why (HDF5 reports only
+    "HDF error"): a full disk or a directory this process may not write."""
+    try:
+        stat = os.statvfs(directory)
+    except OSError:
+        return None, ""
+    free = stat.f_bavail * stat.f_frsize
+    if free < _NEARLY_FULL:
+        return errno.ENOSPC, f"{os.strerror(errno.ENOSPC)}: {free} bytes free there"
+    if not os.access(directory, os.W_OK):
+        return errno.EACCES, os.strerror(errno.EACCES)
+    return None, ""
+
+
+def write_failure(what: str | Path, exc: BaseException, written: int, resume: str
+                  ) -> SweepWriteError:
+    """The error for a failed write of ``what`` (a local file, or a description), naming
+    the cause and what to do."""
+    code = getattr(exc, "errno", None)
+    cause = (exc.strerror or str(exc)) if isinstance(exc, OSError) else str(exc)
+    if code is None and isinstance(what, Path):
+        code, diagnosis = _diagnose(what.parent)
+        cause = f"{cause} ({diagnosis})" if diagnosis else cause
+    hint = {errno.ENOSPC: "free some space", errno.EDQUOT: "free some space",
+            errno.EFBIG: "allow larger files", errno.EACCES: "fix the permissions",
+            errno.EPERM: "fix the permissions", errno.EROFS: "make it writable"}.get(
+        code, "fix the cause")
+    return SweepWriteError(
+        code or errno.EIO,
+        f"cannot write {what}: {cause or type(exc).__name__}. The {written} tiles written "
+        f"before are intact; {hint}, then `{resume}` completes the sweep")

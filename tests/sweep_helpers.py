@@ -1,0 +1,62 @@
+"""Sweeps and comparisons shared by the sweep tests."""
+
+import math
+
+import xarray as xr
+
+from rattlesweep.sweep import Sweep
+
+KILL_TOML = """\
+name = "kill test"
+tile_size = 256
+[axes]
+spin = { start = -20, stop = 20, num = 32 }
+delta_deg = { start = -6, stop = 6, num = 64 }
+[fixed]
+t_end = 30.0
+mu = 0.3
+roll_deg = 0.5
+"""
+"""Eight tiles of about a second each on one core: long enough to act mid-sweep."""
+
+
+def small_sweep(**overrides) -> Sweep:
+    """A few dozen short launches of toy semi-ellipsoids, a random roll per repeat."""
+    args = dict(
+        axes={"spin": {"start": -12.0, "stop": 12.0, "num": 4},
+              "delta_deg": [-4.0, 3.0], "mu": [0.3, math.inf]},
+        fixed={"t_end": 3.0, "damping": 1e-7},
+        random={"roll_deg": {"uniform": [0.3, 0.8]}},
+        repeats=2, seed=7, tile_size=5)
+    args.update(overrides)
+    return Sweep(**args)
+
+
+def as_zarr(sweep: Sweep) -> Sweep:
+    return Sweep(**{**sweep.to_dict(), "output": "zarr"})
+
+
+def without_history(ds: xr.Dataset) -> xr.Dataset:
+    ds = ds.copy()
+    ds.attrs.pop("history")
+    return ds
+
+
+def without_config(ds: xr.Dataset) -> xr.Dataset:
+    """The dataset less the attributes that name the output format and the command."""
+    ds = ds.copy()
+    for key in ("history", "sweep_config", "sweep_config_hash"):
+        ds.attrs.pop(key)
+    return ds
+
+
+def assert_same_file(path_a, path_b):
+    with xr.open_dataset(path_a) as a, xr.open_dataset(path_b) as b:
+        xr.testing.assert_identical(without_history(a.load()), without_history(b.load()))
+
+
+def file_stats(root, pattern):
+    """Inode and modification time of every file under ``root`` matching ``pattern``: a
+    file rewritten gets a new inode (atomic writes) or a new time."""
+    return {str(p.relative_to(root)): (p.stat().st_ino, p.stat().st_mtime_ns)
+            for p in root.rglob(pattern) if p.is_file()}
