@@ -231,6 +231,8 @@ def finish_lane(W, model, j, P, status, Y, O):
     if launched:
         O[O_FINAL_SPIN, j] = models.spin_and_watch(W, model, j)[0]
         O[O_E_END, j] = models.energy(W, model, j)
+        if status == OK and not math.isfinite(O[O_E_END, j]):
+            O[O_STATUS, j] = NON_FINITE  # a finite state whose energy overflowed
     else:
         O[O_E0, j] = np.nan
         O[O_FINAL_SPIN, j] = np.nan
@@ -331,7 +333,8 @@ def advance_block(model, P, Y, nsteps, method, record_every, band, O, REC):
             W[at(OFF_P, MU_SPIN, j)] > 0.0 or W[at(OFF_P, MU_ROLL, j)] > 0.0))
         W[at(OFF_K, K_OPEN, j)] = 1.0
         W[at(OFF_K, K_STOP, j)] = nsteps[j] if status[j] == OK else 0
-        W[at(OFF_K, K_WIN0, j)] = nsteps[j] - nsteps[j] // 10
+        # the last 10 % of the steps, and at least the last step
+        W[at(OFF_K, K_WIN0, j)] = nsteps[j] - max(nsteps[j] // 10, 1)
         W[at(OFF_K, K_T_CROSS, j)] = np.nan
         W[at(OFF_K, K_FIRST_REV, j)] = np.nan
     evaluate_state(W, model, COUPLES if couples else 1, True)
@@ -348,6 +351,12 @@ def advance_block(model, P, Y, nsteps, method, record_every, band, O, REC):
             note_slip(W, j)
             W[at(OFF_S, S_TSTOP, j)] = math.inf  # no step before the launch to redo
         O[O_E0, j] = models.energy(W, model, j)
+        if status[j] == OK and not math.isfinite(O[O_E0, j]):
+            # a finite launch state whose energy overflows (a speed near 1e154 m/s or
+            # more): no step of it could be trusted
+            status[j] = NON_FINITE
+            W[at(OFF_K, K_RUN, j)] = 0.0
+            W[at(OFF_K, K_STOP, j)] = 0
         n0, watched = models.spin_and_watch(W, model, j)
         O[O_SPIN0, j] = n0
         W[at(OFF_K, K_BAND, j)] = band * abs(n0)
