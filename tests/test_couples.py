@@ -81,6 +81,66 @@ def test_rolling_resistance_makes_the_planar_rocker_a_dry_friction_oscillator():
     assert np.ptp(th[still:]) < 1e-14
 
 
+ROCKER = rs.Body.semi_ellipsoid(a=0.08, b=0.03, c=0.02, mass=0.1, delta=0.0)
+
+
+def _rocker_offset(theta):
+    """Horizontal offset (m) of G from the contact point of ROCKER rolled by theta about
+    its x axis: dh/dtheta, h = sqrt(b^2 sin^2 + c^2 cos^2) + com . n the height of G."""
+    s, c = math.sin(theta), math.cos(theta)
+    b2, c2 = ROCKER.b ** 2, ROCKER.c ** 2
+    return (b2 - c2) * s * c / math.sqrt(b2 * s * s + c2 * c * c) - ROCKER.com[2] * s
+
+
+@pytest.mark.parametrize("mu", [math.inf, 0.3])
+def test_rolling_resistance_in_3d_is_a_dry_friction_oscillator_that_sticks(mu):
+    """3-D, an aligned body rocking about its x axis with only mu_roll: the swing loses
+    2 theta_d per half-swing (theta_d where G's offset from the contact point is
+    mu_roll), and at the first turning point inside the dead band the rolling couple
+    sticks: the body then stays at rest for good, tilted, with G within mu_roll of the
+    contact point."""
+    mu_roll = 2e-4
+    theta_d = brentq(lambda th: _rocker_offset(th) - mu_roll, 1e-9, 0.5)
+    ds = rs.simulate(ROCKER, spin=0.0, roll=0.05, mu=mu, mu_roll=mu_roll, g=G, t_end=2.0,
+                     record_every=1)
+    assert int(ds.status) == 0
+    w, tilt = ds.omega.values, ds.tilt.values
+    turns = np.flatnonzero(np.sign(w[1:, 0]) != np.sign(w[:-1, 0]))
+    peaks = tilt[turns]
+    assert peaks.size >= 4
+    np.testing.assert_allclose(-np.diff(peaks[peaks > theta_d]), 2 * theta_d, rtol=0.01)
+    assert peaks[-1] < theta_d
+    # at rest from the last turning point on, without creeping
+    rest = turns[-1] + 2
+    assert rest < 0.5 * tilt.size
+    assert np.abs(w[rest:]).max() < 1e-15
+    assert np.ptp(tilt[rest:]) < 1e-15
+    offset = np.hypot(*(ds.position.values[-1, :2] - ds.contact_point.values[-1]))
+    assert offset == pytest.approx(_rocker_offset(tilt[-1]), rel=1e-6)
+    assert offset <= mu_roll
+    assert np.diff(ds.energy.values).max() <= 1e-15 * float(ds.energy_initial)
+
+
+def test_rolling_resistance_stops_a_rattleback_rolling_but_not_spinning(kl):
+    """The misaligned body rocked without spin: rocking turns into spin, the rolling
+    couple eventually sticks (omega_h held at zero to rounding), and the body goes on
+    spinning about the vertical, its energy never rising."""
+    ds = rs.simulate(kl, spin=0.0, pitch=0.05, roll=0.02, mu=0.3, mu_roll=2e-4, g=G,
+                     t_end=5.0, record_every=1)
+    assert int(ds.status) == 0
+    q, w = ds.quaternion.values, ds.omega.values
+    n = np.stack([2 * (q[:, 1] * q[:, 3] - q[:, 0] * q[:, 2]),
+                  2 * (q[:, 2] * q[:, 3] + q[:, 0] * q[:, 1]),
+                  1 - 2 * (q[:, 1] ** 2 + q[:, 2] ** 2)], axis=1)
+    wn = (w * n).sum(axis=1)
+    wh = np.linalg.norm(w - wn[:, None] * n, axis=1)
+    stuck = np.flatnonzero(wh > 1e-12)[-1] + 1
+    assert stuck < 0.8 * wh.size
+    assert abs(wn[-1]) > 1.0  # rad/s: still spinning
+    assert np.ptp(ds.tilt.values[stuck:]) < 1e-12
+    assert np.diff(ds.energy.values).max() <= 1e-12 * float(ds.energy_initial)
+
+
 def _dissipated_power(ds, mu, mu_spin):
     """mu N |u| + mu_spin N |omega . n| (W) from the record of a 3-D run."""
     u = np.hypot(*ds.slip_velocity.values.T)

@@ -252,8 +252,11 @@ def run_batch(
         needed stays within the bound. Default 0.
     mu_roll : array_like, optional
         Rolling resistance (m): a couple of at most mu_roll·N opposing the horizontal
-        part of ω. In 3-D it does not stick: below a rate of order mu_roll·N dt / I it is
-        proportional to that rate. Default 0.
+        part of ω, which sticks (holds that part at zero) while the couple needed stays
+        within the bound. In 3-D, below a rate of order mu_roll·g·dt/(I/m) the couple
+        is proportional to the rate, and a roll slower than that whose sticking couple
+        fits the bound sticks, the rest of the rate removed by a plastic couple
+        impulse. Default 0.
     damping : array_like, optional
         Viscous torque coefficient (N m s): a torque −damping·ω. Default 0.
     g : array_like, optional

@@ -274,6 +274,8 @@ def switch_marked(W, model):
                 else:
                     start_slip(W, j)
             switch_couples(W, j, mark - mark % SPIN_SWITCHES)
+            if mark >= SPIN_SWITCHES:
+                models.stick_couples(W, model, j)
 
 
 @kernel
@@ -317,7 +319,11 @@ def locate_lane(W, model, j, buf, dt):
             theta = event_root(W, model, j, buf, step, g0, g1)
             t += theta * step
             slip_time += theta * step if slipping else 0.0
+            roll = W[at(OFF_S, S_ROLL, j)]
+            spin = W[at(OFF_S, S_SPIN, j)]
             switch_event(W, j)
+            if W[at(OFF_S, S_ROLL, j)] != roll or W[at(OFF_S, S_SPIN, j)] != spin:
+                models.stick_couples(W, model, j)
             evaluate_lane(W, model, j)
             switches += 1
             continue

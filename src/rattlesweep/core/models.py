@@ -143,8 +143,12 @@ def park(W, model, j):
 
 
 def couple_rates(W, model, j):
-    """(spin about the contact normal, rate the rolling couple opposes when it has a
-    sense: the planar rocking rate, 0 in 3-D) of lane j's state, rad/s."""
+    """(spin about the contact normal, rate the rolling couple opposes: the planar
+    rocking rate, |ω_h| in 3-D) of lane j's state, rad/s."""
+
+
+def stick_couples(W, model, j):
+    """Lane j's couples have just switched: apply what a couple that now sticks needs."""
 
 
 _lane_hook(derive, rattleback_dynamics.derive_parameters, planar_model.derive)
@@ -157,6 +161,7 @@ _lane_hook(roll_start, rattleback_model.roll_start, planar_model.roll_start)
 _lane_hook(stick_impulse, rattleback_model.stick_impulse, planar_model.stick_impulse)
 _lane_hook(park, rattleback_model.park, planar_model.park)
 _lane_hook(couple_rates, rattleback_model.couple_rates, planar_model.couple_rates)
+_lane_hook(stick_couples, rattleback_model.stick_couples, planar_model.stick_couples)
 
 
 # --- hooks with more arguments --------------------------------------------------------

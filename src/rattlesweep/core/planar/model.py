@@ -19,7 +19,7 @@ from .layout import (
 
 __all__ = [
     "LOCATES_SWITCHES", "check_step", "couple_rates", "derive", "energy", "finish", "park", "record",
-    "roll_start", "spin_and_watch", "start_lane", "stick_impulse",
+    "roll_start", "spin_and_watch", "start_lane", "stick_couples", "stick_impulse",
 ]
 
 HALF_PI = 0.5 * math.pi
@@ -88,6 +88,11 @@ def stick_impulse(W, j):
     W[at(OFF_Y, VXG, j)] += dv
     W[at(OFF_Y, RATE, j)] += dw
     return m * dv, 0.0
+
+
+@kernel
+def stick_couples(W, j):
+    """Nothing: the rolling couple's switch is located where θ̇ crosses zero."""
 
 
 @kernel

@@ -19,7 +19,7 @@ from ..stages import first_stage, put_derivative
 from ..switching import stop_time
 from ..workspace import (
     BLOCK, COUPLES, DT, EPS_U, GRAV, MU_K, MU_ROLL, MU_SPIN, OFF_P, OFF_S, OFF_X, S_DCX,
-    S_DCY, S_MODE, S_SPIN, S_SPIN_SENSE, S_TURN, S_UHX, S_UHY, STAGE_FIRST, STAGE_START,
+    S_DCY, S_MODE, S_ROLL, S_SPIN, S_SPIN_SENSE, S_TURN, S_UHX, S_UHY, STAGE_FIRST, STAGE_START,
     X_FX, X_FY, X_N, X_ROLL_COUPLE, X_ROLL_EVENT, X_SPIN_COUPLE, X_SPIN_EVENT, X_TSTOP,
     X_UX, X_UY, at, lane_range,
 )
@@ -29,7 +29,7 @@ from .layout import (
     INV_QQ, INV_SIGMA, I_XX, I_XY, I_XZ, I_YY, I_YZ, I_ZZ, J_XX, J_XY, J_XZ, J_YY, J_YZ,
     J_ZZ, JI_XX, JI_XY, JI_XZ, JI_YY, JI_YZ, JI_ZZ, MASS, NORMAL_PM, OFF_A, OFF_B, OFF_E,
     OFF_G, OFF_T, OFF_Y, OMEGA_X, OMEGA_Y, OMEGA_Z, POS_X, POS_Y, Q0, Q1, Q2, Q3, RHO_X,
-    RHO_Y, RHO_Z, ROLL_FRACTION, SLIP_X, SLIP_Y, SPIN_LAMBDA, SPIN_RATE, UHAT_X, UHAT_Y, UP_X,
+    RHO_Y, RHO_Z, ROLL_FRACTION, ROLL_MARGIN, SLIP_X, SLIP_Y, SPIN_LAMBDA, SPIN_RATE, UHAT_X, UHAT_Y, UP_X,
     UP_Y, UP_Z, VEL_X, VEL_Y, WW_X, WW_Y, WW_Z,
 )
 
@@ -532,13 +532,14 @@ def accelerations(W, slip_possible, state, one_lane, lane):
             mu_spin = W[at(OFF_P, MU_SPIN, j)]
             mu_roll = W[at(OFF_P, MU_ROLL, j)]
             spin_slips = W[at(OFF_S, S_SPIN, j)] > 0.5
+            roll_slips = (W[at(OFF_S, S_ROLL, j)] > 0.5) & (mu_roll > 0.0)
             cs = mu_spin * W[at(OFF_S, S_SPIN_SENSE, j)] if spin_slips else 0.0
             # the rolling couple's direction ω_h/|ω_h| turns faster than the step can follow
             # below |ω_h| ~ μ_roll g tr(J⁻¹) dt: there it is proportional to ω_h
             floor = (mu_roll * g * (W[at(OFF_E, JI_XX, j)] + W[at(OFF_E, JI_YY, j)]
                                     + W[at(OFF_E, JI_ZZ, j)]) * W[at(OFF_P, DT, j)]
                      / RELAX_STEPS)
-            cr = mu_roll / max(wh, floor) if mu_roll > 0.0 else 0.0
+            cr = mu_roll / max(wh, floor) if roll_slips else 0.0
             c0 = cs * n0 + cr * wh0
             c1 = cs * n1 + cr * wh1
             c2 = cs * n2 + cr * wh2
@@ -555,7 +556,7 @@ def accelerations(W, slip_possible, state, one_lane, lane):
             t1 -= n_free * c1
             t2 -= n_free * c2
             W[at(OFF_G, SPIN_RATE, j)] = wn
-            W[at(OFF_G, ROLL_FRACTION, j)] = wh / max(wh, floor) if mu_roll > 0.0 else 0.0
+            W[at(OFF_G, ROLL_FRACTION, j)] = wh / max(wh, floor) if roll_slips else 0.0
         # Cramer's rule, without the division: that is left to store_derivative, so that
         # its latency does not lengthen this loop's chain
         x0, x1, x2, det = adjugate_solve(m00, m01, m02, m10, m11, m12, m20, m21, m22,
@@ -566,12 +567,43 @@ def accelerations(W, slip_possible, state, one_lane, lane):
             # ω̇ = M⁻¹(b + λ n̂)
             y0, y1, y2, _ = adjugate_solve(m00, m01, m02, m10, m11, m12, m20, m21, m22,
                                            n0, n1, n2)
-            stuck = (W[at(OFF_S, S_SPIN, j)] < 0.5) & (W[at(OFF_P, MU_SPIN, j)] > 0.0)
+            spin_stuck = (not spin_slips) & (mu_spin > 0.0)
             lam = -(n0 * x0 + n1 * x1 + n2 * x2) / (n0 * y0 + n1 * y1 + n2 * y2)
-            lam = lam if stuck else 0.0
+            lam = lam if spin_stuck else 0.0
             x0 += lam * y0
             x1 += lam * y1
             x2 += lam * y2
+            # a stuck roll: a horizontal couple τ_h (per unit mass) keeps ω̇ = a n̂, so that
+            # ω_h stays zero: M a n̂ = b' + τ_h, b' the right-hand side without the
+            # rolling couple's slip, gives a = n̂·b' / n̂·M n̂ (a = 0 with the spin stuck
+            # too). Then N/m = N₀/m (l · n̂ = 0). Whether it holds: |τ_h| ≤ μ_roll N/m.
+            # A slipping roll would stick once |ω_h| is below the floor with the couple
+            # sticking needs within the bound.
+            b0 = t0 - gy0 - cvm * w0 + n_free * cr * wh0
+            b1 = t1 - gy1 - cvm * w1 + n_free * cr * wh1
+            b2 = t2 - gy2 - cvm * w2 + n_free * cr * wh2
+            mn0 = m00 * n0 + m01 * n1 + m02 * n2  # M n̂ is the same for every couple
+            mn1 = m10 * n0 + m11 * n1 + m12 * n2
+            mn2 = m20 * n0 + m21 * n1 + m22 * n2
+            nb = n0 * b0 + n1 * b1 + n2 * b2
+            a = 0.0 if spin_stuck else nb / (n0 * mn0 + n1 * mn1 + n2 * mn2)
+            tau0 = a * mn0 - b0
+            tau1 = a * mn1 - b1
+            tau2 = a * mn2 - b2
+            tn = n0 * tau0 + n1 * tau1 + n2 * tau2  # the stuck spin's share, if any
+            tau0 -= tn * n0
+            tau1 -= tn * n1
+            tau2 -= tn * n2
+            demand = math.sqrt(tau0 * tau0 + tau1 * tau1 + tau2 * tau2)
+            bound = mu_roll * n_free
+            roll_stuck = (not roll_slips) & (mu_roll > 0.0)
+            W[at(OFF_G, ROLL_MARGIN, j)] = (
+                bound - demand if roll_stuck else max(wh - floor, demand - bound))
+            x0 = a * n0 if roll_stuck else x0
+            x1 = a * n1 if roll_stuck else x1
+            x2 = a * n2 if roll_stuck else x2
+            det = 1.0 if roll_stuck else det
+            lam = (-nb if spin_stuck else 0.0) if roll_stuck else lam
             W[at(OFF_G, SPIN_LAMBDA, j)] = lam
         W[at(OFF_G, ALPHA_X, j)] = x0
         W[at(OFF_G, ALPHA_Y, j)] = x1
@@ -671,9 +703,13 @@ def friction_lane(W, j, slip_possible, stage, q0, q1, q2, q3):
             event = sense * W[at(OFF_G, SPIN_RATE, j)] if slips else mu_spin * nm - abs(lam)
             W[at(OFF_X, X_SPIN_EVENT, j)] = event if mu_spin > 0.0 else math.inf
             W[at(OFF_X, X_SPIN_COUPLE, j)] = m * (-mu_spin * nm * sense if slips else lam)
-            W[at(OFF_X, X_ROLL_EVENT, j)] = math.inf  # the 3-D rolling couple never sticks
-            W[at(OFF_X, X_ROLL_COUPLE, j)] = (m * W[at(OFF_P, MU_ROLL, j)] * nm
-                                              * W[at(OFF_G, ROLL_FRACTION, j)])
+            mu_roll = W[at(OFF_P, MU_ROLL, j)]
+            roll_margin = W[at(OFF_G, ROLL_MARGIN, j)]
+            W[at(OFF_X, X_ROLL_EVENT, j)] = roll_margin if mu_roll > 0.0 else math.inf
+            # its magnitude: sticking, the bound less the margin
+            W[at(OFF_X, X_ROLL_COUPLE, j)] = m * (
+                mu_roll * nm * W[at(OFF_G, ROLL_FRACTION, j)]
+                if W[at(OFF_S, S_ROLL, j)] > 0.5 else mu_roll * nm - roll_margin)
     return fx, fy
 
 

@@ -17,7 +17,7 @@ from .layout import (
 )
 
 __all__ = ["adjugate_solve", "contact_point", "cross", "energy_terms",
-           "plastic_contact_impulse", "rotation", "solve3"]
+           "plastic_contact_impulse", "plastic_roll_impulse", "rotation", "solve3"]
 
 
 @kernel
@@ -193,3 +193,68 @@ def plastic_contact_impulse(W, off, j, ux, uy):
     W[at(off, VEL_X, j)] += jx * inv_m
     W[at(off, VEL_Y, j)] += jy * inv_m
     return jx, jy
+
+
+@kernel
+def plastic_roll_impulse(W, off, j, sticking):
+    """Stop the rolling of lane j (its horizontal angular velocity ω_h) with a perfectly
+    plastic horizontal couple impulse, as its rolling couple sticks.
+
+    The floor keeps its constraints through the impulse: the contact point stays at rest
+    when ``sticking``, else only its vertical velocity stays zero. Per unit mass, the
+    kinetic energy is then ½ ωᵀ K ω (+ ½ |v_h|² while slipping) with
+    K = J + |ρ|²𝟙 − ρρᵀ (sticking) or J + l lᵀ, l = ρ × n̂ (slipping), and a couple
+    impulse τ changes ω by K⁻¹τ. With τ ⊥ n̂ and ω⁺ = s n̂: s = n̂·Kω / n̂·K n̂, the
+    K-orthogonal projection of ω on n̂, so the energy never rises. A sticking contact's
+    centre of mass follows, v_G = −ω × ρ.
+    """
+    q0 = W[at(off, Q0, j)]
+    q1 = W[at(off, Q1, j)]
+    q2 = W[at(off, Q2, j)]
+    q3 = W[at(off, Q3, j)]
+    r00, r01, r02, r10, r11, r12, n0, n1, n2 = rotation(q0, q1, q2, q3)
+    sp0, sp1, sp2, _ = contact_point(
+        W[at(OFF_P, A2, j)], W[at(OFF_P, B2, j)], W[at(OFF_P, C2, j)], n0, n1, n2)
+    r0 = sp0 - W[at(OFF_P, COM_X, j)]
+    r1 = sp1 - W[at(OFF_P, COM_Y, j)]
+    r2 = sp2 - W[at(OFF_P, COM_Z, j)]
+    m = W[at(OFF_P, MASS, j)]
+    k00 = W[at(OFF_P, I_XX, j)]
+    k11 = W[at(OFF_P, I_YY, j)]
+    k22 = W[at(OFF_P, I_ZZ, j)]
+    k01 = W[at(OFF_P, I_XY, j)]
+    k02 = W[at(OFF_P, I_XZ, j)]
+    k12 = W[at(OFF_P, I_YZ, j)]
+    if sticking:
+        rr = r0 * r0 + r1 * r1 + r2 * r2
+        k00 += m * (rr - r0 * r0)
+        k11 += m * (rr - r1 * r1)
+        k22 += m * (rr - r2 * r2)
+        k01 -= m * r0 * r1
+        k02 -= m * r0 * r2
+        k12 -= m * r1 * r2
+    else:
+        l0, l1, l2 = cross(r0, r1, r2, n0, n1, n2)
+        k00 += m * l0 * l0
+        k11 += m * l1 * l1
+        k22 += m * l2 * l2
+        k01 += m * l0 * l1
+        k02 += m * l0 * l2
+        k12 += m * l1 * l2
+    w0 = W[at(off, OMEGA_X, j)]
+    w1 = W[at(off, OMEGA_Y, j)]
+    w2 = W[at(off, OMEGA_Z, j)]
+    kn0 = k00 * n0 + k01 * n1 + k02 * n2
+    kn1 = k01 * n0 + k11 * n1 + k12 * n2
+    kn2 = k02 * n0 + k12 * n1 + k22 * n2
+    spin = (kn0 * w0 + kn1 * w1 + kn2 * w2) / (kn0 * n0 + kn1 * n1 + kn2 * n2)
+    d0 = spin * n0 - w0
+    d1 = spin * n1 - w1
+    d2 = spin * n2 - w2
+    W[at(off, OMEGA_X, j)] = spin * n0
+    W[at(off, OMEGA_Y, j)] = spin * n1
+    W[at(off, OMEGA_Z, j)] = spin * n2
+    if sticking:
+        v0, v1, v2 = cross(d0, d1, d2, r0, r1, r2)  # Δv_G = −Δω × ρ
+        W[at(off, VEL_X, j)] -= r00 * v0 + r01 * v1 + r02 * v2
+        W[at(off, VEL_Y, j)] -= r10 * v0 + r11 * v1 + r12 * v2

@@ -95,7 +95,8 @@ INV_SIGMA = 19  # 1/σ̃, 1/m
 SPIN_LAMBDA = 20  # couple about the normal holding a stuck spin, per unit mass, m^2/s^2
 SPIN_RATE = 21  # ω · n̂, rad/s
 ROLL_FRACTION = 22  # the rolling couple over its bound, |ω_h| / max(|ω_h|, floor)
-N_SCRATCH = 23
+ROLL_MARGIN = 23  # the rolling couple's switching function, rad/s or m^2/s^2 (dynamics)
+N_SCRATCH = 24
 
 # --- the block workspace: the shared regions, then this model's ------------------------
 OFF_E = OFF_P + N_PARAM  # derived parameters

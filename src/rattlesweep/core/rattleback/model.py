@@ -12,10 +12,12 @@ import math
 
 from ..jit import inline_kernel, kernel
 from ..workspace import (
-    BLOCK, DT, K_WATCH_LOW, OFF_K, OFF_P, OFF_S, OFF_X, S_JX, S_JY, S_MODE, X_FX, X_FY, X_N,
-    X_UX, X_UY, at,
+    BLOCK, DT, K_WATCH_LOW, MU_ROLL, OFF_K, OFF_P, OFF_S, OFF_X, S_JX, S_JY, S_MODE, S_ROLL,
+    X_FX, X_FY, X_N, X_UX, X_UY, at,
 )
-from .geometry import contact_point, energy_terms, plastic_contact_impulse, rotation
+from .geometry import (
+    contact_point, energy_terms, plastic_contact_impulse, plastic_roll_impulse, rotation,
+)
 from .layout import (
     A2, B2, C2, COM_X, COM_Y, COM_Z, FULL, N_STATE, O_MAX_TILT, OFF_A, OFF_B, OFF_T, OFF_Y,
     OMEGA_X, OMEGA_Y, OMEGA_Z, POS_X, POS_Y, Q0, Q1, Q2, Q3, R_CONTACT, R_ENERGY,
@@ -25,7 +27,7 @@ from .layout import (
 
 __all__ = [
     "LOCATES_SWITCHES", "check_step", "couple_rates", "energy", "euler_step", "finish", "park",
-    "record", "roll_start", "spin_and_watch", "start_lane", "stick_impulse",
+    "record", "roll_start", "spin_and_watch", "start_lane", "stick_couples", "stick_impulse",
 ]
 
 LOCATES_SWITCHES = True
@@ -163,12 +165,28 @@ def stick_impulse(W, j):
 
 
 @kernel
+def stick_couples(W, j):
+    """Lane j's couples have just switched: a rolling couple that now sticks stops the
+    rolling, ω_h, with a plastic couple impulse (a stuck spin needs none: its switch is
+    located where ω · n̂ crosses zero)."""
+    if W[at(OFF_S, S_ROLL, j)] < 0.5 and W[at(OFF_P, MU_ROLL, j)] > 0.0:
+        plastic_roll_impulse(W, OFF_Y, j, W[at(OFF_S, S_MODE, j)] < 0.5)
+
+
+@kernel
 def couple_rates(W, j):
-    """(ω · n̂, 0) of lane j's state, rad/s: the spin the spin couple opposes; the
-    rolling couple has no sense to hold here."""
+    """(ω · n̂, |ω_h|) of lane j's state, rad/s: the spin the spin couple opposes, and
+    the size of the rolling that the rolling couple opposes (a direction, not a sense,
+    in 3-D)."""
     n0, n1, n2 = up_vector(W, OFF_Y, j)
-    return (W[at(OFF_Y, OMEGA_X, j)] * n0 + W[at(OFF_Y, OMEGA_Y, j)] * n1
-            + W[at(OFF_Y, OMEGA_Z, j)] * n2), 0.0
+    w0 = W[at(OFF_Y, OMEGA_X, j)]
+    w1 = W[at(OFF_Y, OMEGA_Y, j)]
+    w2 = W[at(OFF_Y, OMEGA_Z, j)]
+    wn = w0 * n0 + w1 * n1 + w2 * n2
+    h0 = w0 - wn * n0
+    h1 = w1 - wn * n1
+    h2 = w2 - wn * n2
+    return wn, math.sqrt(h0 * h0 + h1 * h1 + h2 * h2)
 
 
 @kernel
