@@ -17,9 +17,10 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
+from numpy.typing import ArrayLike
 
 from . import engine, results
-from .body import Body, distinct_bodies
+from .body import Bodies, Body, distinct_bodies
 from .core.models import RATTLEBACK
 from .core.rattleback import layout
 from .engine import (
@@ -53,7 +54,7 @@ class Inputs:
 
     shape: tuple[int, ...]
     n: int
-    bodies: list  # the distinct bodies
+    bodies: list[Body]  # the distinct bodies
     index: np.ndarray  # (n,) index of each trajectory's body into ``bodies``
     flat: dict[str, np.ndarray]  # scalar inputs, (n,) each, dt included
     vectors: dict[str, np.ndarray]  # omega (n, 3), orientation (n, 4), velocity (n, 2)
@@ -77,9 +78,12 @@ class Inputs:
 
 
 def launch_inputs(
-    body, *, spin=None, omega=None, roll=0.0, pitch=0.0, yaw=0.0, orientation=None,
-    velocity=None, mu=math.inf, mu_static=None, mu_spin=0.0, mu_roll=0.0, damping=0.0,
-    g=9.81, dt=None, t_end,
+    body: Bodies, *, spin: ArrayLike | None = None, omega: ArrayLike | None = None,
+    roll: ArrayLike = 0.0, pitch: ArrayLike = 0.0, yaw: ArrayLike = 0.0,
+    orientation: ArrayLike | None = None, velocity: ArrayLike | None = None,
+    mu: ArrayLike = math.inf, mu_static: ArrayLike | None = None, mu_spin: ArrayLike = 0.0,
+    mu_roll: ArrayLike = 0.0, damping: ArrayLike = 0.0, g: ArrayLike = 9.81,
+    dt: ArrayLike | None = None, t_end: ArrayLike,
 ) -> Inputs:
     """Check and broadcast launch inputs (see :func:`run_batch` for their meaning and
     units), without the kernel. Raises ValueError naming the parameter, the value and
@@ -102,7 +106,7 @@ def launch_inputs(
         scalars["spin"] = 0.0 if spin is None else spin
     if dt is not None:
         scalars["dt"] = dt
-    vectors = {}
+    vectors: dict[str, np.ndarray] = {}
     for name, value, width in (("omega", omega, 3), ("orientation", orientation, 4),
                                ("velocity", velocity, 2)):
         if value is not None:
@@ -150,7 +154,7 @@ def damping_dts(table: list[Body], index: np.ndarray, damping: np.ndarray) -> np
         return np.where(damping > 0, i_min / damping, np.inf)
 
 
-def max_steps(body, **kwargs) -> int:
+def max_steps(body: Bodies, **kwargs: Any) -> int:
     """The largest number of steps a trajectory of these launches takes, 0 for an empty
     batch (checks every input as :func:`launch_inputs` does, without the kernel)."""
     return int(launch_inputs(body, **kwargs).nsteps.max(initial=0))
@@ -165,7 +169,8 @@ def _launch_state(inputs: Inputs) -> dict[str, np.ndarray]:
             "velocity": np.zeros((inputs.n, 2))}
 
 
-def _coords(inputs: Inputs, columns: dict[str, np.ndarray], velocity) -> dict[str, Any]:
+def _coords(inputs: Inputs, columns: dict[str, np.ndarray], velocity: np.ndarray | None
+            ) -> dict[str, Any]:
     """Every input, per trajectory: name -> (dims, values)."""
     dim, flat, vec = "trajectory", inputs.flat, inputs.vectors
     coords: dict[str, Any] = {}
@@ -189,7 +194,7 @@ def _coords(inputs: Inputs, columns: dict[str, np.ndarray], velocity) -> dict[st
     return coords
 
 
-def prepare(body, *, stop: str | None = None, **kwargs) -> Prepared:
+def prepare(body: Bodies, *, stop: str | None = None, **kwargs: Any) -> Prepared:
     """Check, broadcast and pack launches for the kernel; arguments as for
     :func:`run_batch`."""
     rule = check_stop(stop)
@@ -213,12 +218,16 @@ def prepare(body, *, stop: str | None = None, **kwargs) -> Prepared:
 
 
 def run_batch(
-    body: Body | Any,
+    body: Bodies,
     *,
-    spin=None, omega=None, roll=0.0, pitch=0.0, yaw=0.0, orientation=None, velocity=None,
-    mu=math.inf, mu_static=None, mu_spin=0.0, mu_roll=0.0, damping=0.0, g=9.81, dt=None,
-    t_end, method: str = "rk4", record_every: int | None = None, reversal_band: float = 0.05,
-    stop: str | None = None, parallel: bool = True, threads: int | None = None,
+    spin: ArrayLike | None = None, omega: ArrayLike | None = None, roll: ArrayLike = 0.0,
+    pitch: ArrayLike = 0.0, yaw: ArrayLike = 0.0, orientation: ArrayLike | None = None,
+    velocity: ArrayLike | None = None, mu: ArrayLike = math.inf,
+    mu_static: ArrayLike | None = None, mu_spin: ArrayLike = 0.0, mu_roll: ArrayLike = 0.0,
+    damping: ArrayLike = 0.0, g: ArrayLike = 9.81, dt: ArrayLike | None = None,
+    t_end: ArrayLike, method: str = "rk4", record_every: int | None = None,
+    reversal_band: float = 0.05, stop: str | None = None, parallel: bool = True,
+    threads: int | None = None,
 ) -> xr.Dataset:
     """Integrate many launches at once; return per-trajectory observables.
 

@@ -12,13 +12,14 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, field
-from typing import Iterable, Sequence
+from typing import TYPE_CHECKING, Any, Iterable, Sequence, TypeAlias, Union
 
 import numpy as np
+import numpy.typing as npt
 
 from .validation import as_float_array, finite_vector, positive
 
-__all__ = ["Body", "PRESETS", "distinct_bodies", "rotated_inertia"]
+__all__ = ["Bodies", "Body", "PRESETS", "distinct_bodies", "rotated_inertia"]
 
 _REL_TOL = 1e-9
 
@@ -68,6 +69,14 @@ class Body:
     full_ellipsoid: bool = False
     name: str = field(default="custom", compare=False)
 
+    if TYPE_CHECKING:
+        # The constructor takes com and inertia array_like; __post_init__ stores them as
+        # read-only float arrays. A field has one type, so the signature is spelled out
+        # for type checkers (at run time the dataclass makes the same __init__).
+        def __init__(self, a: float, b: float, c: float, mass: float, com: npt.ArrayLike,
+                     inertia: npt.ArrayLike, full_ellipsoid: bool = False,
+                     name: str = "custom") -> None: ...
+
     def __post_init__(self) -> None:
         for key in ("a", "b", "c", "mass"):
             object.__setattr__(self, key, positive(key, getattr(self, key)))
@@ -115,6 +124,7 @@ class Body:
         object.__setattr__(self, "full_ellipsoid", bool(self.full_ellipsoid))
         # Scales so far apart (c = 1e-300 m under a = 486 m, a mass of 1e165 kg) that the
         # rocking frequencies overflow leave no time step to integrate with.
+        freqs: tuple[float, ...]
         with np.errstate(all="ignore"):
             try:
                 freqs = (*self.small_oscillation_frequencies(1.0, rolling=True),
@@ -151,7 +161,9 @@ class Body:
         zg = -3.0 * c / 8.0
         i_c = np.array([b * b + c * c, a * a + c * c, a * a + b * b]) * mass / 5.0
         i_g = i_c - mass * zg * zg * np.array([1.0, 1.0, 0.0])
-        return cls(a, b, c, mass, (0.0, 0.0, zg), rotated_inertia(*i_g, delta), name=name)
+        ix, iy, iz = i_g
+        return cls(a, b, c, mass, (0.0, 0.0, zg), rotated_inertia(ix, iy, iz, delta),
+                   name=name)
 
     @classmethod
     def ellipsoid(cls, a: float, b: float, c: float, mass: float, *, name: str = "ellipsoid"
@@ -163,7 +175,7 @@ class Body:
         inertia = np.diag([b * b + c * c, a * a + c * c, a * a + b * b]) * mass / 5.0
         return cls(a, b, c, mass, (0.0, 0.0, 0.0), inertia, full_ellipsoid=True, name=name)
 
-    def with_point_masses(self, masses: Iterable[tuple[float, Iterable[float]]]) -> "Body":
+    def with_point_masses(self, masses: Iterable[tuple[float, npt.ArrayLike]]) -> "Body":
         """This body plus point masses ``[(mass_kg, (x, y, z)_m), ...]`` (body frame from
         C), combined by the parallel-axis rule. Returns a new, validated body."""
         total = self.mass
@@ -201,7 +213,7 @@ class Body:
     # Both cached: a batch hashes the same body once per trajectory, and hashing the key
     # costs more than the rest of a dictionary lookup.
     @functools.cached_property
-    def _key(self) -> tuple:
+    def _key(self) -> tuple[Any, ...]:
         """Every parameter but the name, as plain Python scalars."""
         return (self.a, self.b, self.c, self.mass, *self.com.tolist(),
                 *self.inertia.ravel().tolist(), self.full_ellipsoid)
@@ -211,7 +223,7 @@ class Body:
         return hash(self._key)
 
     def __eq__(self, other: object) -> bool:
-        if other.__class__ is not self.__class__:
+        if not isinstance(other, Body) or other.__class__ is not self.__class__:
             return NotImplemented
         return self is other or self._key == other._key
 
@@ -221,10 +233,10 @@ class Body:
     # Pickling and deepcopy rebuild the arrays writable; freeze them again, or the copy
     # could be changed after its key was cached. The cached key and hash are left out: a
     # hash need not survive a change of Python version.
-    def __getstate__(self) -> dict:
+    def __getstate__(self) -> dict[str, Any]:
         return {k: v for k, v in self.__dict__.items() if k not in ("_key", "_hash")}
 
-    def __setstate__(self, state: dict) -> None:
+    def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
         self.com.setflags(write=False)
         self.inertia.setflags(write=False)
@@ -285,7 +297,7 @@ class Body:
         stiffness (a sphere with G at its centre) uses the period 2π√(c/g) instead."""
         return _default_dt(self, positive("g", g))
 
-    def describe(self) -> dict:
+    def describe(self) -> dict[str, Any]:
         """Plain-number description for result attributes."""
         return {
             "body_name": self.name,
@@ -314,6 +326,10 @@ def _default_dt(body: Body, g: float) -> float:
         raise ValueError(f"g = {g!r} m s-2 is too large for body {body.name!r}: its "
                          f"small-oscillation frequencies overflow float64")
     return dt
+
+
+Bodies: TypeAlias = Union[Body, "npt.NDArray[np.object_]", Sequence["Bodies"]]
+"""A body, or an array of bodies: an object array, or sequences nested to any depth."""
 
 
 def distinct_bodies(bodies: Sequence[Body] | np.ndarray) -> tuple[list[Body], np.ndarray]:

@@ -34,7 +34,7 @@ CONTACT_ATTRS = {
 RUN_SERIES = ("quaternion", "position", "friction_force", "friction_impulse", "omega")
 
 
-def check_run(run) -> None:
+def check_run(run: object) -> None:
     """Raise ValueError unless ``run`` is a recorded :func:`rattlesweep.simulate` result
     (or its file): a Dataset over ``time`` with the series contact kinematics needs."""
     if not isinstance(run, xr.Dataset) or "time" not in run.dims:
@@ -46,7 +46,7 @@ def check_run(run) -> None:
                              "rattlesweep.simulate result (or its netCDF file)")
 
 
-def _run_attr(run: xr.Dataset, name: str):
+def _run_attr(run: xr.Dataset, name: str) -> np.ndarray:
     if name not in run.attrs:
         raise ValueError(f"run has no attribute {name!r}; contact_dataset needs a "
                          "rattlesweep.simulate result (or its netCDF file)")
@@ -98,7 +98,8 @@ def contact_dataset(run: xr.Dataset) -> xr.Dataset:
     omega = run.omega.transpose("time", "body_axis").values
     l_z = np.einsum("ti,ij,tj->t", up, inertia, omega)
 
-    def var(name, dims, values):
+    def var(name: str, dims: tuple[str, ...], values: np.ndarray
+            ) -> tuple[tuple[str, ...], np.ndarray, dict[str, str]]:
         units, long_name = CONTACT_ATTRS[name]
         return (dims, values, {"units": units, "long_name": long_name})
 

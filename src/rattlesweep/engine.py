@@ -15,15 +15,20 @@ import os
 import warnings
 from dataclasses import dataclass, field
 from types import ModuleType
-from typing import Any, Callable, Mapping
+from typing import TYPE_CHECKING, Any, Callable, Iterator, Mapping, Sequence
 
 import numba
 import numpy as np
 from numba import types
 
 from .core import stepper
+from .core.rows import Rows
 from .core.workspace import BLOCK, METHODS, OBSERVABLES, STOP_RULES
 from .validation import as_float_array, fail_where
+
+if TYPE_CHECKING:
+    from .body import Body
+    from .planar.body import PlanarBody
 
 __all__ = [
     "COARSE_DT", "MAX_STEPS", "RK4_LIMIT", "CoarseStepWarning", "Model", "Prepared", "Raw",
@@ -59,7 +64,7 @@ class Model:
             return OBSERVABLES.start(name)
         return OBSERVABLES.size + self.layout.OBSERVABLES.start(name)
 
-    def attrs(self, name: str) -> dict:
+    def attrs(self, name: str) -> dict[str, Any]:
         """CF attributes of a result variable of this model."""
         if name == "status":
             return dict(self.status_attrs)
@@ -96,7 +101,7 @@ class Raw:
 
 
 # --- inputs ---------------------------------------------------------------------------
-def as_bodies(body, cls: type) -> np.ndarray:
+def as_bodies(body: object, cls: type) -> np.ndarray:
     """``body`` as an object array of ``cls`` instances (0-d for a single body)."""
     name = cls.__name__
     if isinstance(body, cls):
@@ -114,7 +119,9 @@ def as_bodies(body, cls: type) -> np.ndarray:
 
 
 def broadcast_inputs(bodies: np.ndarray, scalars: Mapping[str, Any],
-                     vectors: Mapping[str, np.ndarray] | None = None):
+                     vectors: Mapping[str, np.ndarray] | None = None
+                     ) -> tuple[tuple[int, ...], int, np.ndarray, dict[str, np.ndarray],
+                                dict[str, np.ndarray]]:
     """Broadcast bodies (object array), scalar inputs and vector inputs (broadcast on
     their leading axes) together. Returns (shape, n, flat bodies, flat scalars, flat
     vectors)."""
@@ -162,7 +169,8 @@ class CoarseStepWarning(RuntimeWarning):
     artefact."""
 
 
-def warn_coarse_dt(table: list, index: np.ndarray, g: np.ndarray, dt: np.ndarray,
+def warn_coarse_dt(table: Sequence[Body | PlanarBody], index: np.ndarray, g: np.ndarray,
+                   dt: np.ndarray,
                    stacklevel: int, default: np.ndarray | None = None) -> None:
     """Warn when a given time step exceeds COARSE_DT times the default of its
     trajectory (``default``, or its body's at its g), naming the worst trajectory's
@@ -211,7 +219,8 @@ def steps_for(t_end: np.ndarray, dt: np.ndarray,
     return steps.astype(np.int64)
 
 
-def default_dts(table: list, index: np.ndarray, g: np.ndarray) -> np.ndarray:
+def default_dts(table: Sequence[Body | PlanarBody], index: np.ndarray, g: np.ndarray
+                ) -> np.ndarray:
     """Each trajectory's default time step, computed once per distinct (body, g)."""
     keys, inverse = np.unique(np.stack([index.astype(float), g]), axis=1, return_inverse=True)
     per_key = np.array([table[int(i)].default_dt(float(gv)) for i, gv in keys.T])
@@ -229,7 +238,7 @@ def blocked(rows: np.ndarray, n: int) -> np.ndarray:
     return np.ascontiguousarray(out.reshape(rows.shape[0], n_blocks, BLOCK).transpose(1, 0, 2))
 
 
-def pack(table, columns: Mapping[str, np.ndarray], n: int) -> np.ndarray:
+def pack(table: Rows, columns: Mapping[str, np.ndarray], n: int) -> np.ndarray:
     """The rows of a parameter or state table as kernel blocks: each row from its
     ``pack`` function of the flat per-trajectory ``columns``, or, without one, the
     column of its name."""
@@ -246,7 +255,8 @@ def unblock(arr: np.ndarray, n: int) -> np.ndarray:
 
 
 def prepared(model: Model, columns: Mapping[str, np.ndarray], Y: np.ndarray,
-             nsteps: np.ndarray, n: int, shape, coords) -> Prepared:
+             nsteps: np.ndarray, n: int, shape: Sequence[int], coords: dict[str, Any]
+             ) -> Prepared:
     """A :class:`Prepared` batch: parameters packed from ``columns``, the launch state Y
     already in blocks."""
     steps = np.zeros(Y.shape[0] * BLOCK, dtype=np.int64)
@@ -255,10 +265,12 @@ def prepared(model: Model, columns: Mapping[str, np.ndarray], Y: np.ndarray,
                     steps.reshape(-1, BLOCK), n, tuple(shape), coords)
 
 
-_COMPILED: dict = {}
+_COMPILED: dict[tuple[Any, ...], Any] = {}
 
 
-def run_kernel(kernel, model: int, *args) -> None:
+# ``kernel`` is a numba dispatcher, typed Any: through the jit.py decorators (partials of
+# numba.njit) numba's stubs give a kernel the type of the decorator instead
+def run_kernel(kernel: Any, model: int, *args: Any) -> None:
     """Call a stepper kernel for a model. The kernels take the model as a literal
     (``numba.literally``); called from Python with a plain int, numba would type the call
     afresh every time (milliseconds), so the compiled specialisation is looked up once
@@ -283,12 +295,13 @@ def contact_slip_velocity(model: Model, P: np.ndarray, Y: np.ndarray) -> np.ndar
 
 # --- running --------------------------------------------------------------------------
 @contextlib.contextmanager
-def numba_threads(threads: int | None):
+def numba_threads(threads: int | None) -> Iterator[None]:
     """Run the block with numba's thread count set to ``threads`` (None: unchanged)."""
     if threads is None:
         yield
         return
-    limit = numba.config.NUMBA_NUM_THREADS
+    # numba sets its config attributes from the environment at import, out of mypy's sight
+    limit = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]
     if not (isinstance(threads, (int, np.integer)) and 1 <= threads <= limit):
         raise ValueError(f"threads must be an integer from 1 to {limit}, got {threads!r}")
     old = numba.get_num_threads()
@@ -306,7 +319,7 @@ def check_method(method: str) -> int:
         raise ValueError(f"method must be one of {sorted(METHODS)}, got {method!r}") from None
 
 
-def check_record_every(record_every) -> int | None:
+def check_record_every(record_every: int | None) -> int | None:
     if record_every is None:
         return None
     if not (isinstance(record_every, (int, np.integer)) and not isinstance(record_every, bool)
@@ -323,7 +336,7 @@ def check_single_step(prep: Prepared) -> None:
             raise ValueError(f"record_every needs a single {name} for the whole batch")
 
 
-def check_band(reversal_band) -> float:
+def check_band(reversal_band: float) -> float:
     try:
         band = float(reversal_band)
     except (TypeError, ValueError):  # None, a string, a list: refused as below
@@ -334,7 +347,7 @@ def check_band(reversal_band) -> float:
     return band
 
 
-def check_stop(stop) -> float:
+def check_stop(stop: str | None) -> float:
     """The ``stop_rule`` row value of a ``stop`` argument: None (run to ``t_end``) or
     ``"first_reversal"``."""
     try:
@@ -374,9 +387,9 @@ def execute(prep: Prepared, *, method: int, record_every: int | None, band: floa
     """Run a prepared batch through the kernel."""
     layout = prep.model.layout
     n_blocks = prep.P.shape[0]
-    n_rec = 0 if record_every is None or prep.n == 0 else (
-        int(prep.nsteps.max()) // record_every + 1)
-    if n_rec:
+    n_rec = 0
+    if record_every is not None and prep.n != 0:
+        n_rec = int(prep.nsteps.max()) // record_every + 1
         check_record_size(prep, n_rec, record_every)
     REC = np.empty((n_blocks, n_rec, layout.N_REC, BLOCK))
     O = np.empty((n_blocks, layout.N_OBS, BLOCK))

@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 __all__ = [
     "quaternion_from_angles", "rotation_matrices", "up_vector", "check_unit_quaternion",
@@ -27,7 +28,7 @@ __all__ = [
 ]
 
 
-def quaternion_from_angles(roll, pitch, yaw) -> np.ndarray:
+def quaternion_from_angles(roll: ArrayLike, pitch: ArrayLike, yaw: ArrayLike) -> np.ndarray:
     """Unit quaternions (..., 4) = q_z(yaw) ⊗ q_y(pitch) ⊗ q_x(roll), angles in rad."""
     roll, pitch, yaw = np.broadcast_arrays(
         *(np.asarray(x, dtype=float) for x in (roll, pitch, yaw))

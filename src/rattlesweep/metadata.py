@@ -5,12 +5,14 @@ from the model's row tables (:mod:`rattlesweep.core.rattleback.layout`) through
 
 from __future__ import annotations
 
+from typing import Any, Sequence
+
 from .core.workspace import STATUS_NAMES
 
 __all__ = ["STATUS_ATTRS", "VARIABLE_ATTRS", "attrs_for", "flag_attrs"]
 
 
-def flag_attrs(long_name: str, names, comment: str) -> dict:
+def flag_attrs(long_name: str, names: Sequence[str], comment: str) -> dict[str, Any]:
     """CF attributes of a categorical variable whose values 0, 1, ... mean ``names``."""
     return {"long_name": long_name, "flag_values": list(range(len(names))),
             "flag_meanings": " ".join(names), "comment": comment}
@@ -55,7 +57,7 @@ VARIABLE_ATTRS = {
 }
 
 
-def attrs_for(name: str) -> dict:
+def attrs_for(name: str) -> dict[str, Any]:
     """CF attributes of a variable or coordinate."""
     if name == "status":
         return dict(STATUS_ATTRS)

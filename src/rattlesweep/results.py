@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import json
 import warnings
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
 import numba
 import numpy as np
@@ -20,6 +20,9 @@ __all__ = [
     "MAX_DEFAULT_SAMPLES", "VECTOR_COORDS", "batch_dataset", "default_record_every",
     "observables_dataset", "run_attrs", "run_dataset", "series_dataset",
 ]
+
+AttrsFor = Callable[[str], dict[str, Any]]
+"""The CF attributes of an input or coordinate by name (a model's ``attrs_for``)."""
 
 _DTYPES = {"status": np.int8, "steps": np.int64, "n_reversals": np.int64}
 
@@ -54,7 +57,7 @@ def series_dataset(model: Model, rec: np.ndarray, dims: tuple[str, ...]
                    ) -> dict[str, xr.DataArray]:
     """Recorded time series (..., n_rec, n_record) as labelled DataArrays, one per row of
     the model's record table, plus ``slip_speed``, the magnitude of ``slip_velocity``."""
-    out = {}
+    out: dict[str, xr.DataArray] = {}
     for row in model.layout.RECORD:
         values = rec[..., model.layout.RECORD.slice(row.name)]
         extra = (row.dim,) if row.width > 1 else ()
@@ -67,19 +70,21 @@ def series_dataset(model: Model, rec: np.ndarray, dims: tuple[str, ...]
     return out
 
 
-def _sample_times(prep: Prepared, raw: Raw, record_every: int) -> np.ndarray:
-    return np.arange(raw.records.shape[1]) * record_every * float(prep.coords["dt"][1][0])
+def _sample_times(prep: Prepared, records: np.ndarray, record_every: int) -> np.ndarray:
+    return np.arange(records.shape[1]) * record_every * float(prep.coords["dt"][1][0])
 
 
-def batch_dataset(prep: Prepared, raw: Raw, record_every: int | None, attrs_for,
-                  global_attrs: Mapping) -> xr.Dataset:
+def batch_dataset(prep: Prepared, raw: Raw, record_every: int | None, attrs_for: AttrsFor,
+                  global_attrs: Mapping[str, Any]) -> xr.Dataset:
     """A batch's results over ``trajectory`` (and ``time`` when recorded), with every
     input as a coordinate; ``attrs_for(name)`` gives the CF attributes of an input."""
     data = observables_dataset(prep.model, raw.observables, "trajectory")
     coords: dict[str, Any] = {"trajectory": np.arange(prep.n)}
     if raw.records is not None:
+        assert record_every is not None  # the kernel records only with a record_every
         data.update(series_dataset(prep.model, raw.records, ("trajectory", "time")))
-        coords["time"] = ("time", _sample_times(prep, raw, record_every), attrs_for("time"))
+        coords["time"] = ("time", _sample_times(prep, raw.records, record_every),
+                          attrs_for("time"))
     ds = xr.Dataset(data, coords=coords)
     ds = ds.assign_coords({name: (dims, values, attrs_for(name))
                            for name, (dims, values) in prep.coords.items()})
@@ -97,15 +102,17 @@ def default_record_every(prep: Prepared, record_every: int | None) -> int:
     return max(1, -(-int(prep.nsteps[0, 0]) // MAX_DEFAULT_SAMPLES))
 
 
-def run_dataset(prep: Prepared, raw: Raw, record_every: int, attrs_for,
-                global_attrs: Mapping, config: Mapping) -> xr.Dataset:
+def run_dataset(prep: Prepared, raw: Raw, record_every: int, attrs_for: AttrsFor,
+                global_attrs: Mapping[str, Any], config: Mapping[str, Any]) -> xr.Dataset:
     """A single run's results over ``time``: its series, its observables as scalars,
     every input as an attribute (units in ``<name>_units``) and the configuration as
     JSON in ``config``. A status other than ok raises a RuntimeWarning."""
+    assert raw.records is not None  # a single run always records
     data = series_dataset(prep.model, raw.records[0], ("time",))
     data.update(observables_dataset(prep.model, raw.observables, None))
     ds = xr.Dataset(data, coords={
-        "time": ("time", _sample_times(prep, raw, record_every), attrs_for("time"))})
+        "time": ("time", _sample_times(prep, raw.records, record_every),
+                 attrs_for("time"))})
     ds = ds.assign_coords({k: v for k, v in VECTOR_COORDS.items() if k in ds.dims})
     ds.attrs.update(global_attrs)
     for name, (_, values) in prep.coords.items():
@@ -125,7 +132,7 @@ def run_dataset(prep: Prepared, raw: Raw, record_every: int, attrs_for,
 
 
 def run_attrs(method: str, record_every: int | None, band: float | None,
-              stop: str | None = None) -> dict:
+              stop: str | None = None) -> dict[str, Any]:
     """Global attributes common to every result (``band`` None: no reversal tracking;
     ``stop`` the stop rule, recorded when one is given)."""
     attrs = {

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import xarray as xr
+from numpy.typing import ArrayLike
 
 from . import engine, results
 from .batch import prepare
@@ -19,8 +21,9 @@ __all__ = ["simulate"]
 def simulate(
     body: Body,
     *,
-    spin: float | None = None, omega=None, roll: float = 0.0, pitch: float = 0.0,
-    yaw: float = 0.0, orientation=None, velocity=None,
+    spin: float | None = None, omega: ArrayLike | None = None, roll: float = 0.0,
+    pitch: float = 0.0, yaw: float = 0.0, orientation: ArrayLike | None = None,
+    velocity: ArrayLike | None = None,
     mu: float = math.inf, mu_static: float | None = None, mu_spin: float = 0.0,
     mu_roll: float = 0.0, damping: float = 0.0,
     g: float = 9.81, dt: float | None = None, t_end: float,
@@ -60,9 +63,10 @@ def simulate(
     m = check_method(method)
     rec_every = check_record_every(record_every)
     band = check_band(reversal_band)
-    inputs = dict(spin=spin, omega=omega, roll=roll, pitch=pitch, yaw=yaw,
-                  orientation=orientation, velocity=velocity, mu=mu, mu_static=mu_static,
-                  mu_spin=mu_spin, mu_roll=mu_roll, damping=damping, g=g, dt=dt, t_end=t_end)
+    inputs: dict[str, Any] = dict(
+        spin=spin, omega=omega, roll=roll, pitch=pitch, yaw=yaw, orientation=orientation,
+        velocity=velocity, mu=mu, mu_static=mu_static, mu_spin=mu_spin, mu_roll=mu_roll,
+        damping=damping, g=g, dt=dt, t_end=t_end)
     for name in ("spin", "roll", "pitch", "yaw", "mu", "mu_static", "mu_spin", "mu_roll",
                  "damping", "g", "dt", "t_end"):
         if inputs[name] is not None and np.ndim(inputs[name]) != 0:

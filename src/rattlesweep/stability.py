@@ -33,11 +33,18 @@ All functions are vectorised: parameters broadcast together.
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
 import xarray as xr
+from numpy.typing import ArrayLike
 
-from .body import Body, distinct_bodies
+from .body import Bodies, Body, distinct_bodies
 from .metadata import flag_attrs
+
+if TYPE_CHECKING:
+    from .sweep import Sweep
 
 __all__ = [
     "MODE_NAMES", "MODE_ATTRS", "body_arrays", "linearisation", "trace_identity",
@@ -65,11 +72,11 @@ def _check_upright(com: np.ndarray, inertia: np.ndarray) -> None:
                          f"{np.asarray(inertia).reshape(-1, 3, 3)[0].tolist()}")
 
 
-def body_arrays(body) -> dict[str, np.ndarray]:
+def body_arrays(body: Bodies) -> dict[str, np.ndarray]:
     """Per-body arrays (a, b, c, mass, ell, ixx, iyy, izz, ixy) for a Body or an array of
     Bodies, refusing bodies whose upright spin is no equilibrium."""
     arr = np.asarray(body, dtype=object) if not isinstance(body, Body) else None
-    bodies = [body] if arr is None else list(arr.ravel())
+    bodies: list[Any] = [body] if arr is None else list(arr.ravel())  # checked next
     if not bodies or not all(isinstance(b, Body) for b in bodies):
         raise ValueError(f"body must be a Body or an array of Body objects, got {body!r}")
     shape = () if arr is None else arr.shape
@@ -87,7 +94,8 @@ def body_arrays(body) -> dict[str, np.ndarray]:
             for k, v in cols.items()}
 
 
-def _check_inputs(spin, g, damping) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _check_inputs(spin: ArrayLike, g: ArrayLike, damping: ArrayLike
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     spin, g, damping = (np.asarray(v, dtype=float) for v in (spin, g, damping))
     for name, v, ok, rule in (("spin", spin, np.isfinite(spin), "must be finite (rad/s)"),
                               ("g", g, np.isfinite(g) & (g > 0), "must be finite and > 0"),
@@ -99,7 +107,8 @@ def _check_inputs(spin, g, damping) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     return spin, g, damping
 
 
-def linearisation(body, spin, *, g=9.81, damping=0.0) -> np.ndarray:
+def linearisation(body: Bodies, spin: ArrayLike, *, g: ArrayLike = 9.81,
+                  damping: ArrayLike = 0.0) -> np.ndarray:
     """The 4×4 matrix A (…, 4, 4) of ẋ = A x, x = (γx, γy, ωx, ωy), for rolling about
     steady upright spin ``spin`` (rad/s); ``g`` (m/s²), ``damping`` (N m s).
     ``body`` may be an array of bodies; everything broadcasts."""
@@ -136,7 +145,8 @@ def linearisation(body, spin, *, g=9.81, damping=0.0) -> np.ndarray:
     return A
 
 
-def trace_identity(body, spin, *, g=9.81, damping=0.0) -> np.ndarray:
+def trace_identity(body: Bodies, spin: ArrayLike, *, g: ArrayLike = 9.81,
+                   damping: ArrayLike = 0.0) -> np.ndarray:
     """Closed-form sum of the four eigenvalues' real parts (1/s):
     (m ℓ n I_xy (a² − b²)/c − c_v (M_xx + M_yy)) / det M."""
     p = body_arrays(body)
@@ -148,7 +158,8 @@ def trace_identity(body, spin, *, g=9.81, damping=0.0) -> np.ndarray:
     return (m * ell * n * p["ixy"] * kappa - cv * (mxx + myy)) / det
 
 
-def eigen(body, spin, *, g=9.81, damping=0.0) -> dict[str, np.ndarray]:
+def eigen(body: Bodies, spin: ArrayLike, *, g: ArrayLike = 9.81, damping: ArrayLike = 0.0
+          ) -> dict[str, np.ndarray]:
     """Tilt eigenvalues and their modes.
 
     Returns a dict of arrays over the broadcast shape: ``eigenvalues`` (…, 4) complex
@@ -183,15 +194,16 @@ def eigen(body, spin, *, g=9.81, damping=0.0) -> dict[str, np.ndarray]:
     return out
 
 
-def zero_spin_frequencies(body, *, g=9.81) -> tuple[np.ndarray, np.ndarray]:
+def zero_spin_frequencies(body: Bodies, *, g: ArrayLike = 9.81
+                          ) -> tuple[np.ndarray, np.ndarray]:
     """(pitch-like, roll-like) rocking frequencies (rad/s) of the rolling body at zero
     spin, from the linearisation (equal to :meth:`Body.small_oscillation_frequencies`)."""
     e = eigen(body, 0.0, g=g)
     return e["pitch_frequency"], e["roll_frequency"]
 
 
-def small_spin_growth_rates(body, spin, *, g=9.81, damping=0.0
-                            ) -> tuple[np.ndarray, np.ndarray]:
+def small_spin_growth_rates(body: Bodies, spin: ArrayLike, *, g: ArrayLike = 9.81,
+                            damping: ArrayLike = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """First-order-in-spin growth rates (1/s) of the (pitch-like, roll-like) modes, in
     closed form (the Walker / Garcia–Hubbard small-spin expansion).
 
@@ -236,7 +248,8 @@ def small_spin_growth_rates(body, spin, *, g=9.81, damping=0.0
     return s_pitch, s_roll
 
 
-def stability_dataset(sweep, *, command: str | None = None) -> xr.Dataset:
+def stability_dataset(sweep: Sweep | str | Path, *, command: str | None = None
+                      ) -> xr.Dataset:
     """Linear stability over the grid of a :class:`rattlesweep.Sweep` (or a TOML path or
     text): the same dimensions, coordinates and units as the sweep's result (for a
     refined sweep, its finest grid, every point computed).
@@ -256,7 +269,9 @@ def stability_dataset(sweep, *, command: str | None = None) -> xr.Dataset:
     p0, r0 = zero_spin_frequencies(bodies, g=kwargs["g"])
     dims, shape = sweep.dims, sweep.shape
 
-    def var(values, units, long_name, extra=None):
+    def var(values: ArrayLike, units: str, long_name: str,
+            extra: dict[str, str] | None = None
+            ) -> tuple[tuple[str, ...], np.ndarray, dict[str, Any]]:
         attrs = {"units": units, "long_name": long_name}
         return (dims, np.asarray(values).reshape(shape), {**attrs, **(extra or {})})
 

@@ -43,6 +43,7 @@ import functools
 import hashlib
 import os
 from pathlib import Path
+from typing import Any
 
 import numba
 
@@ -56,7 +57,9 @@ FASTMATH = {"nsz"}  # see the module docstring for what is left out, and why
 JIT_OPTIONS = dict(nogil=True, cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
 """Options of every helper kernel."""
 
-OVERLOAD_OPTIONS = {k: v for k, v in JIT_OPTIONS.items() if k != "cache"}
+# Any: numba's stubs type an overload's jit_options as a TypedDict of the public options,
+# which lacks _nrt
+OVERLOAD_OPTIONS: Any = {k: v for k, v in JIT_OPTIONS.items() if k != "cache"}
 """Options of the overloads (``at``, the model hooks): they are compiled into their
 callers, which are cached themselves."""
 

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
+from numpy.typing import ArrayLike
 
 from .. import engine, results
 from ..body import distinct_bodies
@@ -22,7 +23,7 @@ from ..engine import (
     Model, Prepared, as_bodies, check_method, check_record_every, check_single_step,
 )
 from ..validation import fail_where
-from .body import PlanarBody
+from .body import PlanarBodies, PlanarBody
 from .metadata import attrs_for
 
 __all__ = ["MODEL", "planar_run_attrs", "prepare_planar", "run_planar_batch"]
@@ -40,8 +41,11 @@ MODEL = Model(
 """The planar model as the batch layer sees it."""
 
 
-def prepare_planar(body, *, theta, rate=0.0, velocity=None, mu=math.inf, mu_static=None,
-                   mu_roll=0.0, g=9.81, dt=None, t_end) -> Prepared:
+def prepare_planar(body: PlanarBodies, *, theta: ArrayLike, rate: ArrayLike = 0.0,
+                   velocity: ArrayLike | None = None, mu: ArrayLike = math.inf,
+                   mu_static: ArrayLike | None = None, mu_roll: ArrayLike = 0.0,
+                   g: ArrayLike = 9.81, dt: ArrayLike | None = None, t_end: ArrayLike
+                   ) -> Prepared:
     """Check, broadcast and pack planar launches for the kernel.
 
     See :func:`run_planar_batch` for the arguments. Raises ValueError naming the parameter,
@@ -102,7 +106,7 @@ def prepare_planar(body, *, theta, rate=0.0, velocity=None, mu=math.inf, mu_stat
                            {k: (dim, v) for k, v in coords.items()})
 
 
-def planar_run_attrs(method: str, record_every: int | None) -> dict:
+def planar_run_attrs(method: str, record_every: int | None) -> dict[str, Any]:
     """Global attributes of a planar result."""
     attrs = results.run_attrs(method, record_every, None)
     attrs["title"] = TITLE
@@ -111,11 +115,12 @@ def planar_run_attrs(method: str, record_every: int | None) -> dict:
 
 
 def run_planar_batch(
-    body: PlanarBody | Any,
+    body: PlanarBodies,
     *,
-    theta, rate=0.0, velocity=None, mu=math.inf, mu_static=None, mu_roll=0.0, g=9.81,
-    dt=None, t_end, method: str = "rk4", record_every: int | None = None, parallel: bool = True,
-    threads: int | None = None,
+    theta: ArrayLike, rate: ArrayLike = 0.0, velocity: ArrayLike | None = None,
+    mu: ArrayLike = math.inf, mu_static: ArrayLike | None = None, mu_roll: ArrayLike = 0.0,
+    g: ArrayLike = 9.81, dt: ArrayLike | None = None, t_end: ArrayLike, method: str = "rk4",
+    record_every: int | None = None, parallel: bool = True, threads: int | None = None,
 ) -> xr.Dataset:
     """Integrate many planar launches at once; return per-trajectory observables.
 

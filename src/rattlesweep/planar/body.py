@@ -10,13 +10,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple, Sequence, TypeAlias, Union
 
 import numpy as np
+import numpy.typing as npt
 
 from ..validation import positive
 
-__all__ = ["ContactPoint", "PlanarBody"]
+__all__ = ["ContactPoint", "PlanarBodies", "PlanarBody"]
 
 _REL_TOL = 1e-9
 
@@ -66,8 +67,19 @@ class PlanarBody:
     a: float
     b: float
     mass: float
-    com_depth: float | None = None
-    inertia: float | None = None
+    if TYPE_CHECKING:
+        # None in the constructor stands for the homogeneous lamina's value, which
+        # __post_init__ stores: a body made holds numbers. A field has one type, so the
+        # constructor's signature is spelled out for type checkers (at run time the
+        # dataclass makes the same __init__ from the fields of the else branch).
+        com_depth: float
+        inertia: float
+
+        def __init__(self, a: float, b: float, mass: float, com_depth: float | None = None,
+                     inertia: float | None = None, name: str = "semi_ellipse") -> None: ...
+    else:
+        com_depth: float | None = None
+        inertia: float | None = None
     name: str = field(default="semi_ellipse", compare=False)
 
     def __post_init__(self) -> None:
@@ -102,7 +114,8 @@ class PlanarBody:
         return cls(a, b, mass, name=name)
 
     # --- geometry ----------------------------------------------------------------------
-    def height_derivatives(self, theta) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def height_derivatives(self, theta: npt.ArrayLike
+                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(h, h′, h″) at θ (rad, array_like): the height of G above the floor (m) and its
         first and second derivatives (m/rad, m/rad²), in closed form.
 
@@ -120,11 +133,11 @@ class PlanarBody:
         hpp = a2 * b2 / sigma**3 - sigma + d * c
         return h, hp, hpp
 
-    def height(self, theta) -> np.ndarray:
+    def height(self, theta: npt.ArrayLike) -> np.ndarray:
         """Height h(θ) of G above the floor (m) at θ (rad, array_like)."""
         return self.height_derivatives(theta)[0]
 
-    def contact_point(self, theta) -> ContactPoint:
+    def contact_point(self, theta: npt.ArrayLike) -> ContactPoint:
         """The contact point at θ (rad, array_like); see :class:`ContactPoint` (m)."""
         th = np.asarray(theta, dtype=float)
         s, c = np.sin(th), np.cos(th)
@@ -166,7 +179,13 @@ class PlanarBody:
                 math.sqrt(g / self.b))
         return 2.0 * math.pi / w / 64.0
 
-    def describe(self) -> dict:
+    def describe(self) -> dict[str, Any]:
         """Plain-number description for result attributes."""
         return {"body_name": self.name, "a": self.a, "b": self.b, "mass": self.mass,
                 "com_depth": self.com_depth, "inertia": self.inertia}
+
+
+PlanarBodies: TypeAlias = Union[PlanarBody, "npt.NDArray[np.object_]",
+                                Sequence["PlanarBodies"]]
+"""A planar body, or an array of them: an object array, or sequences nested to any
+depth."""

@@ -4,6 +4,8 @@ flags are shared with the 3-D engine (:data:`rattlesweep.metadata.STATUS_ATTRS`)
 
 from __future__ import annotations
 
+from typing import Any
+
 from ..metadata import STATUS_ATTRS
 
 __all__ = ["STATUS_COMMENT", "VARIABLE_ATTRS", "attrs_for"]
@@ -34,7 +36,7 @@ VARIABLE_ATTRS = {
 }
 
 
-def attrs_for(name: str) -> dict:
+def attrs_for(name: str) -> dict[str, Any]:
     """CF attributes of a planar variable or coordinate."""
     if name == "status":
         return {**STATUS_ATTRS, "comment": STATUS_COMMENT}

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import xarray as xr
@@ -59,8 +60,9 @@ def simulate_planar(
         raise ValueError(f"body must be a PlanarBody, got {body!r}")
     m = check_method(method)
     rec_every = check_record_every(record_every)
-    inputs = dict(theta=theta, rate=rate, velocity=velocity, mu=mu, mu_static=mu_static,
-                  mu_roll=mu_roll, g=g, dt=dt, t_end=t_end)
+    inputs: dict[str, Any] = dict(theta=theta, rate=rate, velocity=velocity, mu=mu,
+                                  mu_static=mu_static, mu_roll=mu_roll, g=g, dt=dt,
+                                  t_end=t_end)
     for name, value in inputs.items():
         if value is not None and np.ndim(value) != 0:
             raise ValueError(f"{name} must be a scalar for simulate_planar(); "
