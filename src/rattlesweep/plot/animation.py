@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import xarray as xr
@@ -15,7 +16,8 @@ __all__ = ["WRITERS", "animate"]
 WRITERS = {".gif": "pillow", ".mp4": "ffmpeg"}
 
 
-def _surface(a: float, b: float, c: float, full: bool, n_u: int = 28, n_v: int = 10):
+def _surface(a: float, b: float, c: float, full: bool, n_u: int = 28, n_v: int = 10
+             ) -> np.ndarray:
     """Body-frame mesh (3, n_v, n_u) of the curved surface (the lower half unless full)."""
     u = np.linspace(0.0, 2.0 * np.pi, n_u)
     v = np.linspace(0.0 if full else 0.5 * np.pi, np.pi, n_v)
@@ -112,9 +114,9 @@ def animate(run: xr.Dataset, path: str | os.PathLike, *, frames: int = 100,
     fig.text(0.02, 0.915, f"red: contact point; arrow: spin (blue +, red -){stretch}",
              fontsize="x-small")
     heading = fig.text(0.02, 0.955, "", fontsize="small", family="monospace")
-    drawn: list = []
+    drawn: list[Any] = []
 
-    def draw(k: int):
+    def draw(k: int) -> list[Any]:
         for artist in drawn:
             artist.remove()
         drawn.clear()
@@ -139,7 +141,9 @@ def animate(run: xr.Dataset, path: str | os.PathLike, *, frames: int = 100,
     anim = animation.FuncAnimation(fig, draw, frames=frames, blit=False)
     tmp = path.with_name(f".{path.name}.tmp{path.suffix}")
     try:
-        anim.save(tmp, writer=writer, fps=fps, dpi=dpi)
+        # matplotlib's stubs say an int, but the writers take any rate (save itself
+        # makes a float one from the interval when fps is not given)
+        anim.save(tmp, writer=writer, fps=fps, dpi=dpi)  # type: ignore[arg-type]
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)

@@ -3,10 +3,19 @@ simulated reversal times with linear growth rates."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any, Hashable, Mapping
+
 import xarray as xr
 from matplotlib.figure import Figure
 
 from .labels import axis_label as _label
+
+if TYPE_CHECKING:
+    import numpy as np
+    from matplotlib.artist import Artist
+    from matplotlib.axes import Axes
+    from matplotlib.collections import QuadMesh
+    from matplotlib.colors import Colormap, Normalize
 
 __all__ = [
     "FLAG_COLOURS", "OUTCOME_COLOURS", "reversal_map", "mpl_cmap", "reversed_fraction",
@@ -26,7 +35,7 @@ FLAG_COLOURS = {**OUTCOME_COLOURS, "filled": "#d9d9d9", "simulated": "#1f77b4"}
 flag (simulated points dark, filled ones light)."""
 
 
-def _select(da: xr.DataArray, select: dict) -> xr.DataArray:
+def _select(da: xr.DataArray, select: Mapping[str, Any]) -> xr.DataArray:
     """Select exact matches as they are and other numeric values by the nearest
     coordinate (exact first, so that inf selects inf)."""
     for dim, value in select.items():
@@ -38,7 +47,7 @@ def _select(da: xr.DataArray, select: dict) -> xr.DataArray:
     return da
 
 
-def _axis_values(da: xr.DataArray, dim: str):
+def _axis_values(da: xr.DataArray, dim: str) -> tuple[np.ndarray, list[str] | None]:
     """Plot positions and tick labels (None for numeric axes) of a dimension."""
     import numpy as np
 
@@ -48,14 +57,14 @@ def _axis_values(da: xr.DataArray, dim: str):
     return values, None
 
 
-def _fmt_coord(ds: xr.DataArray, dim: str, value) -> str:
+def _fmt_coord(ds: xr.Dataset | xr.DataArray, dim: Hashable, value: object) -> str:
     units = ds[dim].attrs.get("units", "")
     text = f"{value:g}" if isinstance(value, float) else str(value)
     return f"{dim} = {text}" + (f" {units}" if units and units != "1" else "")
 
 
 def reversal_map(ds: xr.Dataset, x: str, y: str, var: str = "outcome", *,
-                 facet: str | None = None, select: dict | None = None,
+                 facet: str | None = None, select: Mapping[str, Any] | None = None,
                  reduce: str | None = None, title: str | None = None,
                  ncols: int = 3, cmap: str = "viridis",
                  overlay: xr.Dataset | None = None) -> Figure:
@@ -85,7 +94,8 @@ def reversal_map(ds: xr.Dataset, x: str, y: str, var: str = "outcome", *,
     from matplotlib.patches import Patch
 
     if var not in ds.data_vars:
-        raise ValueError(f"var {var!r} is not in the dataset; it has {sorted(ds.data_vars)}")
+        raise ValueError(f"var {var!r} is not in the dataset; it has "
+                         f"{sorted(str(name) for name in ds.data_vars)}")
     da = ds[var]
     for role, dim in (("x", x), ("y", y), ("facet", facet)):
         if dim is not None and dim not in da.dims:
@@ -119,6 +129,8 @@ def reversal_map(ds: xr.Dataset, x: str, y: str, var: str = "outcome", *,
     fig = Figure(figsize=(4.0 * ncols + 2.2, 3.4 * nrows + 0.6), layout="constrained")
     axes = fig.subplots(nrows, ncols, squeeze=False, sharex=True, sharey=True)
 
+    cm: Colormap
+    norm: Normalize
     if categorical:
         meanings = da.attrs["flag_meanings"].split()
         flags = list(da.attrs["flag_values"])
@@ -131,7 +143,7 @@ def reversal_map(ds: xr.Dataset, x: str, y: str, var: str = "outcome", *,
         norm = Normalize(*(finite.min(), finite.max()) if finite.size else (0, 1))
     xs, xlabels = _axis_values(da, x)
     ys, ylabels = _axis_values(da, y)
-    mesh = None
+    mesh: QuadMesh | None = None
     any_nan = False
     for k, (value, panel) in enumerate(panels):
         ax = axes[k // ncols][k % ncols]
@@ -143,7 +155,7 @@ def reversal_map(ds: xr.Dataset, x: str, y: str, var: str = "outcome", *,
         if overlay is not None:
             _draw_boundary(ax, overlay, x, y, {**(select or {}),
                                                **({facet: value} if facet else {})})
-        if value is not None:
+        if value is not None and facet is not None:  # a value comes with its facet
             ax.set_title(_fmt_coord(da, facet, value), fontsize="medium")
         if xlabels:
             ax.set_xticks(xs, xlabels)
@@ -156,12 +168,13 @@ def reversal_map(ds: xr.Dataset, x: str, y: str, var: str = "outcome", *,
     for k in range(len(panels), nrows * ncols):
         axes[k // ncols][k % ncols].set_visible(False)
 
-    handles = []
+    handles: list[Artist] = []
     if categorical:
         present = set(np.unique(da.values[~np.isnan(da.values.astype(float))]).tolist())
         handles = [Patch(color=c, label=m.replace("_", " "))
                    for f, m, c in zip(flags, meanings, colours) if f in present]
     else:
+        assert mesh is not None  # there is a panel
         fig.colorbar(mesh, ax=axes.ravel().tolist(), label=_label(da, var))
     if overlay is not None:
         from matplotlib.lines import Line2D
@@ -169,8 +182,9 @@ def reversal_map(ds: xr.Dataset, x: str, y: str, var: str = "outcome", *,
         handles.append(Line2D([], [], color="black", lw=1.5,
                               label="simulated reversal boundary"))
     if any_nan:
-        handles.append(Patch(color=cm.get_bad() if not categorical else "white",
-                             label="no value (NaN)"))
+        # matplotlib takes an RGBA array as a colour; its stubs' ColorType has no arrays
+        bad = cm.get_bad() if not categorical else "white"
+        handles.append(Patch(color=bad, label="no value (NaN)"))  # type: ignore[arg-type]
     if handles:
         fig.legend(handles=handles, loc="outside right upper" if categorical
                    else "outside lower center", title=da.attrs.get(
@@ -181,7 +195,7 @@ def reversal_map(ds: xr.Dataset, x: str, y: str, var: str = "outcome", *,
     return fig
 
 
-def mpl_cmap(name: str):
+def mpl_cmap(name: str) -> Colormap:
     """A colormap by name, NaN drawn light grey."""
     import matplotlib
 
@@ -196,7 +210,8 @@ def reversed_fraction(sweep: xr.Dataset) -> xr.DataArray:
     return sweep.outcome.isin([REVERSED, SEVERAL]).astype(float)
 
 
-def _draw_boundary(ax, sweep: xr.Dataset, x: str, y: str, select: dict) -> None:
+def _draw_boundary(ax: Axes, sweep: xr.Dataset, x: str, y: str,
+                   select: Mapping[str, Any]) -> None:
     import numpy as np
 
     frac = reversed_fraction(sweep)
@@ -215,7 +230,7 @@ def _draw_boundary(ax, sweep: xr.Dataset, x: str, y: str, select: dict) -> None:
 
 
 def stability_map(ds: xr.Dataset, x: str, y: str, var: str = "growth_rate", *,
-                  overlay: xr.Dataset | None = None, **kwargs) -> Figure:
+                  overlay: xr.Dataset | None = None, **kwargs: Any) -> Figure:
     """Map of a linear-stability result (:func:`rattlesweep.stability.stability_dataset`)
     over two axes: ``growth_rate`` (1/s) by default, or ``mode`` (stable / neutral /
     pitch- or roll-unstable) as categories, any other variable of the file alike.

@@ -3,7 +3,7 @@ phases shaded, and the contact point's path over the body or the floor."""
 
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Iterable, Sequence
 
 import numpy as np
 import xarray as xr
@@ -22,7 +22,7 @@ SLIP_SHADE = "#fdd9a0"
 """Colour of the slipping phases in time-series panels."""
 
 
-def _runs(runs) -> list[xr.Dataset]:
+def _runs(runs: xr.Dataset | Iterable[xr.Dataset]) -> list[xr.Dataset]:
     if isinstance(runs, xr.Dataset):
         return [runs]
     runs = list(runs)
@@ -31,7 +31,7 @@ def _runs(runs) -> list[xr.Dataset]:
     return runs
 
 
-def _labels(labels, n: int) -> list[str]:
+def _labels(labels: Iterable[str] | None, n: int) -> list[str]:
     if labels is None:
         return [f"run {i}" for i in range(n)] if n > 1 else [""]
     labels = list(labels)
@@ -40,8 +40,9 @@ def _labels(labels, n: int) -> list[str]:
     return labels
 
 
-def spin_history(runs: Sequence[xr.Dataset], labels: Sequence[str] | None = None,
-                 *, title: str | None = None) -> Figure:
+def spin_history(runs: xr.Dataset | Iterable[xr.Dataset],
+                 labels: Sequence[str] | None = None, *, title: str | None = None
+                 ) -> Figure:
     """Spin (rad/s) against time (s) for one or more :func:`rattlesweep.simulate` results,
     with each run's first reversal marked."""
     runs = _runs(runs)
@@ -147,7 +148,8 @@ def _wrap(text: str, width: int = 28) -> str:
     return "\n".join(textwrap.wrap(text, width)) or text
 
 
-def contact_path(runs, labels: Sequence[str] | None = None, *, frame: str = "body",
+def contact_path(runs: xr.Dataset | Iterable[xr.Dataset],
+                 labels: Sequence[str] | None = None, *, frame: str = "body",
                  title: str | None = None) -> Figure:
     """The contact point's path, one panel per run, coloured by time (s).
 
@@ -184,7 +186,10 @@ def contact_path(runs, labels: Sequence[str] | None = None, *, frame: str = "bod
             ax.plot(run.position.sel(axis="X") * 1e3, run.position.sel(axis="Y") * 1e3,
                     color="0.6", lw=0.8, label="centre of mass")
         segments = np.stack([xy[:-1], xy[1:]], axis=1)
-        lines = LineCollection(segments, cmap="viridis", norm=norm, lw=1.2)
+        # an (n, 2, 2) array is the sequence of segments matplotlib asks for; its stubs
+        # take only a Sequence
+        lines = LineCollection(
+            segments, cmap="viridis", norm=norm, lw=1.2)  # type: ignore[arg-type]
         lines.set_array(c.time.values[:-1])
         ax.add_collection(lines)
         ax.plot(*xy[0], "o", color="k", ms=4, label="start")
@@ -202,6 +207,7 @@ def contact_path(runs, labels: Sequence[str] | None = None, *, frame: str = "bod
         ax.legend(fontsize="x-small", loc="upper right")
         if label:
             ax.set_title(label, fontsize="medium")
+    assert lines is not None  # runs is not empty
     fig.colorbar(lines, ax=list(axes), label=axis_label(runs[0].time, "time"))
     if title:
         fig.suptitle(title, fontsize="medium")
