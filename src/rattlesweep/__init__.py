@@ -8,6 +8,7 @@ simulation does not need.
 from __future__ import annotations
 
 import importlib
+from typing import TYPE_CHECKING, Any
 
 from ._version import __version__
 from .body import PRESETS, Body
@@ -23,15 +24,21 @@ __all__ = ["Body", "PRESETS", "PlanarBody", "Sweep", "planar", "resume", "run_ba
 
 _FROM_SWEEP = ("Sweep", "resume", "run_sweep")
 
-
-def __getattr__(name: str):
-    if name == "sweep":
-        return importlib.import_module(".sweep", __name__)
-    if name in _FROM_SWEEP:
-        value = getattr(importlib.import_module(".sweep", __name__), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+if TYPE_CHECKING:
+    # what __getattr__ imports on first use, seen by type checkers as it is
+    from . import sweep
+    from .sweep import Sweep
+    from .sweep.run import resume, run_sweep
+else:
+    # hidden from type checkers, which would give any other name its result type
+    def __getattr__(name: str) -> Any:
+        if name == "sweep":
+            return importlib.import_module(".sweep", __name__)
+        if name in _FROM_SWEEP:
+            value = getattr(importlib.import_module(".sweep", __name__), name)
+            globals()[name] = value
+            return value
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def __dir__() -> list[str]:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import xarray as xr
 
@@ -10,7 +12,7 @@ from .outcomes import OUTCOME_NAMES, at_first_reversal
 __all__ = ["compare_with_full"]
 
 
-def compare_with_full(refined: xr.Dataset, full: xr.Dataset) -> dict:
+def compare_with_full(refined: xr.Dataset, full: xr.Dataset) -> dict[str, Any]:
     """Figures of a refined result against a full sweep on the same (finest) grid.
 
     When ``refined`` was run with ``stop = "first_reversal"`` and ``full`` was not,

@@ -10,10 +10,12 @@ from __future__ import annotations
 
 import itertools
 import math
+from typing import Any, Mapping
 
 import numpy as np
 
 from .. import batch
+from ..body import Body
 from .grid import Axis, RandomParam, batch_inputs
 from .params import resolve
 
@@ -26,12 +28,12 @@ _STABILITY_T_END = 1.0
 """End time (s) the tiles of a configuration without ``t_end`` are sized for."""
 
 
-def _max_steps(bodies, kwargs) -> int:
+def _max_steps(bodies: np.ndarray, kwargs: Mapping[str, Any]) -> int:
     return batch.max_steps(bodies, **kwargs)
 
 
 def check_corners(grid_axes: tuple[Axis, ...], random_params: tuple[RandomParam, ...],
-                  fixed_si: dict[str, float], fixed_body) -> int:
+                  fixed_si: dict[str, float], fixed_body: str | Body | None) -> int:
     """Check every combination of the extremes of the varying parameters against the
     batch layer's rules; return the largest number of steps any point takes.
 
@@ -39,7 +41,7 @@ def check_corners(grid_axes: tuple[Axis, ...], random_params: tuple[RandomParam,
     ``fixed_body`` the fixed body (a preset name, a Body, or None when it varies). A
     broken rule is a ValueError naming the first offending corner.
     """
-    varying: list[tuple[str, str, list]] = []
+    varying: list[tuple[str, str, list[Any]]] = []
     for ax in grid_axes:
         if ax.param == "body":
             varying.append((ax.key, "body", list(ax.values)))
@@ -114,7 +116,7 @@ def tile_block(shape: tuple[int, ...], tile_size: int) -> tuple[int, ...]:
     return tuple(block)
 
 
-def _show(value, param: str, key: str) -> str:
+def _show(value: Any, param: str, key: str) -> str:
     if param == "body":
         return repr(value)
     try:

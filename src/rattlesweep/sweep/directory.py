@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Iterator
 
 import netCDF4
 import numpy as np
@@ -80,7 +81,7 @@ def tile_dataset(sweep: Sweep, result: TileResult) -> xr.Dataset:
 class TileDirectory:
     """The netCDF output of ``sweep`` in ``out_dir`` (see the module's description)."""
 
-    def __init__(self, sweep: Sweep, out_dir: str | Path, *,
+    def __init__(self, sweep: Sweep, out_dir: str | os.PathLike[str], *,
                  command: str | None = None) -> None:
         self.sweep = sweep
         self.command = command
@@ -172,7 +173,8 @@ class TileDirectory:
             raise write_failure(path, exc, self.written,
                                 f"rattlesweep resume {self.out}") from exc
 
-    def _tile_arrays(self, names: tuple[str, ...]):
+    def _tile_arrays(self, names: tuple[str, ...]
+                     ) -> Iterator[tuple[tuple[int, int], dict[str, np.ndarray]]]:
         for tile in range(self.sweep.n_tiles):
             yield self.sweep.tile_range(tile), read_tile(tile_path(self.tiles_dir, tile),
                                                          names)

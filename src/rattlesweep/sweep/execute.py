@@ -16,7 +16,7 @@ __all__ = ["run_tiles"]
 Handler = Callable[[Any], None]
 
 
-def run_tiles(sweep: Sweep, todo: list, on_result: Handler, *, client: Any = None,
+def run_tiles(sweep: Sweep, todo: list[Any], on_result: Handler, *, client: Any = None,
               workers: int = 1, compute: Callable[[Sweep, Any], Any] = compute_tile
               ) -> None:
     """Compute the tiles ``todo`` of ``sweep`` and call ``on_result`` with each result as
@@ -35,8 +35,8 @@ def run_tiles(sweep: Sweep, todo: list, on_result: Handler, *, client: Any = Non
         _run_cluster(sweep, todo, on_result, client, compute)
 
 
-def _run_threads(sweep: Sweep, todo: list, on_result: Handler, workers: int,
-                 compute: Callable) -> None:
+def _run_threads(sweep: Sweep, todo: list[Any], on_result: Handler, workers: int,
+                 compute: Callable[[Sweep, Any], Any]) -> None:
     # a few tiles queued per thread keeps the threads busy while this thread writes;
     # the rest are handed out as tiles finish, so results never pile up in memory
     window = 2 * workers
@@ -69,8 +69,8 @@ def _run_threads(sweep: Sweep, todo: list, on_result: Handler, workers: int,
         pool.shutdown(wait=True, cancel_futures=True)
 
 
-def _run_cluster(sweep: Sweep, todo: list, on_result: Handler, client: Any,
-                 compute: Callable) -> None:
+def _run_cluster(sweep: Sweep, todo: list[Any], on_result: Handler, client: Any,
+                 compute: Callable[[Sweep, Any], Any]) -> None:
     import dask
     from distributed import as_completed
 

@@ -12,6 +12,7 @@ import functools
 import math
 import zlib
 from dataclasses import dataclass
+from typing import Any, Mapping
 
 import numpy as np
 
@@ -93,9 +94,9 @@ def uniform01(seed: int, key: str, index: np.ndarray) -> np.ndarray:
     return (x >> np.uint64(11)).astype(np.float64) * 2.0**-53
 
 
-def body_for(body, params: dict[str, float]) -> Body:
+def body_for(body: str | Body | None, params: Mapping[str, float]) -> Body | None:
     """The body of one point: ``body`` (a preset name, or a Body) unless semi-ellipsoid
-    parameters are given, which build :meth:`Body.semi_ellipsoid`."""
+    parameters are given, which build :meth:`Body.semi_ellipsoid`. None for neither."""
     if params:
         return _semi_ellipsoid(*(float(params[k]) for k in BODY_PARAMS))
     return _preset(body) if isinstance(body, str) else body
@@ -119,25 +120,27 @@ def semi_ellipsoid_defaults() -> dict[str, float]:
     return {"a": toy.a, "b": toy.b, "c": toy.c, "mass": toy.mass, "delta": toy.misalignment}
 
 
-def _object_array(items: list) -> np.ndarray:
+def _object_array(items: list[Any]) -> np.ndarray:
     out = np.empty(len(items), dtype=object)
     out[:] = items
     return out
 
 
 def batch_inputs(columns: dict[str, np.ndarray], body_column: np.ndarray | None,
-                 fixed_body) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+                 fixed_body: str | Body | None) -> tuple[np.ndarray, dict[str, Any]]:
     """Bodies and :func:`prepare` keyword arguments for a set of points.
 
     ``columns`` maps parameter names to SI arrays over the points (every swept, random and
     fixed parameter, broadcast); ``body_column`` holds preset names per point when the body
     is an axis; ``fixed_body`` is the fixed body (preset name or Body) otherwise. Bodies
-    are built once per distinct parameter combination.
+    are built once per distinct parameter combination. The keyword arguments are SI
+    arrays, or a default's number, or None for a ``t_end`` that is not given.
     """
     n = len(next(iter(columns.values())))
     shape_params = [k for k in BODY_PARAMS if k in columns]
     if shape_params:
-        full = {**semi_ellipsoid_defaults(), **{k: columns[k] for k in shape_params}}
+        full: dict[str, float | np.ndarray] = {**semi_ellipsoid_defaults(),
+                                               **{k: columns[k] for k in shape_params}}
         table = np.stack([np.broadcast_to(full[k], (n,)) for k in BODY_PARAMS], axis=1)
         uniq, inverse = np.unique(table, axis=0, return_inverse=True)
         made = _object_array([body_for(None, dict(zip(BODY_PARAMS, row))) for row in uniq])

@@ -15,6 +15,7 @@ import os
 import socket
 import sys
 from pathlib import Path
+from typing import Any
 
 __all__ = ["LOCK_NAME", "SweepLock", "SweepLocked"]
 
@@ -55,7 +56,7 @@ class SweepLock:
         self.path = Path(path)
         self.held = False
 
-    def _describe(self) -> dict:
+    def _describe(self) -> dict[str, Any]:
         return {"host": socket.gethostname(), "pid": os.getpid(),
                 "started": _start_time(os.getpid()),
                 "since": datetime.datetime.now().isoformat(timespec="seconds"),
@@ -74,7 +75,7 @@ class SweepLock:
             tmp.unlink(missing_ok=True)
         return True
 
-    def _holder(self) -> tuple[dict | None, str]:
+    def _holder(self) -> tuple[dict[str, Any] | None, str]:
         try:
             text = self.path.read_text()
         except FileNotFoundError:
@@ -113,7 +114,7 @@ class SweepLock:
         raise SweepLocked(f"cannot take the lock {self.path}: other processes keep "
                           "taking it")
 
-    def _stale(self, holder: dict) -> bool:
+    def _stale(self, holder: dict[str, Any]) -> bool:
         if holder.get("host") != socket.gethostname():
             return False
         try:
@@ -122,7 +123,7 @@ class SweepLock:
             return True
         return not _running(pid, holder.get("started"))
 
-    def _refusal(self, holder: dict) -> str:
+    def _refusal(self, holder: dict[str, Any]) -> str:
         where = self.path.parent if self.path.name == LOCK_NAME else \
             self.path.with_suffix("")
         here = holder.get("host") == socket.gethostname()
@@ -145,5 +146,5 @@ class SweepLock:
     def __enter__(self) -> "SweepLock":
         return self.acquire()
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.release()

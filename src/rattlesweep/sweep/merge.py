@@ -6,7 +6,7 @@ from __future__ import annotations
 import datetime
 import platform
 import sys
-from typing import Iterable
+from typing import Any, Iterable
 
 import dask
 import netCDF4
@@ -34,7 +34,7 @@ def versions() -> dict[str, str]:
     }
 
 
-def sweep_attrs(sweep: Sweep, title: str, command: str | None) -> dict:
+def sweep_attrs(sweep: Sweep, title: str, command: str | None) -> dict[str, Any]:
     """Global attributes of a result on a sweep's grid: title, the configuration and its
     hash, the dimensions, versions, and ``history`` (UTC date and ``command``, by default
     the process's command line)."""
@@ -45,10 +45,10 @@ def sweep_attrs(sweep: Sweep, title: str, command: str | None) -> dict:
             "history": f"{now} {command or ' '.join(sys.argv)}"}
 
 
-def grid_coords(sweep: Sweep) -> dict:
+def grid_coords(sweep: Sweep) -> dict[str, Any]:
     """Coordinates of a result on the sweep's grid: the axes (in the user's units), the
     ``repeat`` index when there are random draws, and the fixed values as scalars."""
-    coords: dict = {}
+    coords: dict[str, Any] = {}
     for ax in sweep.grid_axes:
         attrs = {"long_name": ax.long_name}
         if ax.param != "body":
@@ -70,7 +70,7 @@ def grid_coords(sweep: Sweep) -> dict:
     return coords
 
 
-def result_attrs(sweep: Sweep, command: str | None) -> dict:
+def result_attrs(sweep: Sweep, command: str | None) -> dict[str, Any]:
     """Global attributes of a sweep's result: the run's settings, the configuration,
     versions and ``history``."""
     attrs = run_attrs(sweep.method, None, sweep.reversal_band, sweep.stop)

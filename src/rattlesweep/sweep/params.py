@@ -34,7 +34,7 @@ class Param:
     """One sweepable scalar: its SI unit table, default, rule and long name."""
 
     name: str
-    units: dict
+    units: dict[str, tuple[float, str]]
     rule: str
     long_name: str
     group: str  # "body", "launch", "friction", "numerics"

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import sys
 import time
-from typing import TextIO
+from typing import Any, Mapping, TextIO
 
 __all__ = ["Progress"]
 
@@ -36,7 +36,7 @@ class Progress:
         elapsed = time.perf_counter() - self.t0
         return self.new_points / elapsed if elapsed > 0 else 0.0
 
-    def update(self, summary: dict) -> None:
+    def update(self, summary: Mapping[str, Any]) -> None:
         if summary.get("skipped"):
             return
         self.done_tiles += 1

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
+from typing import Iterator, Sequence
 
 import numpy as np
 
@@ -74,7 +75,7 @@ class Levels:
         return np.flatnonzero(mask)
 
 
-def _along(ndim: int, axes: tuple[int, ...], parts) -> tuple[slice, ...]:
+def _along(ndim: int, axes: tuple[int, ...], parts: Sequence[slice]) -> tuple[slice, ...]:
     """An index with slice ``parts[i]`` along refined axis ``axes[i]``, all elsewhere."""
     index = [slice(None)] * ndim
     for a, part in zip(axes, parts):
@@ -82,7 +83,8 @@ def _along(ndim: int, axes: tuple[int, ...], parts) -> tuple[slice, ...]:
     return tuple(index)
 
 
-def _corners(lattice: np.ndarray, axes: tuple[int, ...]):
+def _corners(lattice: np.ndarray, axes: tuple[int, ...]
+             ) -> Iterator[tuple[tuple[int, ...], np.ndarray]]:
     """(offsets, array over the cells) for each corner of the cells of a lattice."""
     for offs in itertools.product((0, 1), repeat=len(axes)):
         parts = [slice(o, lattice.shape[a] - 1 + o) for a, o in zip(axes, offs)]

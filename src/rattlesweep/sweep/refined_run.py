@@ -10,6 +10,7 @@ files, computes only the tiles missing, and reaches the same result.
 
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -73,7 +74,7 @@ class LevelTileResult:
     steps: int
     seconds: float
 
-    def summary(self) -> dict:
+    def summary(self) -> dict[str, Any]:
         return {"tile": self.tile, "n": len(self.index), "steps": self.steps,
                 "seconds": self.seconds}
 
@@ -94,7 +95,7 @@ class RefinedDirectory(TileDirectory):
     """The output directory of a refined sweep (see the module's description): the
     configuration check and lock of :class:`.TileDirectory`, tiles per level."""
 
-    def __init__(self, sweep: Sweep, out_dir: str | Path, *,
+    def __init__(self, sweep: Sweep, out_dir: str | os.PathLike[str], *,
                  command: str | None = None) -> None:
         super().__init__(sweep, out_dir, command=command)
         self.tiles_dir = self.out / LEVELS_DIR
@@ -133,7 +134,7 @@ class RefinedDirectory(TileDirectory):
                 "them: restore the configuration, or use a new directory")
         return done, todo
 
-    def _read(self, path: Path, item: LevelTile):
+    def _read(self, path: Path, item: LevelTile) -> LevelTileResult | str:
         names = result_names(self.fine)
         try:
             with NETCDF_LOCK, netCDF4.Dataset(path) as nc:
@@ -150,7 +151,9 @@ class RefinedDirectory(TileDirectory):
         return LevelTileResult(item.level, item.tile, item.index, data,
                                int(np.sum(data["steps"])), 0.0)
 
-    def write(self, result: LevelTileResult) -> None:
+    # The ignores: a refined directory keeps TileDirectory's configuration check and lock
+    # but holds other tiles and result; it is never used as a TileDirectory.
+    def write(self, result: LevelTileResult) -> None:  # type: ignore[override]
         path = level_tile_path(self.tiles_dir, result.level, result.tile)
         ds = xr.Dataset({k: ("point", v, variable_attrs(self.fine, k))
                          for k, v in result.data.items()},
@@ -191,12 +194,14 @@ def _inputs(fine: Sweep) -> dict[str, np.ndarray]:
     return out
 
 
-def run_refined(sweep: Sweep, out: str | Path, *, client: Any = None, workers: int = 1,
-                progress: bool = True, command: str | None = None) -> xr.Dataset:
+def run_refined(sweep: Sweep, out: str | os.PathLike[str], *, client: Any = None,
+                workers: int = 1, progress: bool = True, command: str | None = None
+                ) -> xr.Dataset:
     """Run the refined sweep ``sweep`` into the directory ``out`` and return its result
     on the finest grid (arguments as for :func:`rattlesweep.sweep.run_sweep`, which
     calls this for a sweep with ``refine``)."""
     refine = sweep.refine
+    assert refine is not None, "run_refined runs a sweep with refine"
     fine = sweep.finest()
     levels = Levels(fine.shape, tuple(list(fine.axes).index(k) for k in refine["axes"]),
                     refine["levels"])

@@ -8,7 +8,7 @@ from __future__ import annotations
 import contextlib
 import os
 from pathlib import Path
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Any, Iterator, Mapping
 
 import xarray as xr
 
@@ -18,6 +18,9 @@ from .progress import Progress
 from .spec import Sweep
 from .store import TileStore
 from .tiles import TileResult
+
+if TYPE_CHECKING:
+    from distributed import Client
 
 __all__ = ["CONFIG_NAME", "RESULT_NAME", "TILES_DIR", "export", "open_output", "resume",
            "run_sweep", "stored_sweep"]
@@ -43,7 +46,7 @@ def open_output(sweep: Sweep, out: str | os.PathLike, *, command: str | None = N
     return TileDirectory(sweep, out, command=command)
 
 
-def run_sweep(sweep: Sweep, out: str | os.PathLike, *, client: Any = None,
+def run_sweep(sweep: Sweep, out: str | os.PathLike, *, client: Client | None = None,
               scheduler: str | None = None, workers: int | None = None,
               progress: bool = True, command: str | None = None,
               storage_options: Mapping[str, Any] | None = None) -> xr.Dataset:
@@ -129,7 +132,7 @@ def run_sweep(sweep: Sweep, out: str | os.PathLike, *, client: Any = None,
         store.close()
 
 
-def _client(scheduler: str):
+def _client(scheduler: str) -> Client:
     """A dask.distributed client of the scheduler at ``scheduler``."""
     try:
         from distributed import Client
@@ -140,7 +143,7 @@ def _client(scheduler: str):
 
 
 @contextlib.contextmanager
-def _connect(scheduler: str | None):
+def _connect(scheduler: str | None) -> Iterator[Client | None]:
     """A client of ``scheduler`` for the duration (None without one)."""
     client = None if scheduler is None else _client(scheduler)
     try:
@@ -171,7 +174,7 @@ def stored_sweep(out: str | os.PathLike,
     return read_config(config)
 
 
-def resume(out: str | os.PathLike, **kwargs) -> xr.Dataset:
+def resume(out: str | os.PathLike, **kwargs: Any) -> xr.Dataset:
     """Finish the sweep stored in ``out`` (a sweep directory or zarr store); keyword
     arguments as for :func:`run_sweep`."""
     return run_sweep(stored_sweep(out, kwargs.get("storage_options")), out, **kwargs)

@@ -14,7 +14,7 @@ checked by :mod:`rattlesweep.sweep.corners`.
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping
+from typing import Any, Mapping, TypeGuard
 
 import numpy as np
 
@@ -49,11 +49,11 @@ _BODY_KEYS = {"a", "b", "c", "mass", "com", "inertia", "full_ellipsoid", "body_n
 _BODY_REQUIRED = {"a", "b", "c", "mass", "com", "inertia"}
 
 
-def _is_number(x) -> bool:
+def _is_number(x: object) -> TypeGuard[int | float | np.integer | np.floating]:
     return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool)
 
 
-def _is_int(x) -> bool:
+def _is_int(x: object) -> TypeGuard[int | np.integer]:
     return isinstance(x, (int, np.integer)) and not isinstance(x, bool)
 
 
@@ -62,7 +62,7 @@ def _default_units(key: str) -> str:
     return "deg" if key.endswith("_deg") else next(iter(param.units))
 
 
-def _units_entry(key: str, units) -> dict:
+def _units_entry(key: str, units: object) -> dict[str, str]:
     if units is None or units == _default_units(key):
         return {}
     if not isinstance(units, str):
@@ -70,7 +70,7 @@ def _units_entry(key: str, units) -> dict:
     return {"units": units}
 
 
-def normalise_body(value, where: str):
+def normalise_body(value: object, where: str) -> str | dict[str, Any]:
     """A body value as a preset name or a plain-number description table; ``value`` is
     a preset name, a :class:`~rattlesweep.Body` or a body table."""
     if isinstance(value, str):
@@ -86,7 +86,7 @@ def normalise_body(value, where: str):
                      f"mass, com, inertia; got {value!r}")
 
 
-def body_from_table(d: Mapping, where: str) -> Body:
+def body_from_table(d: Mapping[str, Any], where: str) -> Body:
     """The :class:`~rattlesweep.Body` a body table describes (checked by ``Body``)."""
     extra = set(d) - _BODY_KEYS
     if extra:
@@ -103,7 +103,7 @@ def body_from_table(d: Mapping, where: str) -> Body:
         raise ValueError(f"{where}: {exc}") from None
 
 
-def normalise_axis(key: str, spec) -> dict:
+def normalise_axis(key: str, spec: Any) -> dict[str, Any]:
     """An axis as ``{"values": [...]}`` or ``{"start", "stop", "num"[, "scale"]}``, with
     ``units`` when they are not the parameter's default; every value is checked."""
     where = f"axes.{key}"
@@ -124,7 +124,7 @@ def normalise_axis(key: str, spec) -> dict:
     return {**out, **_units_entry(key, spec.get("units"))}
 
 
-def _normalise_body_axis(spec, where: str) -> dict:
+def _normalise_body_axis(spec: Any, where: str) -> dict[str, Any]:
     names = list(spec.get("values", [])) if isinstance(spec, Mapping) else list(spec)
     if not names:
         raise ValueError(f"{where}: axis is empty")
@@ -137,7 +137,7 @@ def _normalise_body_axis(spec, where: str) -> dict:
     return {"values": names}
 
 
-def _normalise_values(spec: Mapping, where: str) -> dict:
+def _normalise_values(spec: Mapping[str, Any], where: str) -> dict[str, Any]:
     keys = set(spec)
     if keys - _VALUES_KEYS:
         raise ValueError(f"{where}: unknown keys {sorted(keys - _VALUES_KEYS)} next to "
@@ -157,7 +157,7 @@ def _normalise_values(spec: Mapping, where: str) -> dict:
     return {"values": values}
 
 
-def _normalise_range(spec: Mapping, where: str) -> dict:
+def _normalise_range(spec: Mapping[str, Any], where: str) -> dict[str, Any]:
     keys = set(spec)
     if keys - _RANGE_KEYS or not {"start", "stop", "num"} <= keys:
         raise ValueError(f"{where}: a range needs start, stop, num (and optionally units, "
@@ -184,15 +184,16 @@ def _normalise_range(spec: Mapping, where: str) -> dict:
     return out
 
 
-def axis_values(spec: Mapping) -> np.ndarray:
+def axis_values(spec: Mapping[str, Any]) -> np.ndarray:
     """The values of a normalised numeric axis (user units)."""
     if "values" in spec:
         return np.asarray(spec["values"], dtype=float)
-    fn = np.geomspace if spec.get("scale") == "log" else np.linspace
-    return fn(spec["start"], spec["stop"], spec["num"])
+    if spec.get("scale") == "log":
+        return np.geomspace(spec["start"], spec["stop"], spec["num"])
+    return np.linspace(spec["start"], spec["stop"], spec["num"])
 
 
-def normalise_fixed(key: str, value):
+def normalise_fixed(key: str, value: Any) -> float | str | dict[str, Any]:
     """A fixed value as a float, or ``{"value", "units"}`` when the units are not the
     parameter's default; ``body`` as :func:`normalise_body`."""
     where = f"fixed.{key}"
@@ -212,7 +213,7 @@ def normalise_fixed(key: str, value):
     return {"value": float(value), **entry} if entry else float(value)
 
 
-def normalise_random(key: str, spec) -> dict:
+def normalise_random(key: str, spec: Any) -> dict[str, Any]:
     """A random parameter as ``{"uniform": [low, high]}`` or ``{"normal": [mean, std]}``
     (with ``units`` when not the default); every value it can draw is checked."""
     where = f"random.{key}"
@@ -240,7 +241,8 @@ def normalise_random(key: str, spec) -> dict:
     return {kind: [a, b], **_units_entry(key, spec.get("units"))}
 
 
-def _check_each_parameter_once(axes: dict, fixed: dict, random: dict) -> set[str]:
+def _check_each_parameter_once(axes: Mapping[str, Any], fixed: Mapping[str, Any],
+                               random: Mapping[str, Any]) -> set[str]:
     """Raise if a parameter is given twice (``delta`` and ``delta_deg`` are the same);
     return the canonical names given."""
     seen: dict[str, str] = {}
@@ -258,7 +260,8 @@ def _check_each_parameter_once(axes: dict, fixed: dict, random: dict) -> set[str
     return set(seen)
 
 
-def normalise_refine(refine, axes: Mapping[str, dict], output: str) -> dict:
+def normalise_refine(refine: Any, axes: Mapping[str, dict[str, Any]], output: str
+                     ) -> dict[str, Any]:
     """The ``refine`` table in normal form: ``levels`` (int >= 1), ``axes`` (the refined
     range axes, in dimension order; default every range axis of more than one value) and,
     when given, ``reversal_time_jump`` (s, > 0)."""
@@ -304,10 +307,10 @@ def normalise_refine(refine, axes: Mapping[str, dict], output: str) -> dict:
     return out
 
 
-def normalise_config(*, axes: Mapping, fixed: Mapping, random: Mapping, repeats: Any,
-                     seed: Any, method: Any, reversal_band: Any, tile_size: Any,
-                     name: Any, output: Any = "netcdf", stop: Any = None,
-                     refine: Any = None) -> dict[str, Any]:
+def normalise_config(*, axes: Mapping[Any, Any], fixed: Mapping[Any, Any],
+                     random: Mapping[Any, Any], repeats: Any, seed: Any, method: Any,
+                     reversal_band: Any, tile_size: Any, name: Any, output: Any = "netcdf",
+                     stop: Any = None, refine: Any = None) -> dict[str, Any]:
     """The normal form of a configuration: a dict with the keys of :data:`CONFIG_KEYS`,
     scalars first (the order of the TOML file). ``tile_size`` stays None when not given
     (:func:`rattlesweep.sweep.corners.choose_tile_size` chooses it); ``stop`` and
@@ -361,7 +364,7 @@ def normalise_config(*, axes: Mapping, fixed: Mapping, random: Mapping, repeats:
     return config
 
 
-def check_config_table(d) -> None:
+def check_config_table(d: object) -> None:
     """Raise ValueError unless ``d`` is a configuration table: a mapping with only
     :data:`CONFIG_KEYS` and an ``axes`` entry."""
     if not isinstance(d, Mapping):

@@ -45,6 +45,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from ..body import Body
 from .corners import check_corners, choose_tile_size, tile_block
 from .grid import Axis, RandomParam, batch_inputs
 from .params import resolve
@@ -118,6 +119,12 @@ class Sweep:
 
     __slots__ = ("_config", "_grid_axes", "_random_params", "_shape", "_tile_shape",
                  "_finest")
+    _config: dict[str, Any]
+    _grid_axes: tuple[Axis, ...]
+    _random_params: tuple[RandomParam, ...]
+    _shape: tuple[int, ...]
+    _tile_shape: tuple[int, ...]
+    _finest: Sweep | None
 
     def __init__(self, axes: Mapping[str, Any], fixed: Mapping[str, Any] = _NONE,
                  random: Mapping[str, Any] = _NONE, repeats: int = 1, seed: int = 0,
@@ -147,7 +154,7 @@ class Sweep:
 
     # --- the normalised configuration ---------------------------------------------------
     @property
-    def axes(self) -> dict[str, dict]:
+    def axes(self) -> dict[str, dict[str, Any]]:
         """Normalised axes, in dimension order."""
         return self._config["axes"]
 
@@ -157,7 +164,7 @@ class Sweep:
         return self._config["fixed"]
 
     @property
-    def random(self) -> dict[str, dict]:
+    def random(self) -> dict[str, dict[str, Any]]:
         """Normalised random parameters."""
         return self._config["random"]
 
@@ -197,7 +204,7 @@ class Sweep:
         return self._config.get("stop")
 
     @property
-    def refine(self) -> dict | None:
+    def refine(self) -> dict[str, Any] | None:
         """The normalised refinement table (levels, axes[, reversal_time_jump]), or
         None."""
         return self._config.get("refine")
@@ -233,7 +240,7 @@ class Sweep:
         """Fixed numeric parameters in SI, by canonical name (``body`` excluded)."""
         return _fixed_si(self.fixed)
 
-    def fixed_body(self):
+    def fixed_body(self) -> str | Body | None:
         """The fixed body: a preset name, a Body, or None when the body varies."""
         return _fixed_body(self.fixed)
 
@@ -281,12 +288,12 @@ class Sweep:
         start = int(np.ravel_multi_index([r.start for r in region], self._shape))
         return start, start + _size(tuple(r.stop - r.start for r in region))
 
-    def points(self, start: int, stop: int) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    def points(self, start: int, stop: int) -> tuple[np.ndarray, dict[str, Any]]:
         """Bodies and :func:`rattlesweep.batch.prepare` keyword arguments (SI) for the
         flat point indices [start, stop)."""
         return self.points_at(np.arange(start, stop, dtype=np.int64))
 
-    def points_at(self, index: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    def points_at(self, index: np.ndarray) -> tuple[np.ndarray, dict[str, Any]]:
         """As :meth:`points`, for any flat point indices ``index`` (int64)."""
         where = np.unravel_index(index, self.shape)
         columns: dict[str, np.ndarray] = {}
@@ -304,12 +311,12 @@ class Sweep:
         return batch_inputs(columns, body_column, self.fixed_body())
 
     # --- serialisation ------------------------------------------------------------------
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
         """The normalised configuration as plain data (the TOML file's content)."""
         return json.loads(json.dumps(self._config))
 
     @classmethod
-    def from_dict(cls, d: Mapping) -> "Sweep":
+    def from_dict(cls, d: Mapping[str, Any]) -> "Sweep":
         check_config_table(d)
         return cls(**d)
 
@@ -337,19 +344,21 @@ class Sweep:
             out.append(f"axes: order {', '.join(self.axes)} -> {', '.join(other.axes)}")
         return out
 
-    def __eq__(self, other) -> bool:
+    def __eq__(self, other: object) -> bool:
         # dicts compare without order, but the order of the axes is that of the dimensions
         return (isinstance(other, Sweep) and self.to_dict() == other.to_dict()
                 and list(self.axes) == list(other.axes))
 
-    __hash__ = None  # the stored tables are mutable dicts; compare with ==
+    # the stored tables are mutable dicts; compare with ==. The ignore: mypy refuses the
+    # None with which the data model marks a class unhashable.
+    __hash__ = None  # type: ignore[assignment]
 
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={self._config[k]!r}" for k in _ARGUMENTS if k in self._config)
         return f"Sweep({args})"
 
 
-def _grid_axes(axes: Mapping[str, dict]) -> tuple[Axis, ...]:
+def _grid_axes(axes: Mapping[str, dict[str, Any]]) -> tuple[Axis, ...]:
     out = []
     for key, spec in axes.items():
         if key == "body":
@@ -360,13 +369,13 @@ def _grid_axes(axes: Mapping[str, dict]) -> tuple[Axis, ...]:
     return tuple(out)
 
 
-def _random_params(random: Mapping[str, dict]) -> tuple[RandomParam, ...]:
+def _random_params(random: Mapping[str, dict[str, Any]]) -> tuple[RandomParam, ...]:
     out = []
     for key, spec in random.items():
         kind = "uniform" if "uniform" in spec else "normal"
         param, factor, cf = resolve(key, spec.get("units"), f"random.{key}")
-        out.append(RandomParam(key, param.name, kind, *spec[kind], factor, cf,
-                               param.long_name))
+        a, b = spec[kind]
+        out.append(RandomParam(key, param.name, kind, a, b, factor, cf, param.long_name))
     return tuple(out)
 
 
@@ -381,12 +390,13 @@ def _fixed_si(fixed: Mapping[str, Any]) -> dict[str, float]:
     return out
 
 
-def _fixed_body(fixed: Mapping[str, Any]):
+def _fixed_body(fixed: Mapping[str, Any]) -> str | Body | None:
     v = fixed.get("body")
     return body_from_table(v, "fixed.body") if isinstance(v, Mapping) else v
 
 
-def _tiled_size(shape: tuple[int, ...], keys: list[str], refine: Mapping | None) -> int:
+def _tiled_size(shape: tuple[int, ...], keys: list[str], refine: Mapping[str, Any] | None
+                ) -> int:
     """The number of points the automatic tile size is chosen for: the grid's, or for a
     refined sweep that of its grid one level finer, about as many points as its levels
     simulate each (tiles sized for the declared grid alone would be so small that their
@@ -401,7 +411,7 @@ def _size(shape: tuple[int, ...]) -> int:
     return int(np.prod(shape))
 
 
-def _diff(a, b, path: str) -> list[str]:
+def _diff(a: Any, b: Any, path: str) -> list[str]:
     if isinstance(a, dict) and isinstance(b, dict):
         out = []
         for k in list(a) + [k for k in b if k not in a]:

@@ -70,10 +70,11 @@ def write_failure(what: str | Path, exc: BaseException, written: int, resume: st
     if code is None and isinstance(what, Path):
         code, diagnosis = _diagnose(what.parent)
         cause = f"{cause} ({diagnosis})" if diagnosis else cause
-    hint = {errno.ENOSPC: "free some space", errno.EDQUOT: "free some space",
-            errno.EFBIG: "allow larger files", errno.EACCES: "fix the permissions",
-            errno.EPERM: "fix the permissions", errno.EROFS: "make it writable"}.get(
-        code, "fix the cause")
+    hints: dict[int | None, str] = {
+        errno.ENOSPC: "free some space", errno.EDQUOT: "free some space",
+        errno.EFBIG: "allow larger files", errno.EACCES: "fix the permissions",
+        errno.EPERM: "fix the permissions", errno.EROFS: "make it writable"}
+    hint = hints.get(code, "fix the cause")
     return SweepWriteError(
         code or errno.EIO,
         f"cannot write {what}: {cause or type(exc).__name__}. The {written} tiles written "

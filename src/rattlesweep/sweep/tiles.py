@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -40,7 +41,7 @@ class TileResult:
     steps: int
     seconds: float
 
-    def summary(self) -> dict:
+    def summary(self) -> dict[str, Any]:
         """What the progress report needs."""
         return {"tile": self.tile, "n": self.stop - self.start, "steps": self.steps,
                 "seconds": self.seconds}
@@ -75,7 +76,7 @@ _STOP_COMMENT = ("stop = first_reversal: each launch ended at its first reversal
                  "launch ended.")
 
 
-def variable_attrs(sweep: Sweep, name: str) -> dict:
+def variable_attrs(sweep: Sweep, name: str) -> dict[str, Any]:
     """CF attributes of a per-point result variable. The flags of ``status`` and
     ``outcome`` include ``not_computed`` (:data:`NOT_COMPUTED`), which only a sweep still
     being written shows."""

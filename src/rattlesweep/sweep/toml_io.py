@@ -29,7 +29,7 @@ _SHORT_ESCAPES = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n
                   "\f": "\\f", "\r": "\\r"}
 
 
-def read_toml(path_or_text: str | Path) -> dict:
+def read_toml(path_or_text: str | Path) -> dict[str, Any]:
     """The data of a TOML file (a :class:`~pathlib.Path`, or a one-line string ending in
     ``.toml``) or of TOML text. A file that cannot be read or parsed is a ValueError
     naming it."""
@@ -94,7 +94,7 @@ def _string(s: str) -> str:
     return '"' + "".join(out) + '"'
 
 
-def _value(v) -> str:
+def _value(v: object) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, int):

@@ -23,7 +23,8 @@ from __future__ import annotations
 import os
 import warnings
 from pathlib import Path
-from typing import Any, Mapping
+from types import ModuleType
+from typing import TYPE_CHECKING, Any, Mapping
 
 import numpy as np
 import xarray as xr
@@ -34,6 +35,10 @@ from .spec import Sweep
 from .store import write_failure
 from .tiles import NOT_COMPUTED, TileResult, result_dtypes, variable_attrs
 
+if TYPE_CHECKING:
+    from zarr import Group
+    from zarr.abc.store import Store
+
 __all__ = ["DONE_ARRAY", "ZarrStore", "export_netcdf", "is_zarr_store", "open_result",
            "stored_sweep", "tiles_done"]
 
@@ -41,7 +46,7 @@ DONE_ARRAY = "rattlesweep/tile_done"
 _DONE_CHUNK = 4096
 
 
-def _zarr():
+def _zarr() -> ModuleType:
     try:
         import zarr
     except ImportError:
@@ -68,13 +73,13 @@ def is_zarr_store(location: str | os.PathLike) -> bool:
     return (root / "zarr.json").is_file() or (root / ".zgroup").is_file()
 
 
-def _fill(dtype: np.dtype, name: str):
+def _fill(dtype: np.dtype, name: str) -> float:
     if name in ("status", "outcome"):
         return NOT_COMPUTED
     return np.nan if dtype.kind == "f" else -1
 
 
-def _store(location: str, options: Mapping | None):
+def _store(location: str, options: Mapping[str, Any] | None) -> Store:
     """The zarr store object for a local path or an fsspec URL."""
     zarr = _zarr()
     if _is_local(location):
@@ -82,13 +87,13 @@ def _store(location: str, options: Mapping | None):
     return zarr.storage.FsspecStore.from_url(location, storage_options=dict(options or {}))
 
 
-def _group(location: str, options: Mapping | None, mode: str = "r"):
+def _group(location: str, options: Mapping[str, Any] | None, mode: str = "r") -> Group:
     """The store's root group, read from the metadata as it is now (not the
     consolidated copy); FileNotFoundError when there is none."""
     return _zarr().open_group(_store(location, options), mode=mode, use_consolidated=False)
 
 
-def _consolidate(location: str, options: Mapping | None) -> None:
+def _consolidate(location: str, options: Mapping[str, Any] | None) -> None:
     # consolidated metadata lets open_zarr read the layout in one request; zarr warns
     # that format 3 does not standardise it yet, which does not matter to xarray
     with warnings.catch_warnings():
@@ -97,7 +102,8 @@ def _consolidate(location: str, options: Mapping | None) -> None:
         _zarr().consolidate_metadata(_store(location, options))
 
 
-def stored_sweep(location: str, storage_options: Mapping | None = None) -> Sweep:
+def stored_sweep(location: str, storage_options: Mapping[str, Any] | None = None
+                 ) -> Sweep:
     """The sweep whose results the store at ``location`` holds; ValueError when it is no
     rattlesweep store or its configuration cannot be read."""
     try:
@@ -115,12 +121,13 @@ def stored_sweep(location: str, storage_options: Mapping | None = None) -> Sweep
                          f"configuration ({exc})") from None
 
 
-def tiles_done(location: str, n_tiles: int, storage_options: Mapping | None = None
-               ) -> np.ndarray | None:
+def tiles_done(location: str, n_tiles: int,
+               storage_options: Mapping[str, Any] | None = None) -> np.ndarray | None:
     """Which tiles of the store are complete (bool per tile), None when the store's
     layout was never finished."""
     try:
-        done = _group(location, storage_options)[DONE_ARRAY]
+        # Any: zarr types a member as an array or a group; this is the array _layout made
+        done: Any = _group(location, storage_options)[DONE_ARRAY]
     except KeyError:
         return None
     if done.shape != (n_tiles,):
@@ -143,7 +150,9 @@ class ZarrStore:
         if _is_local(self.location):
             root = _local_path(self.location)
             self.lock = SweepLock(root.with_name(root.name + ".lock"))
-        self.group = None
+        # the root group once open; Any, as zarr types its members as arrays or groups and
+        # these are the arrays _layout made
+        self.group: Any = None
         self.written = 0
 
     def open(self) -> list[int]:
@@ -239,13 +248,14 @@ class ZarrStore:
             self.lock.release()
 
 
-def open_result(location: str, storage_options: Mapping | None = None) -> xr.Dataset:
+def open_result(location: str, storage_options: Mapping[str, Any] | None = None
+                ) -> xr.Dataset:
     """A sweep's zarr store as a lazy dataset (``xarray.open_zarr``)."""
     return xr.open_zarr(_store(location, storage_options))
 
 
 def export_netcdf(location: str, out: str | os.PathLike,
-                  storage_options: Mapping | None = None) -> Path:
+                  storage_options: Mapping[str, Any] | None = None) -> Path:
     """Write a finished store as one netCDF file (what a netCDF sweep writes as
     ``sweep.nc``), atomically, reading one tile at a time. An unfinished store is
     refused."""
