@@ -9,8 +9,14 @@ import shlex
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from .body import PRESETS, Body
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+    from .sweep import Sweep
 
 __all__ = ["build_parser", "main"]
 
@@ -19,7 +25,7 @@ def _command(argv: list[str] | None) -> str:
     return "rattlesweep " + shlex.join(sys.argv[1:] if argv is None else argv)
 
 
-def _save_map(ds, png: Path, var: str = "outcome") -> Path:
+def _save_map(ds: xr.Dataset, png: Path, var: str = "outcome") -> Path:
     from .plot import reversal_map
 
     dims = [d for d in ds.attrs.get("sweep_dims", list(ds.dims)) if d in ds[var].dims]
@@ -32,7 +38,7 @@ def _save_map(ds, png: Path, var: str = "outcome") -> Path:
     return png
 
 
-def _summary(ds) -> str:
+def _summary(ds: xr.Dataset) -> str:
     import numpy as np
 
     flags = list(ds.outcome.attrs["flag_values"])
@@ -43,7 +49,7 @@ def _summary(ds) -> str:
                      if found.get(f))
 
 
-def _sweep_args(args: argparse.Namespace) -> dict:
+def _sweep_args(args: argparse.Namespace) -> dict[str, Any]:
     if args.scheduler and args.workers:
         raise ValueError("--workers sets local threads; with --scheduler the cluster's size "
                          "is set where it was started")
@@ -51,7 +57,7 @@ def _sweep_args(args: argparse.Namespace) -> dict:
             "progress": not args.quiet}
 
 
-def _points(ds) -> str:
+def _points(ds: xr.Dataset) -> str:
     """How many points a result holds, and how many of them were simulated."""
     n = int(ds.outcome.size)
     if "points_simulated" not in ds.attrs:
@@ -60,7 +66,7 @@ def _points(ds) -> str:
     return f"{n} points ({simulated} simulated, {simulated / n:.1%})"
 
 
-def _run(sweep, out: str, args, argv) -> int:
+def _run(sweep: Sweep, out: str, args: argparse.Namespace, argv: list[str] | None) -> int:
     from .sweep.run import RESULT_NAME, run_sweep
 
     try:
@@ -72,7 +78,7 @@ def _run(sweep, out: str, args, argv) -> int:
     return 0
 
 
-def _cmd_sweep(args, argv) -> int:
+def _cmd_sweep(args: argparse.Namespace, argv: list[str] | None) -> int:
     from .sweep import Sweep
 
     sweep = Sweep.from_toml(Path(args.config))
@@ -89,13 +95,13 @@ def _cmd_sweep(args, argv) -> int:
     return _run(sweep, args.out, args, argv)
 
 
-def _cmd_resume(args, argv) -> int:
+def _cmd_resume(args: argparse.Namespace, argv: list[str] | None) -> int:
     from .sweep.run import stored_sweep
 
     return _run(stored_sweep(args.dir), args.dir, args, argv)
 
 
-def _cmd_export(args, argv) -> int:
+def _cmd_export(args: argparse.Namespace, argv: list[str] | None) -> int:
     from .sweep.run import export
 
     path = export(args.store, args.out)
@@ -103,7 +109,7 @@ def _cmd_export(args, argv) -> int:
     return 0
 
 
-def _cmd_demo(args, argv) -> int:
+def _cmd_demo(args: argparse.Namespace, argv: list[str] | None) -> int:
     from .sweep import Sweep
     from .sweep.demo import DEMO_TOML
     from .sweep.run import RESULT_NAME, run_sweep
@@ -125,7 +131,7 @@ def _cmd_demo(args, argv) -> int:
     return 0
 
 
-def _cmd_stability(args, argv) -> int:
+def _cmd_stability(args: argparse.Namespace, argv: list[str] | None) -> int:
     from .io import write_netcdf
     from .stability import stability_dataset
     from .sweep import Sweep
@@ -140,7 +146,7 @@ def _cmd_stability(args, argv) -> int:
     return 0
 
 
-def _cmd_plot(args, argv) -> int:
+def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
     import xarray as xr
 
     from .plot import reversal_map, reversal_vs_growth
@@ -213,7 +219,7 @@ def _info_directory(path: Path) -> Path | None:
     return None
 
 
-def _open_result(path: Path):
+def _open_result(path: Path) -> xr.Dataset:
     import xarray as xr
 
     from .sweep.zarr_store import is_zarr_store, open_result, stored_sweep, tiles_done
@@ -228,15 +234,16 @@ def _open_result(path: Path):
     return open_result(str(path))
 
 
-def _cmd_info(args, argv) -> int:
+def _cmd_info(args: argparse.Namespace, argv: list[str] | None) -> int:
     failed = 0
     for name in args.files:
         path = Path(name)
         try:
             if path.is_dir():
-                path = _info_directory(path)
-                if path is None:
+                result = _info_directory(path)
+                if result is None:
                     continue
+                path = result
         except ValueError as exc:
             print(f"rattlesweep info: {exc}", file=sys.stderr)
             failed += 1
@@ -266,7 +273,7 @@ def _cmd_info(args, argv) -> int:
             scalars = [f"{c}={ds[c].values.item()}" for c in ds.coords if ds[c].ndim == 0]
             if scalars:
                 print("  fixed: " + ", ".join(scalars))
-            print("  variables: " + ", ".join(ds.data_vars))
+            print("  variables: " + ", ".join(map(str, ds.data_vars)))
             if "outcome" in ds:
                 print(f"  outcomes: {_summary(ds)}")
             if "computed" in ds:
@@ -281,7 +288,7 @@ def _cmd_info(args, argv) -> int:
     return 2 if failed else 0
 
 
-def _simulate_from_args(args):
+def _simulate_from_args(args: argparse.Namespace) -> xr.Dataset:
     from .simulate import simulate
 
     return simulate(Body.preset(args.preset), spin=args.spin,
@@ -289,7 +296,7 @@ def _simulate_from_args(args):
                     mu=args.mu, damping=args.damping, t_end=args.t_end, dt=args.dt)
 
 
-def _cmd_simulate(args, argv) -> int:
+def _cmd_simulate(args: argparse.Namespace, argv: list[str] | None) -> int:
     from .io import write_netcdf
 
     ds = _simulate_from_args(args)
@@ -309,7 +316,7 @@ def _cmd_simulate(args, argv) -> int:
     return 0
 
 
-def _cmd_animate(args, argv) -> int:
+def _cmd_animate(args: argparse.Namespace, argv: list[str] | None) -> int:
     import xarray as xr
 
     from .plot import animate
