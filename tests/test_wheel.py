@@ -214,10 +214,9 @@ def _make_read_only(installed: Installed) -> None:
     allowed, ``unshare --user`` runs a process as root without root's capabilities, to
     which the bits apply. Where they are not (a container's default seccomp profile
     refuses them), each ``__pycache__`` directory of the package becomes a plain file:
-    numba cannot create its cache directory there, which it treats as it treats a
-    directory it cannot write to (the same ``OSError`` branch of ``ensure_cache_path``
-    falls through to the user-wide cache), and ``drop_stale_cache`` cannot write its
-    stamp either."""
+    numba cannot create its cache directory there, which it treats as a directory it
+    cannot write to (its in-tree locator catches the ``OSError`` of either and numba
+    falls through to the user-wide cache)."""
     package = installed.package
     _chmod_all(package, remove=0o222)
 
@@ -293,11 +292,13 @@ def test_installed_wheel_runs_the_demo_and_caches_its_kernels_in_the_package(ins
 def test_read_only_installation_caches_its_kernels_per_user(installs):
     """From a read-only installation (a system-wide site-packages) the demo still runs:
     the first process compiles and saves the machine code in the user's cache directory
-    and writes nothing into the installed package (``drop_stale_cache`` leaves it
-    alone); a second process loads the kernels from the user's cache, compiling
-    nothing."""
+    and writes nothing into the installed package (``drop_stale_cache`` keeps its stamp
+    in the user's cache too); a second process loads the kernels from the user's cache,
+    compiling nothing."""
     installed, first, summary, untouched = installs["read-only"]
     assert _all_under(first["saved to"], installed.user_cache), first["saved to"][:3]
+    # the stamp of drop_stale_cache, which drops these files after an upgrade in place
+    assert list(installed.user_cache.glob("core_*/kernel-sources.sha256"))
 
     second, summary_again = installed.demo("second")
     assert not second["saved to"], second["saved to"][:3]
