@@ -24,7 +24,7 @@ A first demo compiles for about a minute, in one thread; the two first demos, on
 installation, run at the same time. A demo that loads the kernels takes about 8 s, and
 building a few seconds (setuptools comes from PyPI into the build's isolated
 environment). On the 2-core machine this was written on, shared with other work, the
-module took 3 to 4 minutes and 2.9 minutes of CPU time.
+module took 2 to 4 minutes, and 2.5 to 2.9 minutes of CPU time.
 """
 
 from __future__ import annotations
@@ -158,7 +158,8 @@ class Installed:
         it printed."""
         proc.wait(timeout=600)
         output = (self.home / f"{out}.log").read_text()
-        assert proc.returncode == 0, f"{proc.args} exited with {proc.returncode}:\n{output[-5000:]}"
+        assert proc.returncode == 0, (
+            f"{proc.args} exited with {proc.returncode}:\n{output[-5000:]}")
         assert (self.home / out / "sweep.nc").stat().st_size > 0
         assert (self.home / out / "reversal_map.png").stat().st_size > 0
         events = {"saved to": [], "loaded from": []}
