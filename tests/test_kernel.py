@@ -172,3 +172,32 @@ def test_cached_kernels_are_dropped_when_any_kernel_source_changes(tmp_path):
     assert not drop_stale_cache(tmp_path) and kernel_file.exists()
     (tmp_path / "model.py").write_text("x = 2\n")
     assert drop_stale_cache(tmp_path) and not kernel_file.exists()
+
+
+def test_stale_kernels_are_dropped_where_numba_caches_them(tmp_path, monkeypatch):
+    """With NUMBA_CACHE_DIR set, or from a read-only installation (the user's cache),
+    numba caches a package's kernels outside it, one directory per source directory:
+    those are dropped when any source changes (an upgrade in place of a read-only
+    installation keeps its path, so numba alone would load the old stepper), and the
+    package itself is not written to."""
+    import numba.core.config
+
+    from rattlesweep.core.jit import drop_stale_cache
+
+    package = tmp_path / "package"
+    (package / "model").mkdir(parents=True)
+    (package / "stepper.py").write_text("x = 1\n")
+    (package / "model" / "hooks.py").write_text("y = 1\n")
+    monkeypatch.setattr(numba.core.config, "CACHE_DIR", str(tmp_path / "cache"))
+    assert drop_stale_cache(package)
+    (stepper_cache,) = (tmp_path / "cache").glob("package_*")
+    (model_cache,) = (tmp_path / "cache").glob("model_*")
+    assert (stepper_cache / "kernel-sources.sha256").is_file()
+    kernels = [stepper_cache / "stepper.advance_block-1.py311.nbi",
+               model_cache / "hooks.rhs-1.py311.1.nbc"]
+    for kernel in kernels:
+        kernel.write_bytes(b"compiled from the current sources")
+    assert not drop_stale_cache(package) and all(k.exists() for k in kernels)
+    (package / "model" / "hooks.py").write_text("y = 2\n")
+    assert drop_stale_cache(package) and not any(k.exists() for k in kernels)
+    assert sorted(p.name for p in package.rglob("*")) == ["hooks.py", "model", "stepper.py"]

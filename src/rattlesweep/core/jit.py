@@ -34,7 +34,10 @@ cached machine code contains every model hook it calls from other files: after a
 of a model, numba would load a stepper compiled with the old one. So
 :func:`drop_stale_cache` runs when this package is imported: when any source file of
 ``rattlesweep.core`` changed since the cache was written, it deletes the package's
-cached kernels, and they are compiled afresh.
+cached kernels, and they are compiled afresh. It looks for them where numba keeps them:
+next to the sources, or outside the package (``NUMBA_CACHE_DIR``, or the user's cache
+directory when the package is read-only, where an upgrade in place would otherwise
+meet the kernels of the previous version).
 """
 
 from __future__ import annotations
@@ -46,6 +49,7 @@ from pathlib import Path
 from typing import Any
 
 import numba
+from numba.core.caching import FunctionCache
 
 __all__ = [
     "FASTMATH", "JIT_OPTIONS", "OVERLOAD_OPTIONS", "allocating_kernel", "drop_stale_cache",
@@ -85,24 +89,41 @@ parallel_kernel = functools.partial(
 """Decorator for the one entry point that spreads blocks over numba threads."""
 
 
+def _numba_cache_dir(source: Path) -> Path:
+    """The directory numba caches the kernels of the module file ``source`` in, chosen as
+    numba chooses it for a kernel of that file (the first of its locators that can
+    write there); RuntimeError when none can."""
+    namespace: dict = {}
+    exec(compile("def probe(): pass", str(source), "exec"), namespace)
+    return Path(FunctionCache(namespace["probe"]).cache_path)
+
+
 def drop_stale_cache(root: Path = Path(__file__).parent) -> bool:
-    """Delete the cached kernels (``*.nbi``/``*.nbc`` under ``__pycache__``) of the
-    package at ``root`` unless they were written from its current sources; True when it
-    deleted them. A read-only installation is left as it is."""
+    """Delete the cached kernels (``*.nbi``/``*.nbc``) of the package at ``root``, in
+    the directories numba caches its modules in, unless they were written from its
+    current sources; True when it deleted them. A read-only installation is left as it
+    is (numba caches its kernels elsewhere)."""
+    sources = sorted(root.rglob("*.py"))
     digest = hashlib.sha256()
-    for path in sorted(root.rglob("*.py")):
+    for path in sources:
         digest.update(path.relative_to(root).as_posix().encode())
         digest.update(path.read_bytes())
-    stamp = root / "__pycache__" / "kernel-sources.sha256"
+    try:
+        # root's own directory first: it holds the stamp
+        caches = [_numba_cache_dir(next(directory.glob("*.py")))
+                  for directory in sorted({path.parent for path in sources})]
+    except (RuntimeError, OSError):  # numba cannot cache there at all: nothing to drop
+        return False
+    stamp = caches[0] / "kernel-sources.sha256"
     try:
         if stamp.read_text() == digest.hexdigest():
             return False
     except OSError:
         pass
     try:
-        for cached in root.rglob("__pycache__/*.nb[ic]"):
-            cached.unlink(missing_ok=True)
-        stamp.parent.mkdir(exist_ok=True)
+        for cache in caches:
+            for cached in cache.glob("*.nb[ic]"):
+                cached.unlink(missing_ok=True)
         tmp = stamp.with_suffix(f".{os.getpid()}.tmp")
         tmp.write_text(digest.hexdigest())
         tmp.replace(stamp)
