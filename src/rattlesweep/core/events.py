@@ -20,7 +20,7 @@ The vector RK4 step holds every lane's mode through the step; afterwards
   held step is no continuation of the slip (the friction turns with u), so the slip is
   integrated forward to its stop instead, in either model, by steps of the predicted time to stop,
   |u|² / (−u · u̇) (Newton's method on the slip speed from the slipping side, converging
-  quadratically), until that time is below ``THETA_TOL`` of the step. The plastic impulse
+  quadratically), until that time is below ``STOP_TOL`` of the step. The plastic impulse
   then removes the residual slip (what the located instant leaves: it is reported in the
   record), and the cone is checked at once.
 
@@ -42,21 +42,25 @@ from numba import types
 from numba.extending import overload
 
 from . import models
-from .jit import OVERLOAD_OPTIONS, kernel
+from .jit import OVERLOAD_OPTIONS, inline_kernel, kernel
 from .stages import set_step_fractions
 from .switching import cone_margin, couple_margin, note_slip, start_slip, switch_couples
 from .workspace import (
-    BLOCK, COUPLES, DT, H_HALF_DT, K_MARK_SWITCH, K_SLIP_STEPS, NOT_MARKED, OFF_H, OFF_K,
+    BLOCK, COUPLES, DT, H_HALF_DT, MU_ROLL, MU_SPIN, K_MARK_SWITCH, K_SLIP_STEPS, NOT_MARKED, OFF_H, OFF_K,
     OFF_P, OFF_S, OFF_X, ROLL_SWITCHES, S_JX, S_JY, S_MODE, S_ROLL, S_ROLL_SENSE, S_SPIN,
     S_SPIN_SENSE, SPIN_SWITCHES, STAGE_2, STAGE_3, STAGE_4, STAGE_START, SWITCHES, X_N,
     X_ROLL_EVENT, X_SPIN_EVENT, X_TSTOP, X_UX, X_UY, at,
 )
 
-__all__ = ["LOCATE_ROWS", "MAX_SWITCHES", "THETA_TOL", "locate_marked", "locate_where_located",
+__all__ = ["LOCATE_ROWS", "MAX_SWITCHES", "STOP_TOL", "THETA_TOL", "locate_marked", "locate_where_located",
            "located", "stick_lane", "switch_marked"]
 
 THETA_TOL = 1e-10
 """Convergence of the located instant, as a fraction of the (rest of the) step."""
+
+STOP_TOL = 1e-10
+"""A slip predicted to stop within this fraction of the step has stopped: the plastic
+impulse removes the slip velocity left, of order this fraction times dt |u̇|."""
 
 MAX_ITERATIONS = 40
 """Bound on the iterations locating one switch (they converge in a handful)."""
@@ -73,12 +77,23 @@ LOCATE_ROWS = 5
 the ends of an interval and their derivatives, and the held step's result."""
 
 
+@inline_kernel
+def has_couples(W, j):
+    """True when lane j has spin friction or rolling resistance. A lane without them is
+    evaluated without the couples' work, by the same operations less terms that are
+    zero, so with the same result; its couples' switching functions stay inf."""
+    return W[at(OFF_P, MU_SPIN, j)] > 0.0 or W[at(OFF_P, MU_ROLL, j)] > 0.0
+
+
 @kernel
 def evaluate_lane(W, model, j):
     """Evaluate lane j alone at its state Y in its current mode: derivative in A, contact
     outputs in X."""
     numba.literally(model)
-    models.evaluate(W, model, COUPLES, STAGE_START, True, j)
+    if has_couples(W, j):
+        models.evaluate(W, model, COUPLES, STAGE_START, True, j)
+    else:
+        models.evaluate(W, model, True, STAGE_START, True, j)
 
 
 @kernel
@@ -86,9 +101,14 @@ def rk4_lane(W, model, j):
     """The three inner RK4 stages of lane j alone, after :func:`evaluate_lane`: Y becomes
     the state one (lane) step later, B the state before."""
     numba.literally(model)
-    models.evaluate(W, model, COUPLES, STAGE_2, True, j)
-    models.evaluate(W, model, COUPLES, STAGE_3, True, j)
-    models.evaluate(W, model, COUPLES, STAGE_4, True, j)
+    if has_couples(W, j):
+        models.evaluate(W, model, COUPLES, STAGE_2, True, j)
+        models.evaluate(W, model, COUPLES, STAGE_3, True, j)
+        models.evaluate(W, model, COUPLES, STAGE_4, True, j)
+    else:
+        models.evaluate(W, model, True, STAGE_2, True, j)
+        models.evaluate(W, model, True, STAGE_3, True, j)
+        models.evaluate(W, model, True, STAGE_4, True, j)
 
 
 @kernel
@@ -226,9 +246,11 @@ def forward_to_stop(W, model, j, buf, t_stop, dt):
     Past the stop (the slip velocity turned against its value before), the step is
     taken again, shortened to where the slip velocity's component along its value
     before crosses zero (linear in between: the prediction's error is second order).
-    Returns (whether the slip has stopped, the step taken, s); a step at or below
-    ``THETA_TOL`` of the lane's step dt (s) counts as stopped."""
+    Returns (whether the slip has stopped, the step taken, s); a slip predicted to stop
+    within ``STOP_TOL`` of the lane's step dt (s) has stopped, without a step."""
     numba.literally(model)
+    if t_stop <= STOP_TOL * dt:  # stopped: the plastic impulse removes what is left
+        return True, 0.0
     off_y, _, off_a, _, _, _ = models.state_regions(model)
     copy_state(W, model, j, buf, Y0, off_y)
     copy_state(W, model, j, buf, F0, off_a)
@@ -238,7 +260,7 @@ def forward_to_stop(W, model, j, buf, t_stop, dt):
     g_before = ux * ux + uy * uy
     g_after = W[at(OFF_X, X_UX, j)] * ux + W[at(OFF_X, X_UY, j)] * uy
     if g_after >= 0.0:
-        return t_stop <= THETA_TOL * dt, t_stop
+        return False, t_stop
     step = t_stop * g_before / (g_before - g_after)
     load_state(W, model, j, buf, Y0, off_y)
     load_state(W, model, j, buf, F0, off_a)

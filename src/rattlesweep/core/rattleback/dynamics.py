@@ -29,11 +29,17 @@ from .layout import (
     INV_QQ, INV_SIGMA, I_XX, I_XY, I_XZ, I_YY, I_YZ, I_ZZ, J_XX, J_XY, J_XZ, J_YY, J_YZ,
     J_ZZ, JI_XX, JI_XY, JI_XZ, JI_YY, JI_YZ, JI_ZZ, MASS, NORMAL_PM, OFF_A, OFF_B, OFF_E,
     OFF_G, OFF_T, OFF_Y, OMEGA_X, OMEGA_Y, OMEGA_Z, POS_X, POS_Y, Q0, Q1, Q2, Q3, RHO_X,
-    RHO_Y, RHO_Z, ROLL_FRACTION, ROLL_MARGIN, SLIP_X, SLIP_Y, SPIN_LAMBDA, SPIN_RATE, UHAT_X, UHAT_Y, UP_X,
+    RHO_Y, RHO_Z, ROLL_FRACTION, ROLL_MARGIN, SLIP_KIND, SLIP_X, SLIP_Y, SPIN_LAMBDA, SPIN_RATE, UHAT_X, UHAT_Y, UP_X,
     UP_Y, UP_Z, VEL_X, VEL_Y, WW_X, WW_Y, WW_Z,
 )
 
 __all__ = ["derive_parameters", "eval_block"]
+
+FAST_SLIP = 1.0
+"""``SLIP_KIND`` of a slipping lane whose friction acts along its slip velocity."""
+
+SLOW_SLIP = 2.0
+"""``SLIP_KIND`` of a slip slow enough to be steered (:func:`slip_direction`)."""
 
 CONSISTENT_ITERATIONS = 5
 """Newton iterations for the consistent slip direction, from the direction of the slip at
@@ -119,8 +125,8 @@ def eval_block(W, slip_possible, stage, one_lane, lane):
         if slip_possible:
             if one_lane:
                 slip_direction(W, OFF_Y, True, lane, False)
-            else:
-                slip_direction(W, OFF_Y, False, lane, True)  # once per step: measure φ̇*
+            else:  # once per step: measure φ̇*
+                slip_direction(W, OFF_Y, False, lane, True)
         accelerations(W, slip_possible, OFF_Y, one_lane, lane)
     elif stage == STAGE_FIRST:
         contact_kinematics(W, slip_possible, OFF_Y, one_lane, lane)
@@ -376,60 +382,80 @@ def slip_direction(W, state, one_lane, lane, history):
     dt < 1: on the manifold û is unchanged, and off it u's direction relaxes onto it at
     the rate ``RELAX_STEPS`` / dt, which the step follows. φ̇* is measured over the last
     step; ``history`` (a literal, True for the block's step-start evaluation) updates it.
-    Sticking lanes keep their stored direction; the stepper reads it only in slip.
+
+    A first, branch-free pass gives every lane u/|u| (a sticking lane, or a slip too
+    slow to have a direction, keeps its stored one) and sorts the slipping lanes into
+    fast and slow ones (``SLIP_KIND``); the scalar work, steering and the history, then
+    visits only the lanes that need it. Sticking lanes keep their stored direction; the
+    stepper reads it only in slip.
     """
     numba.literally(state)
     numba.literally(one_lane)
     numba.literally(history)
     first, stop = lane_range(one_lane, lane)
+    n_slow = 0
+    n_slip = 0
     for j in range(first, stop):
-        sx = W[at(OFF_S, S_UHX, j)]
-        sy = W[at(OFF_S, S_UHY, j)]
-        dx = sx
-        dy = sy
-        if W[at(OFF_S, S_MODE, j)] > 0.5:
-            ux = W[at(OFF_G, SLIP_X, j)]
-            uy = W[at(OFF_G, SLIP_Y, j)]
-            uu = math.sqrt(ux * ux + uy * uy)
-            if uu > W[at(OFF_P, EPS_U, j)]:
-                dx = ux / uu
-                dy = uy / uu
-            mu = W[at(OFF_P, MU_K, j)]
-            h = W[at(OFF_P, DT, j)]
-            if mu > 0.0 and RELAX_STEPS * uu < SLOPE_BOUND * mu * W[at(OFF_P, GRAV, j)] * (
-                    1.0 + (W[at(OFF_G, RHO_X, j)] ** 2 + W[at(OFF_G, RHO_Y, j)] ** 2
-                           + W[at(OFF_G, RHO_Z, j)] ** 2)
-                    * (W[at(OFF_E, JI_XX, j)] + W[at(OFF_E, JI_YY, j)]
-                       + W[at(OFF_E, JI_ZZ, j)])) * h:
-                cx, cy, slope = consistent_direction(W, j, state, mu, sx, sy)
-                turn = W[at(OFF_S, S_TURN, j)]
-                if history:
-                    px = W[at(OFF_S, S_DCX, j)]
-                    py = W[at(OFF_S, S_DCY, j)]
-                    turn = math.atan2(px * cy - py * cx, px * cx + py * cy) / h
-                    turn = turn if slope > 0.0 else 0.0
-                    W[at(OFF_S, S_TURN, j)] = turn
-                    W[at(OFF_S, S_DCX, j)] = cx
-                    W[at(OFF_S, S_DCY, j)] = cy
-                if slope > 0.0 and RELAX_STEPS * uu < slope * h:
-                    lag = -turn * uu / slope  # the manifold's angle from d*, rad
-                    lag = min(max(lag, -0.5), 0.5)
-                    tx = cx - lag * cy
-                    ty = cy + lag * cx
-                    scale = RELAX_STEPS / (slope * h)
-                    bx = scale * ux + (1.0 - scale * uu) * tx
-                    by = scale * uy + (1.0 - scale * uu) * ty
-                    bb = math.sqrt(bx * bx + by * by)
-                    dx = bx / bb if bb > 1e-3 else cx
-                    dy = by / bb if bb > 1e-3 else cy
-            elif history:  # a fast slip: its direction stands in for d*
+        slipping = W[at(OFF_S, S_MODE, j)] > 0.5
+        ux = W[at(OFF_G, SLIP_X, j)]
+        uy = W[at(OFF_G, SLIP_Y, j)]
+        uu = math.sqrt(ux * ux + uy * uy)
+        moving = slipping & (uu > W[at(OFF_P, EPS_U, j)])
+        W[at(OFF_G, UHAT_X, j)] = ux / uu if moving else W[at(OFF_S, S_UHX, j)]
+        W[at(OFF_G, UHAT_Y, j)] = uy / uu if moving else W[at(OFF_S, S_UHY, j)]
+        mu = W[at(OFF_P, MU_K, j)]
+        slow = slipping & (mu > 0.0) & (
+            RELAX_STEPS * uu < SLOPE_BOUND * mu * W[at(OFF_P, GRAV, j)] * (
+                1.0 + (W[at(OFF_G, RHO_X, j)] ** 2 + W[at(OFF_G, RHO_Y, j)] ** 2
+                       + W[at(OFF_G, RHO_Z, j)] ** 2)
+                * (W[at(OFF_E, JI_XX, j)] + W[at(OFF_E, JI_YY, j)]
+                   + W[at(OFF_E, JI_ZZ, j)])) * W[at(OFF_P, DT, j)])
+        W[at(OFF_G, SLIP_KIND, j)] = SLOW_SLIP if slow else (FAST_SLIP if slipping else 0.0)
+        n_slow += 1 if slow else 0
+        n_slip += 1 if slipping else 0
+    if n_slow == 0 and not (history and n_slip > 0):
+        return
+    for j in range(first, stop):
+        kind = W[at(OFF_G, SLIP_KIND, j)]
+        if kind == 0.0:
+            continue
+        dx = W[at(OFF_G, UHAT_X, j)]
+        dy = W[at(OFF_G, UHAT_Y, j)]
+        h = W[at(OFF_P, DT, j)]
+        if kind == FAST_SLIP:
+            if history:  # its direction stands in for d*
                 px = W[at(OFF_S, S_DCX, j)]
                 py = W[at(OFF_S, S_DCY, j)]
                 W[at(OFF_S, S_TURN, j)] = math.atan2(px * dy - py * dx, px * dx + py * dy) / h
                 W[at(OFF_S, S_DCX, j)] = dx
                 W[at(OFF_S, S_DCY, j)] = dy
-        W[at(OFF_G, UHAT_X, j)] = dx
-        W[at(OFF_G, UHAT_Y, j)] = dy
+            continue
+        ux = W[at(OFF_G, SLIP_X, j)]
+        uy = W[at(OFF_G, SLIP_Y, j)]
+        uu = math.sqrt(ux * ux + uy * uy)
+        turn = W[at(OFF_S, S_TURN, j)]
+        cx, cy, slope = consistent_direction(
+            W, j, state, W[at(OFF_P, MU_K, j)], W[at(OFF_S, S_UHX, j)],
+            W[at(OFF_S, S_UHY, j)])
+        if history:
+            px = W[at(OFF_S, S_DCX, j)]
+            py = W[at(OFF_S, S_DCY, j)]
+            turn = math.atan2(px * cy - py * cx, px * cx + py * cy) / h
+            turn = turn if slope > 0.0 else 0.0
+            W[at(OFF_S, S_TURN, j)] = turn
+            W[at(OFF_S, S_DCX, j)] = cx
+            W[at(OFF_S, S_DCY, j)] = cy
+        if slope > 0.0 and RELAX_STEPS * uu < slope * h:
+            lag = -turn * uu / slope  # the manifold's angle from d*, rad
+            lag = min(max(lag, -0.5), 0.5)
+            tx = cx - lag * cy
+            ty = cy + lag * cx
+            scale = RELAX_STEPS / (slope * h)
+            bx = scale * ux + (1.0 - scale * uu) * tx
+            by = scale * uy + (1.0 - scale * uu) * ty
+            bb = math.sqrt(bx * bx + by * by)
+            W[at(OFF_G, UHAT_X, j)] = bx / bb if bb > 1e-3 else cx
+            W[at(OFF_G, UHAT_Y, j)] = by / bb if bb > 1e-3 else cy
 
 
 @kernel

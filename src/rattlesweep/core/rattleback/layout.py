@@ -96,7 +96,8 @@ SPIN_LAMBDA = 20  # couple about the normal holding a stuck spin, per unit mass,
 SPIN_RATE = 21  # ω · n̂, rad/s
 ROLL_FRACTION = 22  # the rolling couple over its bound, |ω_h| / max(|ω_h|, floor)
 ROLL_MARGIN = 23  # the rolling couple's switching function, rad/s or m^2/s^2 (dynamics)
-N_SCRATCH = 24
+SLIP_KIND = 24  # 0 sticking, FAST_SLIP or SLOW_SLIP (dynamics.slip_direction)
+N_SCRATCH = 25
 
 # --- the block workspace: the shared regions, then this model's ------------------------
 OFF_E = OFF_P + N_PARAM  # derived parameters
