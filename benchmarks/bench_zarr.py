@@ -25,11 +25,11 @@ import sys
 import textwrap
 
 SCRIPT = textwrap.dedent("""
-    import resource, shutil, sys, tempfile, time
+    import math, resource, shutil, sys, tempfile, time
     from pathlib import Path
     from rattlesweep.sweep import Sweep, run_sweep
     n, output, t_end = int(sys.argv[1]), sys.argv[2], float(sys.argv[3])
-    side = max(2, int(round((n / 2) ** 0.5)))
+    side = max(2, math.ceil((n / 2) ** 0.5))  # at least n points
     sweep = Sweep(axes={"spin": {"start": -30.0, "stop": 30.0, "num": side},
                         "delta_deg": {"start": -8.0, "stop": 8.0, "num": side},
                         "mu": [0.3, float("inf")]},
