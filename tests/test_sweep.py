@@ -361,6 +361,12 @@ def test_cli_demo_info_plot(tmp_path, capsys):
     # the directory the sweep wrote is summarised the same way
     assert main(["info", str(out)]) == 0
     assert capsys.readouterr().out == info
+    # a reader that goes away (``rattlesweep info DIR | head -1``) is no error
+    reader = subprocess.Popen([sys.executable, "-m", "rattlesweep.cli", "info", str(out)],
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    reader.stdout.close()
+    err = reader.stderr.read().decode()
+    assert reader.wait(timeout=120) == 0 and err == "", err
     # an unfinished sweep directory reports its progress
     (out / RESULT_NAME).unlink()
     assert main(["info", str(out)]) == 0

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import shlex
 import sys
 import time
@@ -449,7 +450,14 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        return args.func(args, argv)
+        status = args.func(args, argv)
+        sys.stdout.flush()  # a closed pipe is then found here, not at interpreter exit
+        return status
+    except BrokenPipeError:
+        # the reader of the output went away (``rattlesweep info DIR | head``): nothing to
+        # report; stdout is pointed at devnull so that Python's flush at exit stays quiet
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except ValueError as exc:
         print(f"rattlesweep: error: {exc}", file=sys.stderr)
         return 2
