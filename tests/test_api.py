@@ -168,10 +168,12 @@ def test_more_steps_than_the_kernel_can_count_are_refused(kl):
     with pytest.raises(ValueError, match=r"t_end / dt .* at index \(1,\)"):
         run_planar_batch(PlanarBody(0.1, 0.05, 1.0), theta=0.1, t_end=[1.0, 1e300])
     assert 2**52 < rs.batch.max_steps(kl, spin=1.0, t_end=2.0**53, dt=1.0) <= 2**53
-    # the step is the default one of that g or damping: the message names them
+    # the step is the default one of that g, damping and body: the message names them
     with pytest.raises(ValueError, match=r"dt = .* \(the body's default step at g = 1e\+200"):
         rs.run_batch(kl, spin=1.0, t_end=1.0, g=1e200)
-    with pytest.raises(ValueError, match=r"default step at g = 9.81, damping = 1e\+300\)"):
+    with pytest.raises(ValueError, match=r"default step at g = 9.81, damping = 1e\+300, "
+                                         r"body = 'kane_levinson' with a = 0.2, b = 0.03, "
+                                         r"c = 0.02 m\)"):
         rs.run_batch(kl, spin=1.0, t_end=1.0, damping=1e300)
     # a g so large that the default step overflows
     with pytest.raises(ValueError, match=r"g = 1.7e\+308 m s-2 is too large for body"):

@@ -124,6 +124,26 @@ def test_scales_too_far_apart_for_float64_are_refused():
         kl.default_dt(1.7e308)
 
 
+def test_semi_axes_too_far_apart_for_the_inertia_are_refused_by_name():
+    """b = 2e9 m under a = 0.05 m: the misaligned inertia's smallest principal moment was
+    lost in the rounding of its largest, and the body was refused as an inertia that is
+    not positive definite, naming no parameter the caller gave (found by the long
+    property-test run, through a sweep file with ``b`` fixed). The bound: the smallest
+    moment above 1e-12 of the largest, semi-axes within about 1e6 of each other."""
+    for make in (Body.semi_ellipsoid, Body.ellipsoid):
+        with pytest.raises(ValueError, match=r"semi-axes a = 0.05, b = 2084882453.0, c = "
+                                             r"0.01 m are too far apart in scale"):
+            make(0.05, 2084882453.0, 0.01, 1.0)
+    with pytest.raises(ValueError, match=r"b = 2084882453.0.*too far apart"):
+        Body.semi_ellipsoid(0.05, 2084882453.0, 0.01, 1.0, 0.02)
+    # a flat, long body well inside the bound is still a body
+    flat = Body.semi_ellipsoid(1.0, 1e-4, 1e-5, 1.0)
+    assert np.linalg.eigvalsh(flat.inertia)[0] > 0.0
+    with pytest.raises(ValueError, match=r"b = 2084882453.0.*too far apart"):
+        rs.Sweep(axes={"spin": {"start": 0.0, "stop": 0.0, "num": 1}},
+                 fixed={"b": 2084882453.0, "t_end": 0.015625})
+
+
 @pytest.mark.parametrize("delta", ["abc", None, [0.1], math.nan, math.inf])
 def test_semi_ellipsoid_refuses_a_misalignment_that_is_no_number(delta):
     # a string raised math.isfinite's TypeError (found by the property tests)

@@ -259,3 +259,25 @@ def test_the_order_of_the_axes_is_part_of_the_configuration(tmp_path):
     first.close()
     with pytest.raises(ValueError, match="holds a different sweep.*order spin, mu -> mu, spin"):
         TileDirectory(b, tmp_path).open()
+
+
+def test_every_value_of_a_launch_angle_axis_is_checked_before_compute():
+    """The tilt is periodic in a launch angle: a roll axis whose extremes are upright
+    launches can hold a value between them that puts the rim on the floor (-1.7e15 deg
+    is 133 deg). Only the extremes were checked, and the sweep failed in its first tile
+    without naming the axis (found by the long property-test run)."""
+    with pytest.raises(ValueError, match=r"puts the rim .* \(at the sweep corner "
+                                         r"delta_deg=0 degree, roll_deg=-1.69611e\+15 degree\)"):
+        Sweep(axes={"delta_deg": {"start": 0.0, "stop": 0.0, "num": 1},
+                    "roll_deg": {"start": -3392225027273791.0, "stop": 5.000000001,
+                                 "num": 3}},
+              fixed={"t_end": 0.015625})
+
+
+def test_a_default_step_too_small_names_the_body_it_comes_from():
+    """c = 1e-300 m makes a default step of 1e-152 s: the message named t_end and dt but
+    not the semi-axis the step came from (found by the long property-test run)."""
+    with pytest.raises(ValueError, match=r"2\*\*53 steps.*body = 'semi_ellipsoid' with "
+                                         r"a = 0.0475, b = 0.0095, c = 1e-300 m"):
+        Sweep(axes={"spin": {"start": 0.0, "stop": 0.0, "num": 1}},
+              fixed={"c": 1e-300, "t_end": 0.015625})

@@ -126,7 +126,8 @@ def launch_inputs(
                          damping_dts(table, index, flat["damping"]))
     default_from = None  # the inputs a default step comes from, for messages
     if "dt" not in flat:
-        default_from = {"g": flat["g"], "damping": flat["damping"]}
+        default_from = {"g": flat["g"], "damping": flat["damping"],
+                        "body": np.array(table, dtype=object)[index]}
         flat["dt"] = default
     else:
         # warn at the user's call: run_batch or simulate -> prepare -> launch_inputs

@@ -35,6 +35,27 @@ def rotated_inertia(i1: float, i2: float, i3: float, delta: float) -> np.ndarray
 
 # eq=False: the generated __eq__ would compare the ndarray fields with ==, whose
 # elementwise result has no truth value, and the generated __hash__ would fail on them
+MOMENT_RATIO_MIN = 1e-12
+"""Smallest principal moment of inertia a homogeneous body may have, relative to its
+largest: rounding in float64 (about 2e-16 of the largest) then leaves the smallest
+accurate to 2e-4. Semi-axes within a factor of about 1e6 of each other meet it."""
+
+
+def _check_axes_scale(a: float, b: float, c: float, moments: np.ndarray) -> None:
+    """Refuse semi-axes (m) whose homogeneous body's principal moments of inertia
+    ``moments`` (kg m²) are too far apart for float64, naming the semi-axes: its smallest
+    moment would be lost in the rounding of the largest (and the turned inertia of a
+    misaligned body would no longer be positive definite)."""
+    with np.errstate(all="ignore"):
+        small, large = float(np.min(moments)), float(np.max(moments))
+    if not (math.isfinite(large) and small > MOMENT_RATIO_MIN * large):
+        raise ValueError(
+            f"semi-axes a = {a!r}, b = {b!r}, c = {c!r} m are too far apart in scale for "
+            f"float64: the body's smallest principal moment of inertia ({small:.3g} kg m2) "
+            f"must exceed {MOMENT_RATIO_MIN:g} of its largest ({large:.3g} kg m2); keep "
+            "the semi-axes within a factor of about 1e6 of each other")
+
+
 @dataclass(frozen=True, eq=False)
 class Body:
     """A rigid body with an ellipsoidal bottom resting on a flat floor.
@@ -161,6 +182,7 @@ class Body:
         zg = -3.0 * c / 8.0
         i_c = np.array([b * b + c * c, a * a + c * c, a * a + b * b]) * mass / 5.0
         i_g = i_c - mass * zg * zg * np.array([1.0, 1.0, 0.0])
+        _check_axes_scale(a, b, c, i_g)
         ix, iy, iz = i_g
         return cls(a, b, c, mass, (0.0, 0.0, zg), rotated_inertia(ix, iy, iz, delta),
                    name=name)
@@ -172,8 +194,10 @@ class Body:
         a uniform sphere."""
         a, b, c, mass = (positive("a", a), positive("b", b), positive("c", c),
                          positive("mass", mass))
-        inertia = np.diag([b * b + c * c, a * a + c * c, a * a + b * b]) * mass / 5.0
-        return cls(a, b, c, mass, (0.0, 0.0, 0.0), inertia, full_ellipsoid=True, name=name)
+        moments = np.array([b * b + c * c, a * a + c * c, a * a + b * b]) * mass / 5.0
+        _check_axes_scale(a, b, c, moments)
+        return cls(a, b, c, mass, (0.0, 0.0, 0.0), np.diag(moments), full_ellipsoid=True,
+                   name=name)
 
     def with_point_masses(self, masses: Iterable[tuple[float, npt.ArrayLike]]) -> "Body":
         """This body plus point masses ``[(mass_kg, (x, y, z)_m), ...]`` (body frame from

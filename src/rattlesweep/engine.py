@@ -200,6 +200,16 @@ MAX_STEPS = 2**53
 counts integers exactly up to 2**53."""
 
 
+def _show_input(name: str, value: Any) -> str:
+    """``name = value`` for an error message; a body by its name and semi-axes, the
+    parameters its default step depends on most."""
+    if name != "body":
+        return f"{name} = {float(value)!r}"
+    axes = ", ".join(f"{k} = {getattr(value, k)!r}" for k in ("a", "b", "c")
+                     if hasattr(value, k))
+    return f"body = {value.name!r} with {axes} m"
+
+
 def steps_for(t_end: np.ndarray, dt: np.ndarray,
               default_from: Mapping[str, np.ndarray] | None = None) -> np.ndarray:
     """Steps each trajectory takes: ceil(t_end/dt), at least 1. More than
@@ -211,7 +221,7 @@ def steps_for(t_end: np.ndarray, dt: np.ndarray,
         i = int(np.argmax(bad))
         where = f" at index ({i},)" if steps.ndim else ""
         source = "" if default_from is None else " (the body's default step at " + ", ".join(
-            f"{k} = {float(v.flat[i])!r}" for k, v in default_from.items()) + ")"
+            _show_input(k, v.flat[i]) for k, v in default_from.items()) + ")"
         raise ValueError(
             f"t_end / dt must be at most 2**53 steps (the kernel counts steps in float64); "
             f"got t_end = {float(t_end.flat[i])!r} s and dt = {float(dt.flat[i])!r} s"

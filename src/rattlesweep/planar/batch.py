@@ -73,7 +73,7 @@ def prepare_planar(body: PlanarBodies, *, theta: ArrayLike, rate: ArrayLike = 0.
     table, index = distinct_bodies(flat_bodies)
     default_from = None  # the inputs a default step comes from, for messages
     if "dt" not in flat:
-        default_from = {"g": flat["g"]}
+        default_from = {"g": flat["g"], "body": np.array(table, dtype=object)[index]}
         flat["dt"] = engine.default_dts(table, index, flat["g"])
     else:
         # warn at the user's call: run_planar_batch or simulate_planar -> prepare_planar

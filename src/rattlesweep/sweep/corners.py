@@ -32,10 +32,16 @@ def _max_steps(bodies: np.ndarray, kwargs: Mapping[str, Any]) -> int:
     return batch.max_steps(bodies, **kwargs)
 
 
+PERIODIC = ("roll", "pitch")
+"""Parameters whose rules hold or fail periodically along an axis, so that its extremes
+do not stand for the values between them: the launch angles that tilt the body."""
+
+
 def check_corners(grid_axes: tuple[Axis, ...], random_params: tuple[RandomParam, ...],
                   fixed_si: dict[str, float], fixed_body: str | Body | None) -> int:
-    """Check every combination of the extremes of the varying parameters against the
-    batch layer's rules; return the largest number of steps any point takes.
+    """Check every combination of the extremes of the varying parameters (of every value
+    of a launch angle's axis) against the batch layer's rules; return the largest number
+    of steps any point takes.
 
     ``fixed_si`` holds the fixed numeric parameters in SI by canonical name and
     ``fixed_body`` the fixed body (a preset name, a Body, or None when it varies). A
@@ -45,6 +51,9 @@ def check_corners(grid_axes: tuple[Axis, ...], random_params: tuple[RandomParam,
     for ax in grid_axes:
         if ax.param == "body":
             varying.append((ax.key, "body", list(ax.values)))
+        elif ax.param in PERIODIC:
+            # the tilt a launch angle gives is periodic in it: every value is checked
+            varying.append((ax.key, ax.param, sorted({float(v) for v in ax.si})))
         else:
             si = ax.si
             varying.append((ax.key, ax.param, sorted({float(si.min()), float(si.max())})))
