@@ -42,18 +42,18 @@ from numba import types
 from numba.extending import overload
 
 from . import models
-from .jit import OVERLOAD_OPTIONS, inline_kernel, kernel
+from .jit import OVERLOAD_OPTIONS, kernel
 from .stages import set_step_fractions
 from .switching import cone_margin, couple_margin, note_slip, start_slip, switch_couples
 from .workspace import (
-    BLOCK, COUPLES, DT, H_HALF_DT, MU_ROLL, MU_SPIN, K_MARK_SWITCH, K_SLIP_STEPS, NOT_MARKED, OFF_H, OFF_K,
+    BLOCK, COUPLES, DT, H_HALF_DT, K_MARK_SWITCH, K_SLIP_STEPS, NOT_MARKED, OFF_H, OFF_K,
     OFF_P, OFF_S, OFF_X, ROLL_SWITCHES, S_JX, S_JY, S_MODE, S_ROLL, S_ROLL_SENSE, S_SPIN,
     S_SPIN_SENSE, SPIN_SWITCHES, STAGE_2, STAGE_3, STAGE_4, STAGE_START, SWITCHES, X_N,
     X_ROLL_EVENT, X_SPIN_EVENT, X_TSTOP, X_UX, X_UY, at,
 )
 
-__all__ = ["LOCATE_ROWS", "MAX_SWITCHES", "STOP_TOL", "THETA_TOL", "locate_marked", "locate_where_located",
-           "located", "stick_lane", "switch_marked"]
+__all__ = ["LOCATE_ROWS", "MAX_SWITCHES", "STOP_TOL", "THETA_TOL", "locate_marked",
+           "locate_where_located", "located", "stick_lane", "switch_marked"]
 
 THETA_TOL = 1e-10
 """Convergence of the located instant, as a fraction of the (rest of the) step."""
@@ -77,23 +77,12 @@ LOCATE_ROWS = 5
 the ends of an interval and their derivatives, and the held step's result."""
 
 
-@inline_kernel
-def has_couples(W, j):
-    """True when lane j has spin friction or rolling resistance. A lane without them is
-    evaluated without the couples' work, by the same operations less terms that are
-    zero, so with the same result; its couples' switching functions stay inf."""
-    return W[at(OFF_P, MU_SPIN, j)] > 0.0 or W[at(OFF_P, MU_ROLL, j)] > 0.0
-
-
 @kernel
 def evaluate_lane(W, model, j):
     """Evaluate lane j alone at its state Y in its current mode: derivative in A, contact
     outputs in X."""
     numba.literally(model)
-    if has_couples(W, j):
-        models.evaluate(W, model, COUPLES, STAGE_START, True, j)
-    else:
-        models.evaluate(W, model, True, STAGE_START, True, j)
+    models.evaluate(W, model, COUPLES, STAGE_START, True, j)
 
 
 @kernel
@@ -101,14 +90,9 @@ def rk4_lane(W, model, j):
     """The three inner RK4 stages of lane j alone, after :func:`evaluate_lane`: Y becomes
     the state one (lane) step later, B the state before."""
     numba.literally(model)
-    if has_couples(W, j):
-        models.evaluate(W, model, COUPLES, STAGE_2, True, j)
-        models.evaluate(W, model, COUPLES, STAGE_3, True, j)
-        models.evaluate(W, model, COUPLES, STAGE_4, True, j)
-    else:
-        models.evaluate(W, model, True, STAGE_2, True, j)
-        models.evaluate(W, model, True, STAGE_3, True, j)
-        models.evaluate(W, model, True, STAGE_4, True, j)
+    models.evaluate(W, model, COUPLES, STAGE_2, True, j)
+    models.evaluate(W, model, COUPLES, STAGE_3, True, j)
+    models.evaluate(W, model, COUPLES, STAGE_4, True, j)
 
 
 @kernel

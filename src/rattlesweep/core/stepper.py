@@ -52,7 +52,7 @@ from .workspace import (
     O_FIRST_REV, O_MEAN_FINAL_SPIN, O_N_REV, O_SLIP_FRAC, O_SPIN0, O_STATUS, O_STEPS,
     O_T_END, OFF_H, OFF_K, OFF_P, OFF_S, OFF_X, OK, RK4, S_JX, S_JY, S_MODE,
     S_TSTOP, S_UHX, STAGE_2, STAGE_3, STAGE_4, STAGE_FIRST, STAGE_START, STOP_AT_REVERSAL,
-    STOP_RULE, X_N, X_ROLL_EVENT, X_SPIN_EVENT, X_UX, X_UY,
+    STOP_RULE, X_N, X_UX, X_UY,
 )
 
 __all__ = ["advance_block", "contact_slip_velocity", "integrate_parallel",
@@ -316,9 +316,6 @@ def advance_block(model, P, Y, nsteps, method, record_every, band, O, REC):
             status[j] = NON_FINITE
         max_steps = max(max_steps, nsteps[j])
         W[at(OFF_S, S_MODE, j)] = 1.0  # any mode: the slip velocity is mode-independent
-        # no couple switches until an evaluation with couples says otherwise
-        W[at(OFF_X, X_SPIN_EVENT, j)] = math.inf
-        W[at(OFF_X, X_ROLL_EVENT, j)] = math.inf
         W[at(OFF_S, S_UHX, j)] = 1.0
         if status[j] == OK and models.start_lane(W, model, j):
             status[j] = CAPSIZED
