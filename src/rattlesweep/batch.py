@@ -126,8 +126,7 @@ def launch_inputs(
                          damping_dts(table, index, flat["damping"]))
     default_from = None  # the inputs a default step comes from, for messages
     if "dt" not in flat:
-        default_from = {"g": flat["g"], "damping": flat["damping"],
-                        "body": np.array(table, dtype=object)[index]}
+        default_from = {"g": flat["g"], "damping": flat["damping"]}
         flat["dt"] = default
     else:
         # warn at the user's call: run_batch or simulate -> prepare -> launch_inputs
@@ -141,7 +140,7 @@ def launch_inputs(
     full = np.array([b.full_ellipsoid for b in table], dtype=bool)[index]
     tilt_limit_error(up_vector(q)[:, 2], full)
     return Inputs(shape, n, table, index, flat, flat_vec,
-                  engine.steps_for(flat["t_end"], flat["dt"], default_from), q)
+                  engine.steps_for(flat["t_end"], flat["dt"], default_from, (table, index)), q)
 
 
 def damping_dts(table: list[Body], index: np.ndarray, damping: np.ndarray) -> np.ndarray:

@@ -33,8 +33,6 @@ def rotated_inertia(i1: float, i2: float, i3: float, delta: float) -> np.ndarray
     return rz @ np.diag([i1, i2, i3]) @ rz.T
 
 
-# eq=False: the generated __eq__ would compare the ndarray fields with ==, whose
-# elementwise result has no truth value, and the generated __hash__ would fail on them
 MOMENT_RATIO_MIN = 1e-12
 """Smallest principal moment of inertia a homogeneous body may have, relative to its
 largest: rounding in float64 (about 2e-16 of the largest) then leaves the smallest
@@ -56,6 +54,8 @@ def _check_axes_scale(a: float, b: float, c: float, moments: np.ndarray) -> None
             "the semi-axes within a factor of about 1e6 of each other")
 
 
+# eq=False: the generated __eq__ would compare the ndarray fields with ==, whose
+# elementwise result has no truth value, and the generated __hash__ would fail on them
 @dataclass(frozen=True, eq=False)
 class Body:
     """A rigid body with an ellipsoidal bottom resting on a flat floor.

@@ -200,28 +200,32 @@ MAX_STEPS = 2**53
 counts integers exactly up to 2**53."""
 
 
-def _show_input(name: str, value: Any) -> str:
-    """``name = value`` for an error message; a body by its name and semi-axes, the
-    parameters its default step depends on most."""
-    if name != "body":
-        return f"{name} = {float(value)!r}"
-    axes = ", ".join(f"{k} = {getattr(value, k)!r}" for k in ("a", "b", "c")
-                     if hasattr(value, k))
-    return f"body = {value.name!r} with {axes} m"
+def _show_body(body: Body | PlanarBody) -> str:
+    """A body for an error message: its name and semi-axes, the parameters its default
+    step depends on most."""
+    axes = ", ".join(f"{k} = {getattr(body, k)!r}" for k in ("a", "b", "c")
+                     if hasattr(body, k))
+    return f"body = {body.name!r} with {axes} m"
 
 
 def steps_for(t_end: np.ndarray, dt: np.ndarray,
-              default_from: Mapping[str, np.ndarray] | None = None) -> np.ndarray:
+              default_from: Mapping[str, np.ndarray] | None = None,
+              bodies: tuple[Sequence[Body | PlanarBody], np.ndarray] | None = None
+              ) -> np.ndarray:
     """Steps each trajectory takes: ceil(t_end/dt), at least 1. More than
     :data:`MAX_STEPS` is a ValueError naming ``t_end`` and ``dt``, and, when ``dt`` is
-    the default step, the inputs ``default_from`` it was derived from (name -> values)."""
+    the default step, the inputs ``default_from`` it was derived from (name -> values)
+    and the body, from ``bodies`` (the distinct bodies and each trajectory's index)."""
     steps = np.maximum(np.ceil(t_end / dt * (1.0 - 1e-12)), 1)
     bad = ~(steps <= MAX_STEPS)  # NaN too: a default step that overflowed
     if np.any(bad):
         i = int(np.argmax(bad))
         where = f" at index ({i},)" if steps.ndim else ""
-        source = "" if default_from is None else " (the body's default step at " + ", ".join(
-            _show_input(k, v.flat[i]) for k, v in default_from.items()) + ")"
+        shown = [] if default_from is None else [
+            f"{k} = {float(v.flat[i])!r}" for k, v in default_from.items()]
+        if default_from is not None and bodies is not None:
+            shown.append(_show_body(bodies[0][int(bodies[1].flat[i])]))
+        source = "" if not shown else " (the body's default step at " + ", ".join(shown) + ")"
         raise ValueError(
             f"t_end / dt must be at most 2**53 steps (the kernel counts steps in float64); "
             f"got t_end = {float(t_end.flat[i])!r} s and dt = {float(dt.flat[i])!r} s"

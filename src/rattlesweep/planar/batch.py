@@ -73,7 +73,7 @@ def prepare_planar(body: PlanarBodies, *, theta: ArrayLike, rate: ArrayLike = 0.
     table, index = distinct_bodies(flat_bodies)
     default_from = None  # the inputs a default step comes from, for messages
     if "dt" not in flat:
-        default_from = {"g": flat["g"], "body": np.array(table, dtype=object)[index]}
+        default_from = {"g": flat["g"]}
         flat["dt"] = engine.default_dts(table, index, flat["g"])
     else:
         # warn at the user's call: run_planar_batch or simulate_planar -> prepare_planar
@@ -101,9 +101,9 @@ def prepare_planar(body: PlanarBodies, *, theta: ArrayLike, rate: ArrayLike = 0.
         "t_end": flat["t_end"], **columns,
         "body_name": np.array([b.name for b in table])[index],
     }
+    steps = engine.steps_for(flat["t_end"], flat["dt"], default_from, (table, index))
     return engine.prepared(MODEL, {**columns, **flat}, engine.pack(layout.STATE, state, n),
-                           engine.steps_for(flat["t_end"], flat["dt"], default_from), n, shape,
-                           {k: (dim, v) for k, v in coords.items()})
+                           steps, n, shape, {k: (dim, v) for k, v in coords.items()})
 
 
 def planar_run_attrs(method: str, record_every: int | None) -> dict[str, Any]:
