@@ -274,6 +274,19 @@ def test_every_value_of_a_launch_angle_axis_is_checked_before_compute():
               fixed={"t_end": 0.015625})
 
 
+def test_a_random_launch_angle_range_is_checked_between_its_bounds():
+    """uniform [-300, 300] deg: both bounds are upright launches (cos 300 deg = 0.5), but
+    draws near 180 deg put the rim on the floor; the multiples of pi inside the range
+    stand for them in the check."""
+    with pytest.raises(ValueError, match=r"initial tilt 180 deg.*\(at the sweep corner "
+                                         r"spin=1 rad s-1, roll_deg=-180 degree\)"):
+        Sweep(axes={"spin": {"start": 1.0, "stop": 2.0, "num": 2}}, fixed={"t_end": 0.1},
+              random={"roll_deg": {"uniform": [-300.0, 300.0]}}, repeats=2, seed=1)
+    Sweep(axes={"spin": {"start": 1.0, "stop": 2.0, "num": 2}}, fixed={"t_end": 0.1},
+          random={"roll_deg": {"uniform": [-80.0, 80.0]}}, repeats=2, seed=1)
+    assert corners.angle_corners([0.1, 2.0, 3.0, -0.2]) == [-0.2, 0.1, 3.0]
+
+
 def test_a_default_step_too_small_names_the_body_it_comes_from():
     """c = 1e-300 m makes a default step of 1e-152 s: the message named t_end and dt but
     not the semi-axis the step came from (found by the long property-test run)."""

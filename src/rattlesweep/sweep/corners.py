@@ -33,15 +33,30 @@ def _max_steps(bodies: np.ndarray, kwargs: Mapping[str, Any]) -> int:
 
 
 PERIODIC = ("roll", "pitch")
-"""Parameters whose rules hold or fail periodically along an axis, so that its extremes
-do not stand for the values between them: the launch angles that tilt the body."""
+"""The launch angles that tilt the body. The tilt rule is periodic in them, so the
+extremes of an axis or range do not stand for the values between: the body's z axis has
+the vertical component cos(roll) cos(pitch), which is extreme over a grid where each
+angle takes a value of smallest or largest cosine (:func:`angle_corners`)."""
+
+
+def angle_corners(values: list[float], lo: float | None = None,
+                  hi: float | None = None) -> list[float]:
+    """The values (rad) that stand for a launch angle's axis in the corner check: its
+    extremes and its values of smallest and largest cosine; with ``lo`` and ``hi`` (a
+    random range, rad), also the multiples of π inside it, where the cosine is ±1."""
+    found = {min(values), max(values), min(values, key=math.cos), max(values, key=math.cos)}
+    if lo is not None and hi is not None:
+        k = math.ceil(lo / math.pi)
+        found.update(min(max(j * math.pi, lo), hi) for j in (k, k + 1)
+                     if j * math.pi <= hi)
+    return sorted(found)
 
 
 def check_corners(grid_axes: tuple[Axis, ...], random_params: tuple[RandomParam, ...],
                   fixed_si: dict[str, float], fixed_body: str | Body | None) -> int:
-    """Check every combination of the extremes of the varying parameters (of every value
-    of a launch angle's axis) against the batch layer's rules; return the largest number
-    of steps any point takes.
+    """Check every combination of the extremes of the varying parameters (for a launch
+    angle, :func:`angle_corners`) against the batch layer's rules; return the largest
+    number of steps any point takes.
 
     ``fixed_si`` holds the fixed numeric parameters in SI by canonical name and
     ``fixed_body`` the fixed body (a preset name, a Body, or None when it varies). A
@@ -52,14 +67,14 @@ def check_corners(grid_axes: tuple[Axis, ...], random_params: tuple[RandomParam,
         if ax.param == "body":
             varying.append((ax.key, "body", list(ax.values)))
         elif ax.param in PERIODIC:
-            # the tilt a launch angle gives is periodic in it: every value is checked
-            varying.append((ax.key, ax.param, sorted({float(v) for v in ax.si})))
+            varying.append((ax.key, ax.param, angle_corners([float(v) for v in ax.si])))
         else:
             si = ax.si
             varying.append((ax.key, ax.param, sorted({float(si.min()), float(si.max())})))
     for rp in random_params:
-        lo, hi = rp.bounds()
-        varying.append((rp.key, rp.param, [lo * rp.factor, hi * rp.factor]))
+        lo, hi = (bound * rp.factor for bound in rp.bounds())
+        varying.append((rp.key, rp.param,
+                        angle_corners([lo, hi], lo, hi) if rp.param in PERIODIC else [lo, hi]))
     combos = list(itertools.product(*[v[2] for v in varying]))
     fixed = dict(fixed_si)
     if "t_end" not in fixed and all(param != "t_end" for _, param, _ in varying):
