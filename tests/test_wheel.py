@@ -23,8 +23,7 @@ not run. The tests check that ``rattlesweep`` imports from the fresh environment
 A first demo compiles for about a minute, in one thread; the two first demos, one per
 installation, run at the same time. A demo that loads the kernels takes about 8 s, and
 building a few seconds (setuptools comes from PyPI into the build's isolated
-environment). On the 2-core machine this was written on, shared with other work, the
-module took 2 to 4 minutes, and 2.5 to 2.9 minutes of CPU time.
+environment).
 """
 
 from __future__ import annotations
@@ -98,10 +97,10 @@ def _source_modules() -> set[str]:
 
 
 def test_build_makes_a_wheel_and_an_sdist(dist):
-    """The wheel holds every module of the package (and ``py.typed`` when the package
-    has one), the console script and the version; the sdist holds what a release needs
-    besides the code (README, citation, changelog, the complete test suite), and neither
-    holds compiled files from the checkout's caches."""
+    """The wheel holds every module of the package, ``py.typed``, the console script and
+    the version; the sdist holds what a release needs besides the code (README, citation,
+    changelog, the complete test suite), and neither holds compiled files from the
+    checkout's caches."""
     wheel, sdist = dist
     version = runpy.run_path(str(SRC / "_version.py"))["__version__"]
 
@@ -113,8 +112,7 @@ def test_build_makes_a_wheel_and_an_sdist(dist):
         metadata = zf.read(f"{info}/METADATA").decode()
     missing = _source_modules() - names
     assert not missing, f"modules missing from the wheel: {sorted(missing)}"
-    if (SRC / "py.typed").exists():
-        assert "rattlesweep/py.typed" in names
+    assert "rattlesweep/py.typed" in names
     assert re.search(r"^\[console_scripts\]\s*^rattlesweep = rattlesweep\.cli:main$",
                      entry_points, re.MULTILINE), entry_points
     assert f"\nVersion: {version}\n" in metadata
