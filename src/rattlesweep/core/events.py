@@ -18,11 +18,15 @@ The vector RK4 step holds every lane's mode through the step; afterwards
   of the event whose function that is;
 * slip → stick: a slip stops where the 2-vector u reaches zero; past that instant a 3-D
   held step is no continuation of the slip (the friction turns with u), so the slip is
-  integrated forward to its stop instead, in either model, by steps of the predicted time to stop,
-  |u|² / (−u · u̇) (Newton's method on the slip speed from the slipping side, converging
-  quadratically), until that time is below ``STOP_TOL`` of the step. The plastic impulse
-  then removes the residual slip (what the located instant leaves: it is reported in the
-  record), and the cone is checked at once.
+  integrated forward to its stop instead, in either model, from the slipping side: the
+  first step is the predicted time to stop, |u|² / (−u · u̇) (Newton's method on the
+  slip speed), the later ones the secant of the predictions towards their zero
+  (:func:`stop_step`: a slip that fades out at the edge of the friction cone has a
+  multiple zero, at which Newton's method converges only linearly), until the
+  prediction is below ``STOP_TOL`` of the step, or the slip creeps
+  (:func:`creeps`). The plastic impulse then removes the residual slip (what the
+  located instant leaves: it is reported in the record), and the cone is checked at
+  once.
 
 The step is integrated as pieces in time order (an RK4 step to the predicted stop of
 a slip that stops inside the step, else to the step's end); after each switch the rest
@@ -42,11 +46,11 @@ from numba import types
 from numba.extending import overload
 
 from . import models
-from .jit import OVERLOAD_OPTIONS, kernel
+from .jit import OVERLOAD_OPTIONS, inline_kernel, kernel
 from .stages import set_step_fractions
 from .switching import cone_margin, couple_margin, note_slip, start_slip, switch_couples
 from .workspace import (
-    BLOCK, COUPLES, DT, H_HALF_DT, K_MARK_SWITCH, K_SLIP_STEPS, NOT_MARKED, OFF_H, OFF_K,
+    BLOCK, COUPLES, DT, EPS_U, H_HALF_DT, K_MARK_SWITCH, K_SLIP_STEPS, NOT_MARKED, OFF_H, OFF_K,
     OFF_P, OFF_S, OFF_X, ROLL_SWITCHES, S_JX, S_JY, S_MODE, S_ROLL, S_ROLL_SENSE, S_SPIN,
     S_SPIN_SENSE, SPIN_SWITCHES, STAGE_2, STAGE_3, STAGE_4, STAGE_START, SWITCHES, X_N,
     X_ROLL_EVENT, X_SPIN_EVENT, X_TSTOP, X_UX, X_UY, at,
@@ -64,6 +68,13 @@ impulse removes the slip velocity left, of order this fraction times dt |u̇|.""
 
 MAX_ITERATIONS = 40
 """Bound on the iterations locating one switch (they converge in a handful)."""
+
+CREEP_SPEED = 100.0
+"""A slip slower than this many slip speed floors (``EPS_U``, 1e-6 g dt) whose predicted
+stop stops coming closer has stopped (:func:`creeps`)."""
+
+MAX_ORDER = 4.0
+"""Largest order p of a slip speed's zero, ∝ (t* − t)^p, that :func:`stop_step` assumes."""
 
 MAX_SWITCHES = 4
 """Switches located inside one step of one lane; a further one waits for the step end."""
@@ -225,13 +236,14 @@ def event_root(W, model, j, buf, h, g0, g1):
 
 
 @kernel
-def forward_to_stop(W, model, j, buf, t_stop, dt):
-    """Step slipping lane j, evaluated, forward by its predicted stop time t_stop (s).
-    Past the stop (the slip velocity turned against its value before), the step is
-    taken again, shortened to where the slip velocity's component along its value
-    before crosses zero (linear in between: the prediction's error is second order).
-    Returns (whether the slip has stopped, the step taken, s); a slip predicted to stop
-    within ``STOP_TOL`` of the lane's step dt (s) has stopped, without a step."""
+def forward_to_stop(W, model, j, buf, t_stop, step, dt):
+    """Step slipping lane j, evaluated, forward by ``step`` (s) towards its stop, which
+    its evaluation predicts t_stop (s) ahead (:func:`stop_step`). Past the stop (the
+    slip velocity turned against its value before), the step is taken again, shortened
+    to where the slip velocity's component along its value before crosses zero (linear
+    in between). Returns (whether the slip has stopped, the step taken, s); a slip
+    predicted to stop within ``STOP_TOL`` of the lane's step dt (s) has stopped, without
+    a step."""
     numba.literally(model)
     if t_stop <= STOP_TOL * dt:  # stopped: the plastic impulse removes what is left
         return True, 0.0
@@ -240,16 +252,49 @@ def forward_to_stop(W, model, j, buf, t_stop, dt):
     copy_state(W, model, j, buf, F0, off_a)
     ux = W[at(OFF_X, X_UX, j)]
     uy = W[at(OFF_X, X_UY, j)]
-    lane_step(W, model, j, t_stop)
+    lane_step(W, model, j, step)
     g_before = ux * ux + uy * uy
     g_after = W[at(OFF_X, X_UX, j)] * ux + W[at(OFF_X, X_UY, j)] * uy
     if g_after >= 0.0:
-        return False, t_stop
-    step = t_stop * g_before / (g_before - g_after)
+        return False, step
+    step = step * g_before / (g_before - g_after)
     load_state(W, model, j, buf, Y0, off_y)
     load_state(W, model, j, buf, F0, off_a)
     lane_step(W, model, j, step)
     return True, step
+
+
+@inline_kernel
+def stop_step(t, t_stop, t_seen, t_stop_seen, rest):
+    """The step (s) towards a slip's stop from the time t (s) into the step at which it
+    is predicted t_stop (s) ahead, given the prediction t_stop_seen at the time t_seen of
+    the last step towards it (t_seen < 0: none), at most the rest of the step.
+
+    The prediction |u|² / (−u · u̇) is exact for a slip speed linear in the time to its
+    stop, but only the share 1/p of it for a speed ∝ (t* − t)^p, as where the slip fades
+    out at the edge of the friction cone (p near 2): Newton's method at a multiple root,
+    whose steps shrink by the ratio 1 − 1/p only. The prediction itself falls linearly
+    to zero, as (t* − t)/p, so the step is the secant of the last two towards its zero:
+    p t_stop with p = (t − t_seen)/(t_stop_seen − t_stop) between 1 and ``MAX_ORDER``."""
+    order = 1.0
+    if t_seen >= 0.0 and t_stop_seen > t_stop:
+        order = min(max((t - t_seen) / (t_stop_seen - t_stop), 1.0), MAX_ORDER)
+    return min(order * t_stop, rest)
+
+
+@inline_kernel
+def creeps(W, j, t_stop_before):
+    """Whether slipping lane j, after a step towards its stop predicted t_stop_before (s)
+    ahead, creeps: slower than ``CREEP_SPEED`` slip speed floors and still decelerating,
+    but its predicted stop did not come at least twice as close. Such a slip is at the
+    edge of the friction cone, where the slip acceleration vanishes with the speed, and
+    would take ever shorter steps without reaching zero; it has stopped (the cone check
+    that follows a stop restarts it at once if the cone cannot hold it)."""
+    ux = W[at(OFF_X, X_UX, j)]
+    uy = W[at(OFF_X, X_UY, j)]
+    t_stop = W[at(OFF_X, X_TSTOP, j)]
+    slow = ux * ux + uy * uy <= (CREEP_SPEED * W[at(OFF_P, EPS_U, j)]) ** 2
+    return slow & (t_stop < math.inf) & (t_stop > 0.5 * t_stop_before)
 
 
 @kernel
@@ -302,6 +347,8 @@ def locate_lane(W, model, j, buf, dt):
     t = 0.0  # time into the step, s
     slip_time = 0.0  # time spent slipping, s
     switches = 0
+    t_seen = -1.0  # time of the last step towards the present slip's stop, s (-1: none)
+    t_stop_seen = 0.0  # its predicted stop then, s
     for _ in range(MAX_PIECES):
         rest = dt - t
         if not rest > THETA_TOL * dt:
@@ -313,8 +360,13 @@ def locate_lane(W, model, j, buf, dt):
         copy_state(W, model, j, buf, F0, off_a)
         g0 = event_margin(W, j)
         stops = False
-        if switches < MAX_SWITCHES and slipping and W[at(OFF_X, X_TSTOP, j)] < rest:
-            stops, step = forward_to_stop(W, model, j, buf, W[at(OFF_X, X_TSTOP, j)], dt)
+        t_stop = W[at(OFF_X, X_TSTOP, j)]
+        if switches < MAX_SWITCHES and slipping and t_stop < rest:
+            stops, step = forward_to_stop(
+                W, model, j, buf, t_stop, stop_step(t, t_stop, t_seen, t_stop_seen, rest), dt)
+            stops = stops or creeps(W, j, t_stop)
+            t_seen = t
+            t_stop_seen = t_stop
         else:
             lane_step(W, model, j, rest)
             step = rest
@@ -332,10 +384,12 @@ def locate_lane(W, model, j, buf, dt):
                 models.stick_couples(W, model, j)
             evaluate_lane(W, model, j)
             switches += 1
+            t_seen = -1.0
             continue
         t += step
         slip_time += step if slipping else 0.0
         if stops:
+            t_seen = -1.0
             stick_lane(W, model, j)
             evaluate_lane(W, model, j)
             switches += 1

@@ -42,9 +42,13 @@ SLOW_SLIP = 2.0
 """``SLIP_KIND`` of a slip slow enough to be steered (:func:`slip_direction`)."""
 
 CONSISTENT_ITERATIONS = 5
-"""Newton iterations for the consistent slip direction, from the direction of the slip at
-the step start (usually a few hundredths of a radian away; quadratic convergence reaches
-rounding in three)."""
+"""Newton iterations for the consistent slip direction, from the one at the last step
+start (usually a few hundredths of a radian away; quadratic convergence reaches rounding
+in three)."""
+
+NEWTON_TOL = 1e-8
+"""The consistent direction's Newton iteration stops after a step (rad) below this: the
+error left is of order its square."""
 
 SLOPE_BOUND = 4.0
 """A slip faster than this many times μ g (1 + |ρ|² tr J⁻¹) dt / ``RELAX_STEPS`` is not
@@ -262,7 +266,7 @@ def consistency(k_xx, k_yy, k_zz, k_xy, k_xz, k_yz, ax, ay, mu, ex, ey):
 
 
 @inline_kernel
-def consistent_direction(W, j, state, mu, dx, dy):
+def consistent_direction(W, j, state, mu, gx, gy, dx, dy):
     """The consistent slip direction of lane j at its state, and its normal force.
 
     With friction −μ N d (d a horizontal unit vector, world), the contact point's
@@ -270,7 +274,8 @@ def consistent_direction(W, j, state, mu, dx, dy):
     A is its acceleration without contact force and K (per unit mass, 𝟙 + [ρ]ᵀ J⁻¹ [ρ])
     its response to one, both in the world axes. The consistent direction d* is the one
     along which the slip speed grows or shrinks without turning, u̇ ∥ d*: Newton's method
-    on the angle, from (dx, dy). A slow slip's direction locks onto it on the time scale
+    on the angle, from the guess (gx, gy), the root taken only within 60° of the slip's
+    direction (dx, dy). A slow slip's direction locks onto it on the time scale
     |u| / (μ N k), far below the step (MODEL.md section 4).
 
     Returns (d*_x, d*_y, s) with s (m/s²) such that u's direction relaxes onto d* at the
@@ -344,8 +349,8 @@ def consistent_direction(W, j, state, mu, dx, dy):
     press = -(a0 * n0 + a1 * n1 + a2 * n2)  # −A_z, what the normal force must hold up
     ax = (a0 * x0 + a1 * x1 + a2 * x2) / press
     ay = (a0 * y0 + a1 * y1 + a2 * y2) / press
-    ex = dx
-    ey = dy
+    ex = gx
+    ey = gy
     for _ in range(CONSISTENT_ITERATIONS):
         f, df, _ = consistency(k_xx, k_yy, k_zz, k_xy, k_xz, k_yz, ax, ay, mu, ex, ey)
         # the direction of u turns at a rate ∝ −f: only roots where f rises attract it.
@@ -356,7 +361,9 @@ def consistent_direction(W, j, state, mu, dx, dy):
         norm = 1.0 / math.sqrt(ex * ex + ey * ey)
         ex *= norm
         ey *= norm
-        if abs(step) < 1e-12:
+        if abs(step) < NEWTON_TOL:  # quadratic convergence: the next step is far smaller
+            break
+        if ex * dx + ey * dy <= 0.5:  # out of the cone searched: no root taken there
             break
     _, df, dd = consistency(k_xx, k_yy, k_zz, k_xy, k_xz, k_yz, ax, ay, mu, ex, ey)
     nm = press / dd
@@ -435,8 +442,8 @@ def slip_direction(W, state, one_lane, lane, history):
         uu = math.sqrt(ux * ux + uy * uy)
         turn = W[at(OFF_S, S_TURN, j)]
         cx, cy, slope = consistent_direction(
-            W, j, state, W[at(OFF_P, MU_K, j)], W[at(OFF_S, S_UHX, j)],
-            W[at(OFF_S, S_UHY, j)])
+            W, j, state, W[at(OFF_P, MU_K, j)], W[at(OFF_S, S_DCX, j)],
+            W[at(OFF_S, S_DCY, j)], W[at(OFF_S, S_UHX, j)], W[at(OFF_S, S_UHY, j)])
         if history:
             px = W[at(OFF_S, S_DCX, j)]
             py = W[at(OFF_S, S_DCY, j)]
