@@ -155,6 +155,7 @@ def test_a_record_that_cannot_fit_is_refused_before_compute(kl):
     assert rs.simulate(kl, spin=5.0, t_end=0.5, record_every=50).sizes["time"] > 1
 
 
+@pytest.mark.filterwarnings("ignore::rattlesweep.engine.CoarseStepWarning")  # dt on purpose
 def test_more_steps_than_the_kernel_can_count_are_refused(kl):
     """t_end / dt beyond 2**53 steps (and beyond int64, where the step count wrapped to
     a negative number and the run came back "ok" with a negative end time) is refused
