@@ -334,8 +334,8 @@ def _kl_run(stored, case, dt=None, record_every=1):
 def test_kernel_3d_first_reversal_and_slip_fraction_at_the_default_dt(stored, case):
     """The fast launch (mu = 0.3, 108 switches to 6 s) and one that re-sticks many times
     (mu = 0.1, 356 switches to 6.5 s) at the default dt (0.89 ms): first reversal within
-    2 ms of the event-driven solution and slip fraction within 0.01 (measured: 0.13 ms
-    and 0.003 at mu = 0.3, 0.41 ms and 0.0065 at mu = 0.1; switching at step starts gave
+    2 ms of the event-driven solution and slip fraction within 0.01 (measured: 0.09 ms
+    and 0.003 at mu = 0.3, 0.02 ms and 0.0066 at mu = 0.1; switching at step starts gave
     35 ms and 0.04 at mu = 0.3)."""
     run = _kl_run(stored, case)
     assert int(run.status) == 0
@@ -349,8 +349,8 @@ def test_kernel_3d_first_reversal_and_slip_fraction_at_the_default_dt(stored, ca
 def test_kernel_3d_spin_history_converges_at_second_order(stored, case):
     """At dt = 1, 0.5 and 0.25 ms (recorded on the reference's 1 ms samples) the RMS
     error of the spin over 3 s, through 88 (mu = 0.3) and 145 (mu = 0.1) switches,
-    falls at least 16-fold: second order or better over the range (measured: 26- and
-    50-fold; the first halving gains less at mu = 0.3, where one stop is resolved only
+    falls at least 16-fold: second order or better over the range (measured: 27- and
+    66-fold; the first halving gains less at mu = 0.3, where one stop is resolved only
     below 1 ms)."""
     want = stored[f"{case}/spin"]
     errors = []
