@@ -55,6 +55,27 @@ def test_result_is_independent_of_position_and_batch_size(kl):
                                           err_msg=name)
 
 
+def test_a_slip_does_not_depend_on_a_neighbour_switching_at_its_step_start():
+    """A neighbour whose contact switches at a step start makes the stepper evaluate the
+    whole block there again; a slipping lane's result must not change with that (its
+    consistent direction's turn rate once came out zero from the second evaluation).
+    Found by the property test of batch positions: golden body, tilted launches at rest,
+    one step."""
+    golden = rs.Body.preset("golden")
+    tilted = dict(omega=(0.0, 0.0, 0.0), mu=0.1, t_end=0.0145493)
+    alone = rs.run_batch(golden, orientation=(0.9980475107, 0.0, 0.0624593178, 0.0),
+                         **tilted)
+    bodies = np.empty(2, dtype=object)
+    bodies[:] = [golden, golden]
+    pair = rs.run_batch(bodies, orientation=[(0.9980525785, 0.0, 0.0623782862, 0.0),
+                                             (0.9980475107, 0.0, 0.0624593178, 0.0)],
+                        mu_roll=[0.0625, 0.0], **tilted)
+    assert float(alone.slip_fraction[0]) == 1.0  # it slips: the case in question
+    for name in OBSERVABLES:
+        np.testing.assert_array_equal(pair[name].values[1], alone[name].values[0],
+                                      err_msg=name)
+
+
 def test_serial_and_parallel_entries_agree(kl):
     kw = dict(spin=np.linspace(-8, 8, 70), roll=HALF_DEGREE, mu=0.4, t_end=2.0)
     serial = rs.run_batch(kl, parallel=False, **kw)

@@ -42,7 +42,7 @@ from .jit import allocating_kernel, kernel, parallel_kernel
 from .events import LOCATE_ROWS, locate_where_located, located, switch_marked
 from .stages import set_step_fractions
 from .switching import (
-    LOCATED_STOP_HORIZON, STOP_HORIZON, any_slipping, flag_switches, note_slip,
+    LOCATED_STOP_HORIZON, STOP_HORIZON, any_slipping, flag_switches, note_slip, pass_step,
 )
 from .workspace import (
     at, BEYOND, BLOCK, COUPLES, MU_ROLL, MU_SPIN, S_ROLL, S_ROLL_SENSE, S_SPIN, S_SPIN_SENSE, CAPSIZED, CROSSED, DT, ENDS_AS_IS, EPS_U, H_HALF_DT, H_SIXTH_DT,
@@ -412,6 +412,8 @@ def advance_block(model, P, Y, nsteps, method, record_every, band, O, REC):
             rk4_step(W, model, slipping)
         else:
             models.euler_step(W, model)
+        if can_slip:
+            pass_step(W)
         if flag_bad_step(W, model) > 0:
             end_marked(W, model, P, status, Y, O, step, True)
             stop = next_stop(W)

@@ -30,14 +30,14 @@ import numba
 from .jit import inline_kernel, kernel
 from .workspace import (
     BLOCK, DT, EPS_U, K_MARK_SWITCH, K_RUN, MU_S, NOT_MARKED, OFF_K, OFF_P, OFF_S, OFF_X,
-    ROLL_SWITCHES, S_DCX, S_DCY, S_MODE, S_ROLL, S_ROLL_SENSE, S_SPIN, S_SPIN_SENSE,
+    ROLL_SWITCHES, S_DCX, S_DCY, S_DPX, S_DPY, S_MODE, S_ROLL, S_ROLL_SENSE, S_SPIN, S_SPIN_SENSE,
     S_TSTOP, S_TURN, S_UHX, S_UHY, S_USX, S_USY, SPIN_SWITCHES, SWITCHES, X_FX, X_FY, X_N,
     X_ROLL_COUPLE, X_ROLL_EVENT, X_SPIN_COUPLE, X_SPIN_EVENT, X_TSTOP, X_UX, X_UY, at,
 )
 
 __all__ = [
     "LOCATED_STOP_HORIZON", "STOP_HORIZON", "any_slipping", "cone_margin", "couple_margin",
-    "flag_switches", "note_slip", "start_slip", "stop_time", "switch_couples",
+    "flag_switches", "note_slip", "pass_step", "start_slip", "stop_time", "switch_couples",
 ]
 
 LOCATED_STOP_HORIZON = 1.0
@@ -83,6 +83,16 @@ def note_slip(W, j):
 
 
 @kernel
+def pass_step(W):
+    """At the end of a step, every lane's consistent slip direction at its start becomes
+    the one of the step before: the turn rate measured at the next step start is over
+    one step, however often that start is evaluated."""
+    for j in range(BLOCK):
+        W[at(OFF_S, S_DPX, j)] = W[at(OFF_S, S_DCX, j)]
+        W[at(OFF_S, S_DPY, j)] = W[at(OFF_S, S_DCY, j)]
+
+
+@kernel
 def start_slip(W, j):
     """Stick → slip from rest, sliding opposite the friction sticking would need."""
     fx = W[at(OFF_X, X_FX, j)]
@@ -98,6 +108,8 @@ def start_slip(W, j):
     W[at(OFF_S, S_TSTOP, j)] = math.inf
     W[at(OFF_S, S_DCX, j)] = ux
     W[at(OFF_S, S_DCY, j)] = uy
+    W[at(OFF_S, S_DPX, j)] = ux
+    W[at(OFF_S, S_DPY, j)] = uy
     W[at(OFF_S, S_TURN, j)] = 0.0
 
 

@@ -122,6 +122,8 @@ SWITCH = Rows(
         "horizontal"),
     Row("consistent_direction", "1", "consistent slip direction at the start of the "
         "step (unit; 3-D model)", 2, "horizontal"),
+    Row("consistent_direction_before", "1", "consistent slip direction at the start of "
+        "the step before (unit; 0 before the first; 3-D model)", 2, "horizontal"),
     Row("consistent_turn_rate", "rad s-1", "rate at which the consistent slip direction "
         "turns, over the last step (3-D model)"),
     Row("spin_slipping", "1", "spin couple mode: 0 stuck (no spin about the normal), 1 "
@@ -141,6 +143,8 @@ S_JX = SWITCH.start("impulse_tally")
 S_JY = S_JX + 1
 S_DCX = SWITCH.start("consistent_direction")
 S_DCY = S_DCX + 1
+S_DPX = SWITCH.start("consistent_direction_before")
+S_DPY = S_DPX + 1
 S_TURN = SWITCH.start("consistent_turn_rate")
 S_SPIN = SWITCH.start("spin_slipping")
 S_SPIN_SENSE = SWITCH.start("spin_sense")

@@ -19,7 +19,7 @@ from ..stages import first_stage, put_derivative
 from ..switching import stop_time
 from ..workspace import (
     BLOCK, COUPLES, DT, EPS_U, GRAV, MU_K, MU_ROLL, MU_SPIN, OFF_P, OFF_S, OFF_X, S_DCX,
-    S_DCY, S_MODE, S_ROLL, S_SPIN, S_SPIN_SENSE, S_TURN, S_UHX, S_UHY, STAGE_FIRST, STAGE_START,
+    S_DCY, S_DPX, S_DPY, S_MODE, S_ROLL, S_SPIN, S_SPIN_SENSE, S_TURN, S_UHX, S_UHY, STAGE_FIRST, STAGE_START,
     X_FX, X_FY, X_N, X_ROLL_COUPLE, X_ROLL_EVENT, X_SPIN_COUPLE, X_SPIN_EVENT, X_TSTOP,
     X_UX, X_UY, at, lane_range,
 )
@@ -431,8 +431,8 @@ def slip_direction(W, state, one_lane, lane, history):
         h = W[at(OFF_P, DT, j)]
         if kind == FAST_SLIP:
             if history:  # its direction stands in for d*
-                px = W[at(OFF_S, S_DCX, j)]
-                py = W[at(OFF_S, S_DCY, j)]
+                px = W[at(OFF_S, S_DPX, j)]
+                py = W[at(OFF_S, S_DPY, j)]
                 W[at(OFF_S, S_TURN, j)] = math.atan2(px * dy - py * dx, px * dx + py * dy) / h
                 W[at(OFF_S, S_DCX, j)] = dx
                 W[at(OFF_S, S_DCY, j)] = dy
@@ -441,12 +441,19 @@ def slip_direction(W, state, one_lane, lane, history):
         uy = W[at(OFF_G, SLIP_Y, j)]
         uu = math.sqrt(ux * ux + uy * uy)
         turn = W[at(OFF_S, S_TURN, j)]
+        # the guess: the last step start's d* (at this step's start, where the block may
+        # be evaluated again, the one before, so that each evaluation solves alike)
+        gx = W[at(OFF_S, S_DPX, j)] if history else W[at(OFF_S, S_DCX, j)]
+        gy = W[at(OFF_S, S_DPY, j)] if history else W[at(OFF_S, S_DCY, j)]
+        dx = W[at(OFF_S, S_UHX, j)]
+        dy = W[at(OFF_S, S_UHY, j)]
+        none = gx * gx + gy * gy < 0.5  # no d* yet: the launch's step
         cx, cy, slope = consistent_direction(
-            W, j, state, W[at(OFF_P, MU_K, j)], W[at(OFF_S, S_DCX, j)],
-            W[at(OFF_S, S_DCY, j)], W[at(OFF_S, S_UHX, j)], W[at(OFF_S, S_UHY, j)])
+            W, j, state, W[at(OFF_P, MU_K, j)], dx if none else gx, dy if none else gy,
+            dx, dy)
         if history:
-            px = W[at(OFF_S, S_DCX, j)]
-            py = W[at(OFF_S, S_DCY, j)]
+            px = W[at(OFF_S, S_DPX, j)]
+            py = W[at(OFF_S, S_DPY, j)]
             turn = math.atan2(px * cy - py * cx, px * cx + py * cy) / h
             turn = turn if slope > 0.0 else 0.0
             W[at(OFF_S, S_TURN, j)] = turn
