@@ -171,7 +171,8 @@ def test_corner_check_names_the_first_offending_corner(monkeypatch):
 
     monkeypatch.setattr(corners, "_max_steps", fussy)
     with pytest.raises(ValueError, match=r"^spin too fast for mu \(at the sweep corner "
-                                         r"spin=5 rad s-1, mu=0\.1\)$"):
+                                         r"spin=5 rad s-1, mu=0\.1; fixed: fixed.t_end = "
+                                         r"1\.0\)$"):
         Sweep(axes={"spin": [-5.0, 5.0], "mu": [0.1, 0.3]}, fixed={"t_end": 1.0})
 
 
@@ -267,11 +268,23 @@ def test_every_value_of_a_launch_angle_axis_is_checked_before_compute():
     is 133 deg). Only the extremes were checked, and the sweep failed in its first tile
     without naming the axis (found by the long property-test run)."""
     with pytest.raises(ValueError, match=r"puts the rim .* \(at the sweep corner "
-                                         r"delta_deg=0 degree, roll_deg=-1.69611e\+15 degree\)"):
+                                         r"delta_deg=0 degree, roll_deg=-1.69611e\+15 degree; "
+                                         r"fixed: fixed.t_end = 0.015625\)"):
         Sweep(axes={"delta_deg": {"start": 0.0, "stop": 0.0, "num": 1},
                     "roll_deg": {"start": -3392225027273791.0, "stop": 5.000000001,
                                  "num": 3}},
               fixed={"t_end": 0.015625})
+
+
+def test_a_rule_broken_by_a_fixed_value_names_it():
+    """A fixed roll of 1e300 deg (132 deg modulo 360) puts the rim on the floor at every
+    corner; the message named only the varying axis (found by the long property-test
+    run)."""
+    with pytest.raises(ValueError, match=r"puts the rim .*\(at the sweep corner delta_deg=0 "
+                                         r"degree; fixed: fixed.roll_deg = 1e\+300, "
+                                         r"fixed.t_end = 0.015625\)"):
+        Sweep(axes={"delta_deg": {"start": 0.0, "stop": 0.0, "num": 1}},
+              fixed={"roll_deg": 1e300, "t_end": 0.015625})
 
 
 def test_a_random_launch_angle_range_is_checked_between_its_bounds():
@@ -279,7 +292,8 @@ def test_a_random_launch_angle_range_is_checked_between_its_bounds():
     draws near 180 deg put the rim on the floor; the multiples of pi inside the range
     stand for them in the check."""
     with pytest.raises(ValueError, match=r"initial tilt 180 deg.*\(at the sweep corner "
-                                         r"spin=1 rad s-1, roll_deg=-180 degree\)"):
+                                         r"spin=1 rad s-1, roll_deg=-180 degree; fixed: "
+                                         r"fixed.t_end = 0.1\)"):
         Sweep(axes={"spin": {"start": 1.0, "stop": 2.0, "num": 2}}, fixed={"t_end": 0.1},
               random={"roll_deg": {"uniform": [-300.0, 300.0]}}, repeats=2, seed=1)
     Sweep(axes={"spin": {"start": 1.0, "stop": 2.0, "num": 2}}, fixed={"t_end": 0.1},

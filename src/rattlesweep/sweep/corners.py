@@ -53,14 +53,17 @@ def angle_corners(values: list[float], lo: float | None = None,
 
 
 def check_corners(grid_axes: tuple[Axis, ...], random_params: tuple[RandomParam, ...],
-                  fixed_si: dict[str, float], fixed_body: str | Body | None) -> int:
+                  fixed_si: dict[str, float], fixed_body: str | Body | None,
+                  fixed_shown: str = "") -> int:
     """Check every combination of the extremes of the varying parameters (for a launch
     angle, :func:`angle_corners`) against the batch layer's rules; return the largest
     number of steps any point takes.
 
     ``fixed_si`` holds the fixed numeric parameters in SI by canonical name and
     ``fixed_body`` the fixed body (a preset name, a Body, or None when it varies). A
-    broken rule is a ValueError naming the first offending corner.
+    broken rule is a ValueError naming the first offending corner and, when given,
+    ``fixed_shown``, the fixed values as the configuration spells them (a rule may
+    tie a fixed value to a varying one, or break on a fixed value alone).
     """
     varying: list[tuple[str, str, list[Any]]] = []
     for ax in grid_axes:
@@ -106,7 +109,9 @@ def check_corners(grid_axes: tuple[Axis, ...], random_params: tuple[RandomParam,
             try:
                 check(slice(i, i + 1))
             except ValueError as exc:
-                raise ValueError(f"{exc} (at the sweep corner {describe(i)})") from None
+                fixed_part = f"; fixed: {fixed_shown}" if fixed_shown else ""
+                raise ValueError(
+                    f"{exc} (at the sweep corner {describe(i)}{fixed_part})") from None
         raise
 
 

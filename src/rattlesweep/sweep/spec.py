@@ -141,7 +141,9 @@ class Sweep:
         shape = tuple(len(a.values) for a in grid_axes) + (
             (config["repeats"],) if random_params else ())
         max_steps = check_corners(grid_axes, random_params, _fixed_si(config["fixed"]),
-                                  _fixed_body(config["fixed"]))
+                                  _fixed_body(config["fixed"]),
+                                  _fixed_shown({k: v for k, v in config["fixed"].items()
+                                                if k in fixed}))
         if config["tile_size"] is None:
             config = {**config, "tile_size": choose_tile_size(max_steps, _tiled_size(
                 shape, list(config["axes"]), config.get("refine")))}
@@ -388,6 +390,18 @@ def _fixed_si(fixed: Mapping[str, Any]) -> dict[str, float]:
         param, factor, _ = resolve(key, units, f"fixed.{key}")
         out[param.name] = value * factor
     return out
+
+
+def _fixed_shown(fixed: Mapping[str, Any]) -> str:
+    """The fixed numeric values as the configuration spells them, for error messages:
+    ``fixed.roll_deg = 1e+300, fixed.t_end = 3`` (the user's, not the defaults)."""
+    parts = []
+    for key, v in fixed.items():
+        if key == "body":
+            continue
+        value, units = (v["value"], v.get("units")) if isinstance(v, Mapping) else (v, None)
+        parts.append(f"fixed.{key} = {value!r}" + (f" {units}" if units else ""))
+    return ", ".join(parts)
 
 
 def _fixed_body(fixed: Mapping[str, Any]) -> str | Body | None:
