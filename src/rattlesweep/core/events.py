@@ -50,10 +50,10 @@ from .jit import OVERLOAD_OPTIONS, inline_kernel, kernel
 from .stages import set_step_fractions
 from .switching import cone_margin, couple_margin, note_slip, start_slip, switch_couples
 from .workspace import (
-    BLOCK, COUPLES, DT, EPS_U, H_HALF_DT, K_MARK_SWITCH, K_SLIP_STEPS, NOT_MARKED, OFF_H, OFF_K,
-    OFF_P, OFF_S, OFF_X, ROLL_SWITCHES, S_JX, S_JY, S_MODE, S_ROLL, S_ROLL_SENSE, S_SPIN,
-    S_SPIN_SENSE, SPIN_SWITCHES, STAGE_2, STAGE_3, STAGE_4, STAGE_START, SWITCHES, X_N,
-    X_ROLL_EVENT, X_SPIN_EVENT, X_TSTOP, X_UX, X_UY, at,
+    BLOCK, COUPLES, DT, EPS_U, H_HALF_DT, K_MARK_SWITCH, K_SLIP_STEPS, NOT_MARKED, OFF_H,
+    OFF_K, OFF_P, OFF_S, OFF_X, ROLL_SWITCHES, S_JX, S_JY, S_MODE, S_ROLL, S_ROLL_SENSE,
+    S_SPIN, S_SPIN_SENSE, SPIN_SWITCHES, STAGE_2, STAGE_3, STAGE_4, STAGE_START, SWITCHES,
+    X_N, X_ROLL_EVENT, X_SPIN_EVENT, X_TSTOP, X_UX, X_UY, at,
 )
 
 __all__ = ["LOCATE_ROWS", "MAX_SWITCHES", "STOP_TOL", "THETA_TOL", "locate_marked",

@@ -19,7 +19,8 @@ from ..stages import first_stage, put_derivative
 from ..switching import stop_time
 from ..workspace import (
     BLOCK, COUPLES, DT, EPS_U, GRAV, MU_K, MU_ROLL, MU_SPIN, OFF_P, OFF_S, OFF_X, S_DCX,
-    S_DCY, S_DPX, S_DPY, S_MODE, S_ROLL, S_SPIN, S_SPIN_SENSE, S_TURN, S_UHX, S_UHY, STAGE_FIRST, STAGE_START,
+    S_DCY, S_DPX, S_DPY, S_MODE, S_ROLL, S_SPIN, S_SPIN_SENSE, S_TURN, S_UHX, S_UHY,
+    STAGE_FIRST, STAGE_START,
     X_FX, X_FY, X_N, X_ROLL_COUPLE, X_ROLL_EVENT, X_SPIN_COUPLE, X_SPIN_EVENT, X_TSTOP,
     X_UX, X_UY, at, lane_range,
 )
