@@ -17,7 +17,7 @@ import xarray as xr
 from .. import __version__
 from ..results import run_attrs
 from .params import resolve
-from .spec import Sweep
+from .spec import Sweep, fixed_value
 from .tiles import variable_attrs
 
 __all__ = ["grid_coords", "merge_arrays", "result_attrs", "sweep_attrs", "versions"]
@@ -63,8 +63,7 @@ def grid_coords(sweep: Sweep) -> dict[str, Any]:
             coords["body"] = ((), name, {"long_name": "body (preset name or label); full "
                                          "description in sweep_config"})
             continue
-        number, units = (value["value"], value.get("units")) if isinstance(value, dict) \
-            else (value, None)
+        number, units = fixed_value(value)
         param, _, cf = resolve(key, units, f"fixed.{key}")
         coords[key] = ((), number, {"units": cf, "long_name": param.long_name})
     return coords

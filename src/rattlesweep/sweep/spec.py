@@ -41,7 +41,7 @@ import hashlib
 import json
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, Mapping
+from typing import Any, Iterator, Mapping
 
 import numpy as np
 
@@ -381,12 +381,24 @@ def _random_params(random: Mapping[str, dict[str, Any]]) -> tuple[RandomParam, .
     return tuple(out)
 
 
+def fixed_value(entry: Any) -> tuple[Any, str | None]:
+    """(value, units) of a numeric entry of a ``[fixed]`` table: a number, or a
+    ``{value, units}`` table (units None where not given)."""
+    if isinstance(entry, Mapping):
+        return entry["value"], entry.get("units")
+    return entry, None
+
+
+def _fixed_numbers(fixed: Mapping[str, Any]) -> Iterator[tuple[str, Any, str | None]]:
+    """(key, value, units) of each fixed numeric parameter, in the table's order."""
+    for key, entry in fixed.items():
+        if key != "body":
+            yield (key, *fixed_value(entry))
+
+
 def _fixed_si(fixed: Mapping[str, Any]) -> dict[str, float]:
     out = {}
-    for key, v in fixed.items():
-        if key == "body":
-            continue
-        value, units = (v["value"], v.get("units")) if isinstance(v, Mapping) else (v, None)
+    for key, value, units in _fixed_numbers(fixed):
         param, factor, _ = resolve(key, units, f"fixed.{key}")
         out[param.name] = value * factor
     return out
@@ -395,13 +407,8 @@ def _fixed_si(fixed: Mapping[str, Any]) -> dict[str, float]:
 def _fixed_shown(fixed: Mapping[str, Any]) -> str:
     """The fixed numeric values as the configuration spells them, for error messages:
     ``fixed.roll_deg = 1e+300, fixed.t_end = 3`` (the user's, not the defaults)."""
-    parts = []
-    for key, v in fixed.items():
-        if key == "body":
-            continue
-        value, units = (v["value"], v.get("units")) if isinstance(v, Mapping) else (v, None)
-        parts.append(f"fixed.{key} = {value!r}" + (f" {units}" if units else ""))
-    return ", ".join(parts)
+    return ", ".join(f"fixed.{key} = {value!r}" + (f" {units}" if units else "")
+                     for key, value, units in _fixed_numbers(fixed))
 
 
 def _fixed_body(fixed: Mapping[str, Any]) -> str | Body | None:

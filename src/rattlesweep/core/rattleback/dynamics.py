@@ -377,6 +377,16 @@ def consistent_direction(W, j, state, mu, gx, gy, dx, dy):
     return ex, ey, slope
 
 
+@inline_kernel
+def turn_rate(W, j, x, y, h):
+    """Rate (rad/s) at which lane j's consistent slip direction turned over the last step
+    (h, s), to (x, y) from the one at the step before's start; 0 where there is none yet
+    (a zero vector)."""
+    px = W[at(OFF_S, S_DPX, j)]
+    py = W[at(OFF_S, S_DPY, j)]
+    return math.atan2(px * y - py * x, px * x + py * y) / h
+
+
 @kernel
 def slip_direction(W, state, one_lane, lane, history):
     """Phase between :func:`contact_kinematics` and :func:`accelerations`: the friction
@@ -432,9 +442,7 @@ def slip_direction(W, state, one_lane, lane, history):
         h = W[at(OFF_P, DT, j)]
         if kind == FAST_SLIP:
             if history:  # its direction stands in for d*
-                px = W[at(OFF_S, S_DPX, j)]
-                py = W[at(OFF_S, S_DPY, j)]
-                W[at(OFF_S, S_TURN, j)] = math.atan2(px * dy - py * dx, px * dx + py * dy) / h
+                W[at(OFF_S, S_TURN, j)] = turn_rate(W, j, dx, dy, h)
                 W[at(OFF_S, S_DCX, j)] = dx
                 W[at(OFF_S, S_DCY, j)] = dy
             continue
@@ -453,10 +461,7 @@ def slip_direction(W, state, one_lane, lane, history):
             W, j, state, W[at(OFF_P, MU_K, j)], dx if none else gx, dy if none else gy,
             dx, dy)
         if history:
-            px = W[at(OFF_S, S_DPX, j)]
-            py = W[at(OFF_S, S_DPY, j)]
-            turn = math.atan2(px * cy - py * cx, px * cx + py * cy) / h
-            turn = turn if slope > 0.0 else 0.0
+            turn = turn_rate(W, j, cx, cy, h) if slope > 0.0 else 0.0
             W[at(OFF_S, S_TURN, j)] = turn
             W[at(OFF_S, S_DCX, j)] = cx
             W[at(OFF_S, S_DCY, j)] = cy
