@@ -90,8 +90,8 @@ def test_friction_impulses_are_recorded_whatever_the_stride(kl):
 def test_time_series_panels_have_units_and_shade_slipping(slipping_run):
     fig = time_series(slipping_run)
     axes = fig.axes
-    assert len(axes) == 5
-    for ax, units in zip(axes, ["[rad s-1]", "[rad]", "[J]", "[m s-1]", "[N]"]):
+    assert len(axes) == 6
+    for ax, units in zip(axes, ["[rad s-1]", "[rad]", "[rad]", "[J]", "[m s-1]", "[N]"]):
         assert units in ax.get_ylabel().replace("\n", " ")
         assert any(isinstance(a, PolyCollection) for a in ax.collections)  # shading
     assert axes[-1].get_xlabel() == "time [s]"

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import rattlesweep as rs
+from heading_oracle import heading_reversal_steps, wackelstein
 from rattlesweep.sweep import classify
 from rattlesweep.sweep.outcomes import (CAPSIZED, FAILED, NO_REVERSAL, OUTCOME_NAMES,
                                         REVERSED, SEVERAL, at_first_reversal)
@@ -37,9 +38,10 @@ def runs():
 def test_stop_gives_the_full_runs_answer_bit_for_bit(runs):
     full, stop = runs
     full_outcome = outcome(full)
-    # the batch holds every kind of launch the rule must get right
+    # the batch holds every kind of launch the rule must get right (several reversals:
+    # test_stop_after_several_reversals)
     kinds = set(full_outcome.tolist())
-    assert {NO_REVERSAL, REVERSED, SEVERAL, CAPSIZED, FAILED} <= kinds, kinds
+    assert {NO_REVERSAL, REVERSED, CAPSIZED, FAILED} <= kinds, kinds
     assert np.any((full.status.values == 1) & (full.n_reversals.values > 0)), \
         "no launch capsizes after reversing"
     np.testing.assert_array_equal(stop.first_reversal_time.values,
@@ -65,9 +67,10 @@ def test_stop_gives_the_full_runs_answer_bit_for_bit(runs):
     assert np.all(np.sign(spin0) * stop.final_spin.values[rev] < -BAND * np.abs(spin0))
 
 
-def test_stop_time_is_the_first_step_beyond_the_band(runs):
+def test_stop_time_is_where_spin_and_heading_have_both_reversed(runs):
     """Recorded full runs of the reversing launches say independently when each spin
-    first went beyond the band on the other side: the stopped run ends at that step."""
+    first went beyond the band on the other side and when its heading first turned back
+    by more than the heading band: the stopped run ends at the later of the two steps."""
     full, stop = runs
     rev = np.flatnonzero(full.n_reversals.values > 0)[::3]
     assert rev.size >= 5
@@ -75,13 +78,32 @@ def test_stop_time_is_the_first_step_beyond_the_band(runs):
     rec = rs.run_batch(TOY, spin=full.launch_spin.values[rev], **pick, t_end=8.0,
                        reversal_band=BAND, record_every=1)
     dt = float(rec.dt[0])
+    later = 0
     for i, j in enumerate(rev):
         spin = rec.spin.values[i]
         side = np.sign(spin[0])
-        first = int(np.argmax(side * spin < -BAND * abs(spin[0])))
+        beyond = int(np.argmax(side * spin < -BAND * abs(spin[0])))
+        turned = heading_reversal_steps(rec.quaternion.values[i], side)[0]
+        first = max(beyond, turned)
+        later += turned > beyond
         assert stop.steps.values[j] == first
         assert stop.t_final.values[j] == pytest.approx(first * dt, rel=1e-12)
         assert stop.final_spin.values[j] == spin[first]
+    assert later > 0  # the heading reversal is the later one here
+
+
+def test_stop_after_several_reversals():
+    """A launch that reverses several times (the damped ellipsoid of test_heading) stops
+    at its first reversal with the full run's first reversal time."""
+    body, launch = wackelstein()
+    full = rs.run_batch(body, **launch, t_end=8.0, reversal_band=BAND)
+    stop = rs.run_batch(body, **launch, t_end=8.0, reversal_band=BAND, stop="first_reversal")
+    assert outcome(full)[0] == SEVERAL
+    assert outcome(stop)[0] == REVERSED == at_first_reversal(outcome(full),
+                                                             full.n_reversals.values)[0]
+    np.testing.assert_array_equal(stop.first_reversal_time.values,
+                                  full.first_reversal_time.values)
+    assert stop.steps.values[0] < 0.2 * full.steps.values[0]
 
 
 def test_stop_ends_lift_off_and_rejects_unknown_rules(kl):

@@ -286,12 +286,14 @@ def run_batch(
         in [0, 1). Default 0.05.
     stop : {None, "first_reversal"}, optional
         None runs every launch to ``t_end``; ``"first_reversal"`` ends a launch at its
-        first reversal (once the spin is beyond the band on the other side), unless it
-        capsizes or lifts off first. Its ``first_reversal_time``, ``status`` and whether
-        it reversed are then those of the full run, bit for bit; ``n_reversals`` is at
-        most 1, and ``final_spin``, ``energy_final``, ``energy_lost``, ``slip_fraction``
-        and ``max_tilt`` are taken at the stop, ``t_final``; ``mean_final_spin`` is
-        the mean over the part of the last 10 % of ``t_end`` it ran (NaN for none).
+        first reversal, unless it capsizes or lifts off first: at the first step at
+        which it has both a first reversal time (the spin beyond the band on the other
+        side) and a reversal of its heading (see ``n_reversals``). Its
+        ``first_reversal_time``, ``status`` and whether it reversed are then those of
+        the full run, bit for bit; ``n_reversals`` is at most 1, and ``final_spin``,
+        ``energy_final``, ``energy_lost``, ``slip_fraction`` and ``max_tilt`` are
+        taken at the stop, ``t_final``; ``mean_final_spin`` is the mean over the part
+        of the last 10 % of ``t_end`` it ran (NaN for none).
     parallel : bool, optional
         Spread blocks of trajectories over numba threads (default); ``False`` runs on
         the calling thread only, releasing the GIL, for callers that bring their own
@@ -302,8 +304,10 @@ def run_batch(
     Returns
     -------
     xarray.Dataset
-        Over ``trajectory``: ``first_reversal_time`` (s, NaN when none),
-        ``n_reversals``, ``initial_spin``, ``final_spin``, ``mean_final_spin`` (rad/s),
+        Over ``trajectory``: ``first_reversal_time`` (s, NaN when none; the spin's
+        first crossing beyond the band), ``n_reversals`` (reversals of the heading, the
+        long axis seen from above: each time it turns back by more than 0.1 rad from
+        the furthest it had turned), ``initial_spin``, ``final_spin``, ``mean_final_spin`` (rad/s),
         ``max_tilt`` (rad), ``energy_initial``, ``energy_final``, ``energy_lost`` (J),
         ``slip_fraction``, ``t_final`` (s), ``steps`` and ``status`` (CF flags: ok,
         capsized, lifted_off, non_finite), with every input as a coordinate.

@@ -125,6 +125,11 @@ def spin_and_watch(W, model, j):
     whose smallest value is an observable) of lane j's state."""
 
 
+def heading(W, model, j):
+    """(X, Y) world components of the long (body x) axis of lane j's state Y, whose
+    direction seen from above is the heading; (1, 0) where the model has none."""
+
+
 def energy(W, model, j):
     """Mechanical energy of lane j's state, J."""
 
@@ -156,6 +161,7 @@ _lane_hook(start_lane, rattleback_model.start_lane, planar_model.start_lane)
 _lane_hook(check_step, rattleback_model.check_step, planar_model.check_step, "always")
 _lane_hook(spin_and_watch, rattleback_model.spin_and_watch, planar_model.spin_and_watch,
            "always")
+_lane_hook(heading, rattleback_model.heading, planar_model.heading, "always")
 _lane_hook(energy, rattleback_model.energy, planar_model.energy)
 _lane_hook(roll_start, rattleback_model.roll_start, planar_model.roll_start)
 _lane_hook(stick_impulse, rattleback_model.stick_impulse, planar_model.stick_impulse)

@@ -18,7 +18,8 @@ The time loop of :func:`advance_block` works on one block of ``BLOCK`` lanes. Ea
 Every step-wide task is a vector pass over the lanes that marks the few lanes needing
 scalar work, each pass in a row of its own. A lane that stops (status other than ok, at
 the end of its own number of steps, or, under the stop rule STOP_AT_REVERSAL of its
-parameter row ``stop_rule``, at its first reversal) is written out with its last valid
+parameter row ``stop_rule``, once it has both a first reversal time and a heading
+reversal) is written out with its last valid
 state at once and then frozen: its time step is set to zero and its state to a harmless
 one, so the passes may go on updating it without masks; nothing reads it again. A frozen
 lane costs as much as a running one, so a block ends as soon as every lane is written
@@ -45,7 +46,8 @@ from .switching import (
     LOCATED_STOP_HORIZON, STOP_HORIZON, any_slipping, flag_switches, note_slip, pass_step,
 )
 from .workspace import (
-    at, BEYOND, BLOCK, COUPLES, MU_ROLL, MU_SPIN, S_ROLL, S_ROLL_SENSE, S_SPIN, S_SPIN_SENSE, CAPSIZED, CROSSED, DT, ENDS_AS_IS, EPS_U, H_HALF_DT, H_SIXTH_DT,
+    at, BEYOND, COS2_HEADING_BAND, K_HEAD_EXT_X, K_HEAD_EXT_Y, K_HEAD_PREV_X, K_HEAD_PREV_Y,
+    K_HEAD_SENSE, K_HEAD_TURNS, TURNED_BACK, BLOCK, COUPLES, MU_ROLL, MU_SPIN, S_ROLL, S_ROLL_SENSE, S_SPIN, S_SPIN_SENSE, CAPSIZED, CROSSED, DT, ENDS_AS_IS, EPS_U, H_HALF_DT, H_SIXTH_DT,
     K_BAND, K_FIRST_REV, K_MARK_END, K_MARK_REVERSAL, K_N_REV, K_OPEN, K_RUN, K_SIDE,
     K_SLIP_STEPS, K_SPIN_PREV, K_STOP, K_T_CAND, K_T_CROSS, K_WATCH_LOW, K_WIN0, K_WIN_CNT,
     K_WIN_SUM, LIFTED_OFF, MU_S, NON_FINITE, NOT_MARKED, O_E0, O_E_END, O_FINAL_SPIN,
@@ -161,10 +163,11 @@ def flag_bad_step(W, model):
 
 @kernel
 def observe(W, model, step):
-    """Update the run observables from the new state Y, and mark the lanes whose spin
-    crossed zero (CROSSED) or went beyond the reversal band on the other side (BEYOND)
-    or both; returns how many it marked. Frozen lanes are updated too:
-    harmless, nothing reads them."""
+    """Update the run observables from the new state Y, and mark (a sum of the marks)
+    the lanes whose spin crossed zero (CROSSED) or went beyond the reversal band on the
+    other side (BEYOND), and those whose heading turned back by more than HEADING_BAND
+    from the furthest it reached in its present sense (TURNED_BACK); returns how many it
+    marked. Frozen lanes are updated too: harmless, nothing reads them."""
     numba.literally(model)
     n = 0
     for j in range(BLOCK):
@@ -174,40 +177,73 @@ def observe(W, model, step):
         window = 1.0 if step >= W[at(OFF_K, K_WIN0, j)] else 0.0
         W[at(OFF_K, K_WIN_SUM, j)] += window * spin
         W[at(OFF_K, K_WIN_CNT, j)] += window
-        # a reversal: the spin crossed zero and went beyond the band on the other side;
-        # it is reported at the (linearly interpolated) crossing instant
+        # the first reversal: the spin crossed zero and went beyond the band on the
+        # other side; it is reported at the (linearly interpolated) crossing instant
         dt = W[at(OFF_P, DT, j)]
         side = W[at(OFF_K, K_SIDE, j)]
         spin_prev = W[at(OFF_K, K_SPIN_PREV, j)]
         W[at(OFF_K, K_T_CAND, j)] = (step + 1) * dt - dt * spin / (spin - spin_prev)
         crossed = (side * spin_prev > 0.0) & (side * spin <= 0.0)
         beyond = side * spin < -W[at(OFF_K, K_BAND, j)]
-        W[at(OFF_K, K_MARK_REVERSAL, j)] = (CROSSED if crossed else NOT_MARKED) + (
-            BEYOND if beyond else NOT_MARKED)
-        n += 1 if crossed | beyond else 0
         W[at(OFF_K, K_SPIN_PREV, j)] = spin
+        # the heading: whole turns across the cut of atan2 at +-pi (the half-line
+        # X < 0, Y = 0), counted so that the record can unwrap it exactly
+        hx, hy = models.heading(W, model, j)
+        px = W[at(OFF_K, K_HEAD_PREV_X, j)]
+        py = W[at(OFF_K, K_HEAD_PREV_Y, j)]
+        cut = (hx < 0.0) & (px < 0.0)
+        W[at(OFF_K, K_HEAD_TURNS, j)] += (1.0 if cut & (py >= 0.0) & (hy < 0.0) else 0.0) - (
+            1.0 if cut & (py < 0.0) & (hy >= 0.0) else 0.0)
+        W[at(OFF_K, K_HEAD_PREV_X, j)] = hx
+        W[at(OFF_K, K_HEAD_PREV_Y, j)] = hy
+        # its reversals: the furthest direction in the present sense follows the heading
+        # while it turns that way; a turn back by more than HEADING_BAND from there is a
+        # reversal (angles from cross and dot products: no trigonometry per step)
+        ex = W[at(OFF_K, K_HEAD_EXT_X, j)]
+        ey = W[at(OFF_K, K_HEAD_EXT_Y, j)]
+        turn = W[at(OFF_K, K_HEAD_SENSE, j)] * (ex * hy - ey * hx)
+        dot = ex * hx + ey * hy
+        ahead = (turn > 0.0) & (dot > 0.0)
+        W[at(OFF_K, K_HEAD_EXT_X, j)] = hx if ahead else ex
+        W[at(OFF_K, K_HEAD_EXT_Y, j)] = hy if ahead else ey
+        back = (turn < 0.0) & ((dot <= 0.0) | (
+            dot * dot < COS2_HEADING_BAND * (ex * ex + ey * ey) * (hx * hx + hy * hy)))
+        W[at(OFF_K, K_MARK_REVERSAL, j)] = (
+            (float(CROSSED) if crossed else NOT_MARKED)
+            + (float(BEYOND) if beyond else NOT_MARKED)
+            + (float(TURNED_BACK) if back else NOT_MARKED))
+        n += 1 if crossed | beyond | back else 0
     return n
 
 
 @kernel
 def note_reversals(W, step):
-    """Count the reversals of the lanes :func:`observe` marked in the step that reached
-    step ``step``; a lane whose stop rule is STOP_AT_REVERSAL and whose first reversal
-    this is gets ``step`` as its last step. Returns how many lanes it so ended."""
+    """Act on the marks :func:`observe` left in the step that reached step ``step``:
+    the spin's first reversal time, and the heading's reversals, counted, each of which
+    turns the sense the heading is followed in. A lane whose stop rule is
+    STOP_AT_REVERSAL ends at the step where it has both a first reversal time and a
+    heading reversal (whichever came second): its last step becomes ``step``. Returns
+    how many lanes it so ended."""
     n = 0
     for j in range(BLOCK):
-        mark = W[at(OFF_K, K_MARK_REVERSAL, j)]
-        if mark == CROSSED or mark == CROSSED + BEYOND:
+        mark = int(W[at(OFF_K, K_MARK_REVERSAL, j)])
+        if mark & CROSSED:
             W[at(OFF_K, K_T_CROSS, j)] = W[at(OFF_K, K_T_CAND, j)]
-        if mark >= BEYOND:
-            W[at(OFF_K, K_N_REV, j)] += 1.0
-            if W[at(OFF_K, K_N_REV, j)] == 1.0:
+        if mark & BEYOND:
+            if math.isnan(W[at(OFF_K, K_FIRST_REV, j)]):
                 W[at(OFF_K, K_FIRST_REV, j)] = W[at(OFF_K, K_T_CROSS, j)]
-                if (W[at(OFF_P, STOP_RULE, j)] == STOP_AT_REVERSAL
-                        and W[at(OFF_K, K_RUN, j)] > 0.5):
-                    W[at(OFF_K, K_STOP, j)] = step
-                    n += 1
             W[at(OFF_K, K_SIDE, j)] = -W[at(OFF_K, K_SIDE, j)]
+        if mark & TURNED_BACK:
+            W[at(OFF_K, K_N_REV, j)] += 1.0
+            W[at(OFF_K, K_HEAD_SENSE, j)] = -W[at(OFF_K, K_HEAD_SENSE, j)]
+            W[at(OFF_K, K_HEAD_EXT_X, j)] = W[at(OFF_K, K_HEAD_PREV_X, j)]
+            W[at(OFF_K, K_HEAD_EXT_Y, j)] = W[at(OFF_K, K_HEAD_PREV_Y, j)]
+        if (mark != 0 and W[at(OFF_P, STOP_RULE, j)] == STOP_AT_REVERSAL
+                and W[at(OFF_K, K_RUN, j)] > 0.5 and W[at(OFF_K, K_STOP, j)] > step
+                and W[at(OFF_K, K_N_REV, j)] > 0.0
+                and not math.isnan(W[at(OFF_K, K_FIRST_REV, j)])):
+            W[at(OFF_K, K_STOP, j)] = step
+            n += 1
     return n
 
 
@@ -362,6 +398,13 @@ def advance_block(model, P, Y, nsteps, method, record_every, band, O, REC):
         W[at(OFF_K, K_BAND, j)] = band * abs(n0)
         W[at(OFF_K, K_SPIN_PREV, j)] = n0
         W[at(OFF_K, K_SIDE, j)] = 1.0 if n0 > 0.0 else (-1.0 if n0 < 0.0 else 0.0)
+        # the heading is followed from the launch in the sense of the launch spin
+        hx, hy = models.heading(W, model, j)
+        W[at(OFF_K, K_HEAD_PREV_X, j)] = hx
+        W[at(OFF_K, K_HEAD_PREV_Y, j)] = hy
+        W[at(OFF_K, K_HEAD_EXT_X, j)] = hx
+        W[at(OFF_K, K_HEAD_EXT_Y, j)] = hy
+        W[at(OFF_K, K_HEAD_SENSE, j)] = W[at(OFF_K, K_SIDE, j)]
         W[at(OFF_K, K_WATCH_LOW, j)] = watched
         can_slip = can_slip or (W[at(OFF_K, K_RUN, j)] > 0.5 and (
             W[at(OFF_P, MU_S, j)] < math.inf or W[at(OFF_S, S_MODE, j)] > 0.5))

@@ -23,6 +23,8 @@ parameters, state, stage state, the RK4 accumulator and scratch.
 
 from __future__ import annotations
 
+import math
+
 from numba import types
 from numba.extending import overload
 
@@ -168,7 +170,7 @@ BOOK = Rows(
     Row("t_cross", "s", "last zero crossing of the spin"),
     Row("t_candidate", "s", "crossing instant if the spin crossed zero in this step"),
     Row("spin_previous", "rad s-1", "spin after the previous step"),
-    Row("n_reversals", "1", "spin reversals so far"),
+    Row("n_reversals", "1", "heading reversals so far"),
     Row("first_reversal", "s", "first reversal time, NaN while none"),
     Row("window_sum", "rad s-1", "sum of the spin over the final window"),
     Row("window_count", "1", "steps in the final window so far"),
@@ -177,7 +179,16 @@ BOOK = Rows(
     Row("mark_switch", "1", "marked by a switching pass: the sum of SWITCHES, "
         "SPIN_SWITCHES and ROLL_SWITCHES for the contact's modes that change"),
     Row("mark_end", "1", "how the run ends at this step: ENDS_AS_IS or a status code"),
-    Row("mark_reversal", "1", "CROSSED, BEYOND or both (their sum) in this step"),
+    Row("mark_reversal", "1", "the sum of CROSSED, BEYOND and TURNED_BACK for what "
+        "happened in this step"),
+    Row("heading_previous", "1", "the long axis' horizontal projection after the "
+        "previous step (world; not normalised)", 2, "horizontal"),
+    Row("heading_turns", "1", "signed whole turns of the heading across its branch cut "
+        "at +-pi"),
+    Row("heading_extreme", "1", "the long axis' horizontal projection where the heading "
+        "turned furthest in its present sense (not normalised)", 2, "horizontal"),
+    Row("heading_sense", "1", "present sense of turning of the heading (+1, -1; 0: no "
+        "reversal tracking)"),
 )
 K_RUN = BOOK.start("running")
 K_OPEN = BOOK.start("open")
@@ -197,6 +208,12 @@ K_SLIP_STEPS = BOOK.start("slip_steps")
 K_MARK_SWITCH = BOOK.start("mark_switch")
 K_MARK_END = BOOK.start("mark_end")
 K_MARK_REVERSAL = BOOK.start("mark_reversal")
+K_HEAD_PREV_X = BOOK.start("heading_previous")
+K_HEAD_PREV_Y = K_HEAD_PREV_X + 1
+K_HEAD_TURNS = BOOK.start("heading_turns")
+K_HEAD_EXT_X = BOOK.start("heading_extreme")
+K_HEAD_EXT_Y = K_HEAD_EXT_X + 1
+K_HEAD_SENSE = BOOK.start("heading_sense")
 
 NOT_MARKED = 0.0
 SWITCHES = 1.0  # K_MARK_SWITCH: the lane's sliding mode changes
@@ -204,8 +221,16 @@ SPIN_SWITCHES = 2.0  # K_MARK_SWITCH: its spin couple's mode changes
 ROLL_SWITCHES = 4.0  # K_MARK_SWITCH: its rolling couple's mode changes
 ENDS_AS_IS = -1.0  # K_MARK_END: the run ends with its status unchanged (the status codes
 # CAPSIZED, LIFTED_OFF and NON_FINITE, all > 0, mark a run that ends with that status)
-CROSSED = 1.0  # K_MARK_REVERSAL: the spin crossed zero
-BEYOND = 2.0  # K_MARK_REVERSAL: the spin went beyond the band on the other side
+CROSSED = 1  # K_MARK_REVERSAL: the spin crossed zero
+BEYOND = 2  # K_MARK_REVERSAL: the spin went beyond the band on the other side
+TURNED_BACK = 4  # K_MARK_REVERSAL: the heading turned back by HEADING_BAND
+
+HEADING_BAND = 0.1
+"""rad: a heading reversal is counted when the heading, having turned one way, turns back
+by more than this from the furthest it reached (:func:`.stepper.observe`). Rocking turns
+the heading back and forth by a few hundredths of a radian at most, even at tilts of a
+radian; a reversal turns it back by far more."""
+COS2_HEADING_BAND = math.cos(HEADING_BAND) ** 2
 
 # --- fractions of the time step, rows of region H (set from DT in the block set-up) ---
 H_HALF_DT = 0  # dt / 2, s
@@ -226,8 +251,8 @@ COMMON_PARAMS = Rows(
     Row("slip_speed_floor", "m s-1",
         "slip speed below which the stored slip direction is used",
         pack=lambda f: 1e-6 * f["g"] * f["dt"]),
-    Row("stop_rule", "1", "when the run ends: 0 at its last step, 1 at its first spin "
-        "reversal when that comes sooner",
+    Row("stop_rule", "1", "when the run ends: 0 at its last step, 1 at its first "
+        "reversal (of the spin and of the heading) when that comes sooner",
         pack=lambda f: f.get("stop_rule", 0.0 * f["dt"])),
 )
 DT = COMMON_PARAMS.start("dt")
@@ -268,7 +293,8 @@ OBSERVABLES = Rows(
     Row("mean_final_spin", "rad s-1",
         "mean vertical angular velocity over the last 10% of the run"),
     Row("first_reversal_time", "s", "time of the first spin reversal (NaN when none)"),
-    Row("n_reversals", "1", "number of spin reversals"),
+    Row("n_reversals", "1", "number of heading reversals: changes of the long axis' sense "
+        "of turning seen from above, each a turn back by more than 0.1 rad"),
 )
 O_STATUS = OBSERVABLES.start("status")
 O_STEPS = OBSERVABLES.start("steps")

@@ -16,7 +16,7 @@ __all__ = [
     "contact_path",
 ]
 
-RATTLEBACK_PANELS = ("spin", "tilt", "energy", "slip_speed", "normal_force")
+RATTLEBACK_PANELS = ("spin", "heading", "tilt", "energy", "slip_speed", "normal_force")
 PLANAR_PANELS = ("angle", "rate", "energy", "slip_velocity", "normal_force")
 SLIP_SHADE = "#fdd9a0"
 """Colour of the slipping phases in time-series panels."""
@@ -73,7 +73,7 @@ def time_series(run: xr.Dataset, variables: Sequence[str] | None = None, *,
         A :func:`rattlesweep.simulate` or :func:`rattlesweep.planar.simulate_planar`
         result, possibly merged with :func:`rattlesweep.contact.contact_dataset`.
     variables : sequence of str, optional
-        Names of series over ``time``; default ``spin``, ``tilt``, ``energy``,
+        Names of series over ``time``; default ``spin``, ``heading``, ``tilt``, ``energy``,
         ``slip_speed``, ``normal_force`` for a rattleback and ``angle``, ``rate``,
         ``energy``, ``slip_velocity``, ``normal_force`` for the planar model. A series
         with a second dimension (e.g. ``friction_force`` over ``horizontal``) gets one

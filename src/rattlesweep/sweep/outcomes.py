@@ -17,8 +17,8 @@ NO_REVERSAL, REVERSED, SEVERAL, STOPPED, CAPSIZED, LIFTED_OFF, FAILED = range(7)
 OUTCOME_ATTRS = flag_attrs(
     "outcome of the launch", OUTCOME_NAMES,
     "capsized, lifted_off, numerical_failure: the trajectory stopped with that status "
-    "(whatever it did before); otherwise reversed: exactly one spin reversal, "
-    "several_reversals: two or more; stopped: no reversal and the mean spin over the last "
+    "(whatever it did before); otherwise reversed: exactly one reversal of the heading "
+    "(the long axis seen from above), several_reversals: two or more; stopped: no reversal and the mean spin over the last "
     "10% of the run is within the reversal band of zero; no_reversal: none of these.")
 
 

@@ -71,6 +71,12 @@ def spin_and_watch(W, j):
     return 0.0, -abs(W[at(OFF_Y, THETA, j)])
 
 
+@inline_kernel
+def heading(W, j):
+    """The lamina's long axis never turns about the vertical: its heading is fixed."""
+    return 1.0, 0.0
+
+
 @kernel
 def roll_start(W, j):
     """Set ẋ_G so that lane j's contact point is at rest (a launch condition, not a

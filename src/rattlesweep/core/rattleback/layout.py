@@ -123,6 +123,8 @@ RECORD = Rows(
     Row("velocity", "m s-1", "velocity of the centre of mass, world frame", 3, "axis"),
     Row("spin", "rad s-1", "vertical angular velocity n = omega . Z"),
     Row("tilt", "rad", "tilt of the body z axis from the vertical"),
+    # counter-clockwise from the world X axis, continuous over whole turns
+    Row("heading", "rad", "heading of the long axis, seen from above (unwrapped)"),
     Row("energy", "J", "mechanical energy"),
     Row("normal_force", "N", "normal contact force"),
     Row("friction_force", "N", "horizontal friction force on the body, world frame", 2,
@@ -140,6 +142,7 @@ R_POSITION = RECORD.start("position")
 R_VELOCITY = RECORD.start("velocity")
 R_SPIN = RECORD.start("spin")
 R_TILT = RECORD.start("tilt")
+R_HEADING = RECORD.start("heading")
 R_ENERGY = RECORD.start("energy")
 R_NORMAL = RECORD.start("normal_force")
 R_FRICTION = RECORD.start("friction_force")

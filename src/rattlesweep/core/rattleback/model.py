@@ -12,7 +12,7 @@ import math
 
 from ..jit import inline_kernel, kernel
 from ..workspace import (
-    BLOCK, DT, K_WATCH_LOW, MU_ROLL, OFF_K, OFF_P, OFF_S, OFF_X, S_JX, S_JY, S_MODE, S_ROLL,
+    BLOCK, DT, K_HEAD_TURNS, K_WATCH_LOW, MU_ROLL, OFF_K, OFF_P, OFF_S, OFF_X, S_JX, S_JY, S_MODE, S_ROLL,
     X_FX, X_FY, X_N, X_UX, X_UY, at,
 )
 from .geometry import (
@@ -21,12 +21,13 @@ from .geometry import (
 from .layout import (
     A2, B2, C2, COM_X, COM_Y, COM_Z, FULL, N_STATE, O_MAX_TILT, OFF_A, OFF_B, OFF_T, OFF_Y,
     OMEGA_X, OMEGA_Y, OMEGA_Z, POS_X, POS_Y, Q0, Q1, Q2, Q3, R_CONTACT, R_ENERGY,
-    R_FRICTION, R_IMPULSE, R_NORMAL, R_OMEGA, R_POSITION, R_QUATERNION, R_SLIP_VELOCITY,
+    R_FRICTION, R_HEADING, R_IMPULSE, R_NORMAL, R_OMEGA, R_POSITION, R_QUATERNION, R_SLIP_VELOCITY,
     R_SLIPPING, R_SPIN, R_TILT, R_VELOCITY, VEL_X, VEL_Y,
 )
 
 __all__ = [
-    "LOCATES_SWITCHES", "check_step", "couple_rates", "energy", "euler_step", "finish", "park",
+    "LOCATES_SWITCHES", "check_step", "couple_rates", "energy", "euler_step", "finish",
+    "heading", "park",
     "record", "roll_start", "spin_and_watch", "start_lane", "stick_couples", "stick_impulse",
 ]
 
@@ -148,6 +149,17 @@ def spin_and_watch(W, j):
     return n, up_z
 
 
+@inline_kernel
+def heading(W, j):
+    """(X, Y) world components of lane j's body x axis (state Y, unit quaternion): the
+    first column of R(q), whose direction seen from above is the heading."""
+    q0 = W[at(OFF_Y, Q0, j)]
+    q1 = W[at(OFF_Y, Q1, j)]
+    q2 = W[at(OFF_Y, Q2, j)]
+    q3 = W[at(OFF_Y, Q3, j)]
+    return 1.0 - 2.0 * (q2 * q2 + q3 * q3), 2.0 * (q1 * q2 + q0 * q3)
+
+
 @kernel
 def roll_start(W, j):
     """Set G's velocity so that lane j's material contact point is at rest (a rolling
@@ -225,6 +237,10 @@ def record(W, j, out):
     out[R_VELOCITY + 1] = W[at(OFF_Y, VEL_Y, j)]
     out[R_VELOCITY + 2] = vz
     out[R_SPIN] = spin_and_watch(W, j)[0]
+    hx, hy = heading(W, j)
+    # + 0.0 turns a -0.0 into +0.0, on the side of the cut that observe counts it on
+    out[R_HEADING] = (math.atan2(hy + 0.0, hx)
+                      + 2.0 * math.pi * W[at(OFF_K, K_HEAD_TURNS, j)])
     n0, n1, n2 = up_vector(W, OFF_Y, j)
     # atan2 keeps full precision at tiny tilts, where 1 - cos(tilt) underflows float64
     out[R_TILT] = math.atan2(math.sqrt(n0 * n0 + n1 * n1), n2)
