@@ -196,12 +196,11 @@ def _feasible(part: Part, points: list[tuple[float, float]], seen: set[tuple[flo
     return out
 
 
-def _span(part: Part, x: float, y_sign: float, n: int = 400
-          ) -> tuple[float, float] | tuple[None, None]:
-    """The least and greatest feasible |y| (m) of a pocket at ``x``, or (None, None)."""
+def _span(part: Part, x: float, y_sign: float, n: int = 400) -> tuple[float, float] | None:
+    """The least and greatest feasible |y| (m) of a pocket at ``x``, or None."""
     ys = np.linspace(0.0, part.b, n + 1)[1:]
     ok = [y for y in ys if placement_problem(part.at(x, y_sign * y)) is None]
-    return (float(min(ok)), float(max(ok))) if ok else (None, None)
+    return (float(min(ok)), float(max(ok))) if ok else None
 
 
 def search(part: Part, launches: Launches, prefer: str, *, grid: tuple[int, int] = (10, 6),
@@ -220,9 +219,10 @@ def search(part: Part, launches: Launches, prefer: str, *, grid: tuple[int, int]
     hx = part.a / (nx + 1)
     grid_points, hy = [], 0.0
     for i in range(nx):
-        low, high = _span(part, hx * (i + 1), y_sign)
-        if low is None:
+        span = _span(part, hx * (i + 1), y_sign)
+        if span is None:
             continue
+        low, high = span
         ys = np.linspace(low, high, ny) if ny > 1 else np.array([0.5 * (low + high)])
         hy = max(hy, (high - low) / max(ny - 1, 1))
         grid_points += [(hx * (i + 1), y_sign * float(y)) for y in ys]
