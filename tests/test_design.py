@@ -246,3 +246,23 @@ def test_cli_reports_bad_input_as_an_error(capsys):
     assert main(["design", "--a", "0.07", "--b", "0.02", "--c", "0.018", "--infill", "0",
                  "--out", "unused"]) == 2
     assert "infill = 0.0 is invalid" in capsys.readouterr().err
+
+
+def test_every_coin_is_offered_and_documented():
+    from pathlib import Path
+
+    from rattlesweep.cli import build_parser
+
+    help_text = " ".join(build_parser()._subparsers._group_actions[0]  # noqa: SLF001
+                         .choices["design"].format_help().split())
+    page = (Path(__file__).resolve().parent.parent / "docs/guide/design.md")
+    doc = page.read_text() if page.is_file() else None
+    for name, coin in COINS.items():
+        assert name in help_text
+        assert coin.source
+        if doc is not None:
+            row = next(line for line in doc.splitlines() if line.startswith(f"| `{name}`"))
+            cells = [c.strip() for c in row.split("|")[1:-1]]
+            assert float(cells[1]) == pytest.approx(coin.mass * 1e3, abs=0.005)
+            assert float(cells[2].split()[0]) == pytest.approx(coin.diameter * 1e3)
+            assert float(cells[3]) == pytest.approx(coin.thickness * 1e3)
