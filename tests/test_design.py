@@ -195,6 +195,26 @@ def test_placement_sheet_is_one_to_one(made):
     assert (out / "reversal_map.png").stat().st_size > 10_000
 
 
+def test_search_and_map_data_are_kept(made):
+    import xarray as xr
+
+    out, doc = made
+    with xr.open_dataset(out / "search.nc") as s:
+        n = int(s.sizes["candidate"])
+        assert doc["prediction"]["placements_tried"] == n
+        assert s.first_reversal_time.size == doc["prediction"]["launches_in_search"]
+        best = s.isel(candidate=int(s.attrs["best_candidate"]))
+        assert (float(best.x), float(best.y)) == pytest.approx(
+            tuple(doc["coins"]["centres"][0][:2]))
+        assert bool(best.robust)
+    with xr.open_dataset(out / "reversal_map.nc") as m:
+        assert m.first_reversal_time.dims == ("spin", "mu")
+        t = m.first_reversal_time
+        # the map agrees with the preference: reversals for spins of the bad sense only
+        assert t.sel(spin=t.spin[t.spin >= 3]).notnull().all()
+        assert t.sel(spin=t.spin[t.spin <= -3]).isnull().all()
+
+
 def test_too_heavy_coins_are_refused_with_the_largest_mass_that_works():
     a, b, c = 0.05, 0.014, 0.015  # b**2/c = 13 mm: G must stay low
     with pytest.raises(DesignRefused, match="largest usd_0.01 .* mass that would do is") as e:

@@ -2,10 +2,16 @@
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+import xarray as xr
+
+from .._version import __version__
+from ..io import write_netcdf
 from ..sweep import Sweep
 from .maps import MAP_TILT, write_map
 from .mesh import write_stl
@@ -47,9 +53,26 @@ def map_sweep(d: "Design") -> Sweep:
         stop="first_reversal", name="rattlesweep design: reversal map")
 
 
+def _write_data(ds: xr.Dataset, d: "Design", path: Path, title: str) -> Path:
+    """Write a dataset of the design as netCDF with the design in its attributes."""
+    ds = ds.copy()
+    for name in ds.data_vars:
+        if ds[name].dtype == bool:  # netCDF has no boolean type
+            ds[name] = ds[name].astype(np.int8)
+    ds.attrs = {**ds.attrs, "title": title, "rattlesweep_version": __version__,
+                "part": json.dumps({"a": d.part.a, "b": d.part.b, "c": d.part.c,
+                                    "x": d.part.x, "y": d.part.y,
+                                    "coin": d.part.coin.describe(),
+                                    "print": d.part.settings.describe()}),
+                "launch_set": json.dumps(d.launches.describe()), "prefer": d.prefer,
+                "margin": d.margin}
+    return write_netcdf(ds, path)
+
+
 def write_files(d: "Design", out: Path) -> dict[str, Path]:
-    """Write the STL, the placement sheet, the reversal map, ``sweep.toml`` and
-    ``design.toml`` into ``out`` (made if missing); returns the paths by kind."""
+    """Write the STL, the placement sheet, the reversal map (PNG and netCDF), the search
+    (``search.nc``: every candidate and launch), ``sweep.toml`` and ``design.toml`` into
+    ``out`` (made if missing); returns the paths by kind."""
     out.mkdir(parents=True, exist_ok=True)
     files: dict[str, Path] = {"stl": write_stl(d.part, out / "rattleback.stl")}
     files["sheet_png"], files["sheet_pdf"] = write_sheet(d.part, d.prefer, out)
@@ -57,6 +80,11 @@ def write_files(d: "Design", out: Path) -> dict[str, Path]:
         spins = (min(d.launches.spins), max(d.launches.spins))
         files["reversal_map"] = write_map(d.reversal_map, d.prefer, spins,
                                           out / "reversal_map.png")
+    files["search"] = _write_data(d.search.data, d, out / "search.nc",
+                                  "rattlesweep design: placement search")
+    if d.reversal_map is not None:
+        files["reversal_map_data"] = _write_data(d.reversal_map, d, out / "reversal_map.nc",
+                                                 "rattlesweep design: reversal map")
     sweep_path = out / "sweep.toml"
     tmp = sweep_path.with_name("sweep.toml.tmp")
     tmp.write_text(map_sweep(d).to_toml(), encoding="ascii")

@@ -148,22 +148,29 @@ def evaluate(bodies: list[Body], launches: Launches, prefer: str) -> xr.Dataset:
                           "fraction of bad-sense launches that reversed"}),
          "good_reversed": ("candidate", good.mean(axis=1), {"units": "1", "long_name":
                            "fraction of preferred-sense launches that reversed"})},
-        coords={"sense": ["bad", "good"], "spin": ("spin", spins, {"units": "rad s-1",
-                "long_name": "spin magnitude"}), "mu": mus,
+        coords={"sense": ("sense", ["bad", "good"], {"long_name": "sense of the launch "
+                          "spin: bad (must reverse) or good (the preferred sense)"}),
+                "spin": ("spin", spins, {"units": "rad s-1", "long_name":
+                         "spin magnitude"}),
+                "mu": ("mu", mus, {"units": "1", "long_name": "friction coefficient"}),
                 "tilt": [f"roll {math.degrees(r):.2g} deg, pitch {math.degrees(p):.2g} deg"
                          for r, p in launches.tilts]})
     out["robust"] = (out.bad_reversed == 1.0) & (out.good_reversed == 0.0)
+    out["robust"].attrs = {"long_name": "every bad-sense launch reversed and no "
+                           "preferred-sense launch did"}
     out.attrs["launches"] = int(ds.sizes["trajectory"])
     return out
 
 
 @dataclass
 class SearchResult:
-    """What the search found: the best part, every candidate tried (``table``: x, y
-    (m), level and the summaries of :func:`evaluate`), the best candidate's launches
-    (``best``) and the number of launches simulated."""
+    """What the search found: the best part, every candidate tried with every launch
+    (``data``: x, y (m), level and the variables of :func:`evaluate`), the per-candidate
+    summaries alone (``table``), the best candidate's launches (``best``) and the
+    number of launches simulated."""
 
     part: Part
+    data: xr.Dataset
     table: xr.Dataset
     best: xr.Dataset
     launches: int
@@ -236,36 +243,35 @@ def search(part: Part, launches: Launches, prefer: str, *, grid: tuple[int, int]
             f"flat face ({2 * part.a * 1e3:.4g} x {2 * part.b * 1e3:.4g} mm) with the rim "
             f"({part.settings.rim * 1e3:g} mm) and the walls around it; use a smaller coin "
             "or a wider shell (b)")
-    tables, total, best_rows = [], 0, None
-    level = 0
+    tables, total, level = [], 0, 0
     while True:
         bodies = [body_of(part.at(x, y), name=f"x={x * 1e3:.2f}mm,y={y * 1e3:.2f}mm")
                   for x, y in points]
         ev = evaluate(bodies, launches, prefer)
         total += ev.attrs["launches"]
-        ev = ev.assign_coords(x=("candidate", [p[0] for p in points], {"units": "m"}),
-                              y=("candidate", [p[1] for p in points], {"units": "m"}),
-                              level=("candidate", np.full(len(points), level)))
-        tables.append(ev)
-        table = xr.concat([t.drop_dims(["sense", "spin", "mu", "tilt"]) for t in tables],
-                          dim="candidate")
-        best_rows = (xr.concat(tables, dim="candidate", data_vars="all")
-                     .isel(candidate=int(_rank(table)[0])))
+        tables.append(ev.assign_coords(
+            x=("candidate", [p[0] for p in points], {"units": "m", "long_name":
+               "x of the first pocket's centre"}),
+            y=("candidate", [p[1] for p in points], {"units": "m", "long_name":
+               "y of the first pocket's centre"}),
+            level=("candidate", np.full(len(points), level), {"long_name":
+                   "refinement level"})))
+        data = xr.concat(tables, dim="candidate", data_vars="all")
+        best = data.isel(candidate=int(_rank(data)[0]))
         if level == refine:
             break
         level += 1
-        bx, by = float(best_rows.x), float(best_rows.y)
+        bx, by = float(best.x), float(best.y)
         sx, sy = hx / 2**level, hy / 2**level
         points = _feasible(part, [(bx + i * sx, by + j * sy) for i in (-1, 0, 1)
                                   for j in (-1, 0, 1) if i or j], seen)
         if not points:
             break
-    table = xr.concat([t.drop_dims(["sense", "spin", "mu", "tilt"]) for t in tables],
-                      dim="candidate")
-    best = best_rows
+    data.attrs = {"launches": total, "prefer": prefer, "best_candidate": int(_rank(data)[0])}
+    table = data.drop_dims(["sense", "spin", "mu", "tilt"])
     chosen = part.at(float(best.x), float(best.y))
     notes = [] if bool(best.robust) else [
         f"no placement tried is robust: the best reverses {float(best.bad_reversed):.0%} "
         f"of the bad-sense launches and {float(best.good_reversed):.0%} of the "
         f"preferred-sense ones within {launches.t_end:g} s"]
-    return SearchResult(chosen, table, best, total, level, notes)
+    return SearchResult(chosen, data, table, best, total, level, notes)
