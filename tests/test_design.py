@@ -217,9 +217,12 @@ def test_search_and_map_data_are_kept(made):
 
 def test_too_heavy_coins_are_refused_with_the_largest_mass_that_works():
     a, b, c = 0.05, 0.014, 0.015  # b**2/c = 13 mm: G must stay low
-    with pytest.raises(DesignRefused, match="largest usd_0.01 .* mass that would do is") as e:
+    with pytest.raises(DesignRefused, match=r"design refused: .* 20 g .* the largest coin "
+                       r"mass that would do, at this coin's size, is [\d.]+ g per coin") as e:
         design(a, b, c, coin="usd_0.01", coin_mass=0.02)
     m_max = e.value.max_coin_mass
+    said = float(re.search(r"is ([\d.]+) g per coin", str(e.value)).group(1))
+    assert said == pytest.approx(m_max * 1e3, rel=5e-3)
     assert 0 < m_max < 0.02
     coin = COINS["usd_0.01"]
     part = Part(a, b, c, coin, 0.0, 0.0, PrintSettings())

@@ -131,11 +131,11 @@ def check_margin(part: Part, margin: float) -> None:
         return
     m_max = max_coin_mass(part, margin)
     radius = min(part.a**2 / part.c, part.b**2 / part.c)
-    advice = (f"the largest {part.coin.name} mass that would do is {m_max * 1e3:.3g} g "
-              f"per coin" if m_max > 0 else
+    advice = (f"the largest coin mass that would do, at this coin's size, is "
+              f"{m_max * 1e3:.3g} g per coin" if m_max > 0 else
               "no coin of this size would do: make the shell lower (c) or wider (b)")
     raise DesignRefused(
-        f"design refused: with two {part.coin.name} coins of {part.coin.mass * 1e3:.3g} g "
+        f"design refused: with two coins of {part.coin.mass * 1e3:.3g} g ({part.coin.name}) "
         f"the centre of mass is {ell * 1e3:.3g} mm above the contact point, but the "
         f"stability margin of {margin:.0%} needs it at most {limit * 1e3:.3g} mm "
         f"((1 - margin) x the smaller radius of curvature, {radius * 1e3:.3g} mm); "
