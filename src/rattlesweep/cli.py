@@ -335,6 +335,21 @@ def _cmd_animate(args: argparse.Namespace, argv: list[str] | None) -> int:
     return 0
 
 
+def _cmd_design(args: argparse.Namespace, argv: list[str] | None) -> int:
+    from .design import design
+
+    t0 = time.perf_counter()
+    d = design(args.a, args.b, args.c, coin=args.coin, coin_mass=args.coin_mass,
+               coin_diameter=args.coin_diameter, coin_thickness=args.coin_thickness,
+               coins=args.coins, infill=args.infill, material=args.material,
+               wall=args.wall, clearance=args.clearance, rim=args.rim,
+               mu=tuple(args.mu), margin=args.margin, prefer=args.prefer, out=args.out)
+    print(d.summary())
+    print(f"wrote {', '.join(str(p) for p in d.files.values())} "
+          f"({time.perf_counter() - t0:.1f} s)")
+    return 0
+
+
 def _add_launch_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--preset", default="kane_levinson", choices=sorted(PRESETS))
     p.add_argument("--spin", type=float, default=5.0, help="rad/s about the vertical")
@@ -425,6 +440,35 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("files", nargs="+", help="netCDF result files or sweep directories")
     p.add_argument("--config", action="store_true", help="also print the sweep TOML")
     p.set_defaults(func=_cmd_info)
+
+    p = sub.add_parser("design", help="design a printable rattleback: a shell with two "
+                       "coins in pockets placed by simulation; write STL, placement sheet, "
+                       "design.toml and a reversal map")
+    p.add_argument("--a", type=float, required=True, help="half length of the shell (m)")
+    p.add_argument("--b", type=float, required=True, help="half width of the shell (m)")
+    p.add_argument("--c", type=float, required=True, help="height of the shell (m)")
+    p.add_argument("--coin", default=None, help="coin or washer preset (default eur_1): "
+                   "eur_1, eur_2, eur_0.50, usd_0.25, usd_0.05, usd_0.01, gbp_0.02, "
+                   "gbp_0.10, washer_M8, washer_M10, washer_M12")
+    p.add_argument("--coin-mass", type=float, default=None, help="coin mass (kg)")
+    p.add_argument("--coin-diameter", type=float, default=None, help="coin diameter (m)")
+    p.add_argument("--coin-thickness", type=float, default=None, help="coin thickness (m)")
+    p.add_argument("--coins", type=int, default=2, help="number of coins (2)")
+    p.add_argument("--infill", type=float, default=0.2, help="infill fraction in (0, 1]")
+    p.add_argument("--material", default="pla", help="pla, petg or abs")
+    p.add_argument("--wall", type=float, default=1.2e-3, help="solid wall thickness (m)")
+    p.add_argument("--clearance", type=float, default=0.4e-3,
+                   help="pocket diameter minus coin diameter (m)")
+    p.add_argument("--rim", type=float, default=2e-3,
+                   help="least material beside a pocket (m)")
+    p.add_argument("--mu", type=float, nargs=2, default=(0.2, 0.5), metavar=("LOW", "HIGH"),
+                   help="friction range to design for (default 0.2 0.5: a table top)")
+    p.add_argument("--margin", type=float, default=0.1,
+                   help="G at most (1 - margin) x the smaller radius of curvature")
+    p.add_argument("--prefer", choices=["cw", "ccw"], default="cw",
+                   help="sense (seen from above) in which it spins on")
+    p.add_argument("--out", required=True, help="output directory")
+    p.set_defaults(func=_cmd_design)
 
     p = sub.add_parser("simulate", help="simulate one launch of a preset body")
     _add_launch_options(p)
