@@ -5,7 +5,9 @@ The heading is the direction of the body's long (x) axis seen from above. Here i
 taken from the rotation matrix of each recorded quaternion, unwrapped with
 ``np.unwrap``, and its reversals counted by the documented rule: each time the heading,
 having turned one way, turns back by more than ``HEADING_BAND`` from the furthest it
-reached; at launch it is followed in the sense of the launch spin.
+reached; at launch it is followed in the sense of the launch spin. A first reversal
+still under way at the end of a run (the spin beyond its band the other way and on that
+side ever since, the heading not yet turned back by the band) counts too.
 """
 
 import math
@@ -46,6 +48,19 @@ def heading_reversal_steps(q, sense, band=HEADING_BAND):
             sense = -sense
             furthest = p
     return found
+
+
+def reversal_count(q, spin, band=0.05):
+    """The number of reversals of a recorded run by the documented rule, from its
+    quaternions q (n, 4) and its spin n (n,) (NaN after the run stopped)."""
+    spin = np.asarray(spin, dtype=float)
+    spin = spin[np.isfinite(spin)]
+    side = np.sign(spin[0])
+    count = len(heading_reversal_steps(q, side))
+    beyond = np.flatnonzero(side * spin < -band * abs(spin[0]))
+    pending = (count == 0 and beyond.size > 0
+               and bool(np.all(side * spin[beyond[0]:] < 0.0)))
+    return count + int(pending)
 
 
 def largest_turn_back(q, sense):

@@ -10,7 +10,7 @@ import pytest
 
 import rattlesweep as rs
 from heading_oracle import (HEADING_BAND, heading_from_quaternions, heading_reversal_steps,
-                            largest_turn_back, wackelstein)
+                            largest_turn_back, reversal_count, wackelstein)
 from rattlesweep.core.workspace import HEADING_BAND as KERNEL_HEADING_BAND
 
 TOY = rs.Body.preset("toy")
@@ -74,6 +74,19 @@ def test_one_reversal_under_large_rocking_counts_one():
     assert int(run.n_reversals) == 1
 
 
+def test_a_spin_decayed_to_rocking_counts_no_phantoms():
+    """kane_levinson with strong air resistance: it reverses once, then its spin decays
+    below the rocking's share of n, which then crosses zero again and again."""
+    run = rs.simulate(rs.Body.preset("kane_levinson"), spin=4.0, damping=3e-4,
+                      pitch=math.radians(3.0), roll=math.radians(1.0), t_end=20.0,
+                      record_every=2)
+    spin = run.spin.values
+    assert spin_reversals(spin) >= 10
+    assert np.max(np.abs(spin[-len(spin) // 5:])) < 0.2 * abs(spin[0])  # decayed
+    assert reversal_count(run.quaternion.values, spin) == 1
+    assert int(run.n_reversals) == 1
+
+
 def test_kane_levinson_counts_as_before():
     """Small rocking: spin and heading count alike (twice each way in 30 s, rolling)."""
     batch = rs.run_batch(rs.Body.preset("kane_levinson"), spin=[-5.0, 5.0],
@@ -101,10 +114,26 @@ def test_numpy_count_agrees_on_random_launches():
     for i in range(n):
         if batch.status.values[i] != 0:
             continue
-        sense = np.sign(batch.initial_spin.values[i])
-        counts.append(len(heading_reversal_steps(batch.quaternion.values[i], sense)))
+        counts.append(reversal_count(batch.quaternion.values[i], batch.spin.values[i]))
         assert batch.n_reversals.values[i] == counts[-1], i
     assert len(counts) >= 8 and max(counts) >= 2 and min(counts) == 0, counts
+
+
+def test_a_first_reversal_under_way_at_the_end_counts():
+    """The kane_levinson launch whose spin crosses zero at 2.85 s and leaves its band at
+    2.90 s, run to 3.0 s: the spin is beyond its band the other way and has stayed
+    there, while the heading has not yet turned back by the band (it does at 3.18 s).
+    Run to 3.3 s, the heading has confirmed it."""
+    kl = rs.Body.preset("kane_levinson")
+    early = rs.simulate(kl, spin=5.0, pitch=math.radians(0.5), t_end=3.0, record_every=1)
+    q, spin = early.quaternion.values, early.spin.values
+    assert heading_reversal_steps(q, 1.0) == []
+    assert 0.0 < largest_turn_back(q, 1.0) < HEADING_BAND
+    assert int(early.n_reversals) == reversal_count(q, spin) == 1
+    later = rs.simulate(kl, spin=5.0, pitch=math.radians(0.5), t_end=3.3, record_every=1)
+    assert len(heading_reversal_steps(later.quaternion.values, 1.0)) == 1
+    assert int(later.n_reversals) == 1
+    assert float(early.first_reversal_time) == float(later.first_reversal_time)
 
 
 def test_a_launch_without_spin_counts_none():

@@ -47,7 +47,7 @@ from .switching import (
 )
 from .workspace import (
     at, BEYOND, COS2_HEADING_BAND, K_HEAD_EXT_X, K_HEAD_EXT_Y, K_HEAD_PREV_X, K_HEAD_PREV_Y,
-    K_HEAD_SENSE, K_HEAD_TURNS, TURNED_BACK, BLOCK, COUPLES, MU_ROLL, MU_SPIN, S_ROLL, S_ROLL_SENSE, S_SPIN, S_SPIN_SENSE, CAPSIZED, CROSSED, DT, ENDS_AS_IS, EPS_U, H_HALF_DT, H_SIXTH_DT,
+    K_HEAD_SENSE, K_HEAD_TURNS, K_PENDING, TURNED_BACK, BLOCK, COUPLES, MU_ROLL, MU_SPIN, S_ROLL, S_ROLL_SENSE, S_SPIN, S_SPIN_SENSE, CAPSIZED, CROSSED, DT, ENDS_AS_IS, EPS_U, H_HALF_DT, H_SIXTH_DT,
     K_BAND, K_FIRST_REV, K_MARK_END, K_MARK_REVERSAL, K_N_REV, K_OPEN, K_RUN, K_SIDE,
     K_SLIP_STEPS, K_SPIN_PREV, K_STOP, K_T_CAND, K_T_CROSS, K_WATCH_LOW, K_WIN0, K_WIN_CNT,
     K_WIN_SUM, LIFTED_OFF, MU_S, NON_FINITE, NOT_MARKED, O_E0, O_E_END, O_FINAL_SPIN,
@@ -186,6 +186,10 @@ def observe(W, model, step):
         crossed = (side * spin_prev > 0.0) & (side * spin <= 0.0)
         beyond = side * spin < -W[at(OFF_K, K_BAND, j)]
         W[at(OFF_K, K_SPIN_PREV, j)] = spin
+        # a first reversal the heading has not confirmed yet stays pending while the
+        # spin stays on the other side (the heading's sense is the launch spin's until
+        # the heading reverses, which ends the pending)
+        W[at(OFF_K, K_PENDING, j)] *= 1.0 if W[at(OFF_K, K_HEAD_SENSE, j)] * spin < 0.0 else 0.0
         # the heading: whole turns across the cut of atan2 at +-pi (the half-line
         # X < 0, Y = 0), counted so that the record can unwrap it exactly
         hx, hy = models.heading(W, model, j)
@@ -232,9 +236,11 @@ def note_reversals(W, step):
         if mark & BEYOND:
             if math.isnan(W[at(OFF_K, K_FIRST_REV, j)]):
                 W[at(OFF_K, K_FIRST_REV, j)] = W[at(OFF_K, K_T_CROSS, j)]
+                W[at(OFF_K, K_PENDING, j)] = 1.0 if W[at(OFF_K, K_N_REV, j)] == 0.0 else 0.0
             W[at(OFF_K, K_SIDE, j)] = -W[at(OFF_K, K_SIDE, j)]
         if mark & TURNED_BACK:
             W[at(OFF_K, K_N_REV, j)] += 1.0
+            W[at(OFF_K, K_PENDING, j)] = 0.0
             W[at(OFF_K, K_HEAD_SENSE, j)] = -W[at(OFF_K, K_HEAD_SENSE, j)]
             W[at(OFF_K, K_HEAD_EXT_X, j)] = W[at(OFF_K, K_HEAD_PREV_X, j)]
             W[at(OFF_K, K_HEAD_EXT_Y, j)] = W[at(OFF_K, K_HEAD_PREV_Y, j)]
@@ -257,7 +263,9 @@ def finish_lane(W, model, j, P, status, Y, O):
     stop = W[at(OFF_K, K_STOP, j)]
     launched = not (status == NON_FINITE and stop == 0)
     O[O_FIRST_REV, j] = W[at(OFF_K, K_FIRST_REV, j)]
-    O[O_N_REV, j] = W[at(OFF_K, K_N_REV, j)]
+    # a first reversal still under way at the end (the spin beyond its band the other
+    # way and on that side since, the heading not yet turned back by the band) counts
+    O[O_N_REV, j] = W[at(OFF_K, K_N_REV, j)] + W[at(OFF_K, K_PENDING, j)]
     O[O_STATUS, j] = status
     O[O_STEPS, j] = stop
     O[O_T_END, j] = stop * P[DT, j]

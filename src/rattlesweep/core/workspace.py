@@ -189,6 +189,8 @@ BOOK = Rows(
         "turned furthest in its present sense (not normalised)", 2, "horizontal"),
     Row("heading_sense", "1", "present sense of turning of the heading (+1, -1; 0: no "
         "reversal tracking)"),
+    Row("reversal_pending", "1", "1 from the first reversal time on, while the heading "
+        "has not reversed and the spin has stayed on the other side since"),
 )
 K_RUN = BOOK.start("running")
 K_OPEN = BOOK.start("open")
@@ -214,6 +216,7 @@ K_HEAD_TURNS = BOOK.start("heading_turns")
 K_HEAD_EXT_X = BOOK.start("heading_extreme")
 K_HEAD_EXT_Y = K_HEAD_EXT_X + 1
 K_HEAD_SENSE = BOOK.start("heading_sense")
+K_PENDING = BOOK.start("reversal_pending")
 
 NOT_MARKED = 0.0
 SWITCHES = 1.0  # K_MARK_SWITCH: the lane's sliding mode changes
