@@ -38,7 +38,8 @@ def simulate(
     Returns
     -------
     xarray.Dataset
-        Over ``time`` (s): ``spin`` (rad/s), ``energy`` (J), ``tilt`` (rad),
+        Over ``time`` (s): ``spin`` (rad/s), ``heading`` (rad: the long axis' direction
+        seen from above, unwrapped), ``energy`` (J), ``tilt`` (rad),
         ``slipping``, ``normal_force`` (N), ``friction_force`` (N), ``friction_impulse``
         (N s, the plastic impulses that bring a slipping contact to rest, summed since
         the previous sample), ``slip_velocity`` and ``slip_speed`` (m/s),
