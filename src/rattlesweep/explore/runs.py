@@ -79,7 +79,8 @@ def payload(spec: RunSpec, ds: xr.Dataset, messages: list[str]) -> dict[str, Any
         "spin": numbers(ds.spin), "tilt_deg": numbers(np.degrees(ds.tilt.values)),
         "energy": numbers(ds.energy), "slip_speed": numbers(ds.slip_speed),
         # samples after a run stopped early (capsized) hold no motion
-        "slips": slip_intervals(t, ds.slipping.values & (t <= float(ds.t_final))),
+        "slips": slip_intervals(t, (np.nan_to_num(ds.slipping.values) > 0)
+                                & (t <= float(ds.t_final))),
         "summary": {
             "first_reversal_time": float(ds.first_reversal_time),
             "n_reversals": int(ds.n_reversals), "final_spin": float(ds.final_spin),
