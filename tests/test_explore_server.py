@@ -233,3 +233,30 @@ def test_the_command_line_serves_and_warns_off_localhost(tmp_path):
     text = "".join(lines)
     assert "warming the kernels" in text
     assert "anyone who can reach this address" in text
+
+
+def test_a_run_that_capsizes_is_shown_with_its_warning(server):
+    status, data = run(server, spin=20.0, delta_deg=-4.0, mu="inf", t_end=3.0)
+    assert status == 200
+    assert data["summary"]["status"] == "capsized"
+    assert any("capsized" in w for w in data["warnings"])
+    t_stop = max(t for t, s in zip(data["t"], data["spin"]) if s is not None)
+    assert all(b <= t_stop for _, b in data["slips"])
+
+
+def test_the_notebook_shows_the_page_in_a_frame():
+    from rattlesweep import explore
+
+    frame = explore.show(height=700)
+    try:
+        html = frame._repr_html_()
+        assert 'height="700"' in html
+        url = html.split('src="')[1].split('"')[0]
+        assert url.startswith("http://127.0.0.1:")
+        with urllib.request.urlopen(url, timeout=30) as r:
+            assert b"rattlesweep explore" in r.read()
+        assert explore.show().url == url  # one server per kernel
+    finally:
+        explore._NOTEBOOK_SERVER.shutdown()
+        explore._NOTEBOOK_SERVER.server_close()
+        explore._NOTEBOOK_SERVER = None

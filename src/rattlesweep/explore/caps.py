@@ -41,7 +41,7 @@ class Caps:
     max_map_num: int = 25
     max_map_levels: int = 2
     max_map_t_end: float = 10.0
-    max_frames: int = 1200
+    max_frames: int = 1000
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)

@@ -44,9 +44,15 @@ class _Raw(str):
 
 def numbers(values: Any) -> _Raw:
     """A float array as a JSON list at 6 significant digits (null for NaN and inf)."""
+    import json
+
     flat = np.asarray(values, dtype=float).ravel()
-    return _Raw("[" + ",".join(f"{v:.6g}" if math.isfinite(v) else "null"
-                               for v in flat.tolist()) + "]")
+    with np.errstate(all="ignore"):
+        scale = 10.0 ** (5 - np.floor(np.log10(np.abs(flat))))
+        scale[~np.isfinite(scale)] = 1.0
+        short = np.round(flat * scale) / scale  # shortest repr of a 6-digit value is short
+    short[~np.isfinite(flat)] = np.nan
+    return _Raw(json.dumps(short.tolist()).replace("NaN", "null"))
 
 
 def to_json(obj: Any) -> str:
