@@ -229,7 +229,7 @@ function plotFrame(c) {
   const span = Math.max(MIN_SPAN[c.dataset.series] || 0, 1e-4 * Math.max(Math.abs(lo), Math.abs(hi)));
   if (!(hi - lo >= span)) { const mid = (hi + lo) / 2; lo = mid - span / 2; hi = mid + span / 2; }
   const pad = 0.05 * (hi - lo);
-  return { x0: 56, x1: c.width - 8, y0: 8, y1: c.height - 18, lo: lo - pad, hi: hi + pad,
+  return { x0: 70, x1: c.width - 8, y0: 8, y1: c.height - 18, lo: lo - pad, hi: hi + pad,
            T: t[t.length - 1] || 1 };
 }
 
