@@ -260,3 +260,17 @@ def test_the_notebook_shows_the_page_in_a_frame():
         explore._NOTEBOOK_SERVER.shutdown()
         explore._NOTEBOOK_SERVER.server_close()
         explore._NOTEBOOK_SERVER = None
+
+
+def test_a_classroom_connecting_at_once_is_answered(server):
+    statuses = []
+
+    def one(i):
+        statuses.append(run(server, session=f"pupil{i}", spin=i - 15.0, t_end=0.5)[0])
+
+    threads = [threading.Thread(target=one, args=(i,)) for i in range(30)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert statuses == [200] * 30

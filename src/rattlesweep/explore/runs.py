@@ -25,7 +25,9 @@ def run(spec: RunSpec, caps: Caps) -> tuple[xr.Dataset, list[str]]:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         ds = simulate(spec.body, record_every=record_every, **spec.kwargs)
-    return ds, [str(w.message) for w in caught]
+    # the series are views into the kernel's record buffer, one lane of a block of
+    # trajectories (5.8 MB for a 1000-sample run); a session keeps its run, so copy them
+    return ds.copy(deep=True), [str(w.message) for w in caught]
 
 
 def slip_intervals(time: np.ndarray, slipping: np.ndarray) -> list[list[float]]:

@@ -223,6 +223,8 @@ class Server(ThreadingHTTPServer):
     """The explorer's HTTP server; ``url`` is where it listens."""
 
     daemon_threads = True
+    # a classroom connects at once: socketserver's default backlog of 5 resets the rest
+    request_queue_size = 128
 
     def __init__(self, host: str = "127.0.0.1", port: int = 0, *, caps: Caps | None = None,
                  workers: int | None = None, verbose: bool = False) -> None:
