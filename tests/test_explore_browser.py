@@ -44,7 +44,9 @@ def page():
     with sync_api.sync_playwright() as p:
         browser = p.chromium.launch(executable_path=CHROMIUM, args=[
             "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"])
-        pg = browser.new_page(viewport={"width": 1500, "height": 1000})
+        context = browser.new_context(viewport={"width": 1500, "height": 1000})
+        context.grant_permissions(["clipboard-read", "clipboard-write"])
+        pg = context.new_page()
         errors = []
         pg.on("pageerror", lambda e: errors.append(str(e)))
         pg.goto(server.url)
@@ -139,3 +141,39 @@ def test_clicking_a_map_point_loads_its_launch(page, shots):
     page.wait_for_timeout(300)
     page.screenshot(path=str(shots / "explore-map-click.png"))
     assert page.errors == []
+
+
+def test_pause_scrub_and_slow_motion(page):
+    page.select_option("#speed", "0.1")
+    if page.inner_text("#play") == "pause":
+        page.click("#play")
+    assert page.inner_text("#play") == "play"
+    frame = page.evaluate("window.explorer.frame")
+    page.wait_for_timeout(300)
+    assert page.evaluate("window.explorer.frame") == frame  # paused: the frame stays
+    cursor_before = canvas_png(page, "#plot-tilt")
+    n = page.evaluate("window.explorer.run.n")
+    page.eval_on_selector("#scrub", f"""s => {{ s.value = {n // 2};
+        s.dispatchEvent(new Event('input')); }}""")
+    t_mid = page.evaluate(f"window.explorer.run.t[{n // 2}]")
+    assert page.inner_text("#clock") == f"{t_mid:.2f} s"
+    assert canvas_png(page, "#plot-tilt") != cursor_before  # the cursor moved
+    page.click("#play")
+    page.wait_for_timeout(500)
+    t_now = page.evaluate("window.explorer.run.t[window.explorer.frame]")
+    # a tenth of real time: half a second of playing moves about 0.05 s of the run
+    assert t_mid < t_now < t_mid + 0.2
+
+
+def test_copy_as_python_and_the_sweep_toml(page, tmp_path):
+    page.click("#copy-python")
+    page.wait_for_function("document.getElementById('status').textContent === 'Python copied'")
+    code = page.evaluate("navigator.clipboard.readText()")
+    assert code == page.evaluate("window.explorer.run.python")
+    assert "rs.simulate(body, " in code
+    with page.expect_download() as info:
+        page.click("#download-toml")
+    path = tmp_path / "map.toml"
+    info.value.save_as(path)
+    sweep = rs.Sweep.from_toml(path)
+    assert sweep.dims == (page.input_value("#map-x-param"), page.input_value("#map-y-param"))

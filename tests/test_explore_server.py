@@ -274,3 +274,25 @@ def test_a_classroom_connecting_at_once_is_answered(server):
     for t in threads:
         t.join()
     assert statuses == [200] * 30
+
+
+def test_a_new_map_supersedes_the_stale_one(server):
+    settings = {**defaults(), "mu": "inf", "t_end": 10.0}
+    big = {"x": {"param": "spin", "start": -30, "stop": 30, "num": 25},
+           "y": {"param": "delta_deg", "start": -8, "stop": 8, "num": 25}, "levels": 2}
+    status, _ = call(server, "api/map", {"settings": settings, "map": big}, "maps")
+    assert status == 200
+    stale = server.app.session("maps").map
+    small = {"x": {"param": "spin", "start": -5, "stop": 5, "num": 3},
+             "y": {"param": "roll_deg", "start": 0.5, "stop": 1, "num": 2}, "levels": 0}
+    status, _ = call(server, "api/map", {"settings": {**settings, "t_end": 1.0},
+                                         "map": small}, "maps")
+    assert status == 200
+    deadline = time.monotonic() + 60
+    while not json.loads(call(server, "api/map?session=maps")[1])["done"]:
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    simulated = stale.simulated
+    time.sleep(0.3)
+    # the stale map stopped: far from its 625 declared launches, and no further work
+    assert stale.simulated == simulated < 625 and not stale.done

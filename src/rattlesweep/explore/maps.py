@@ -22,9 +22,10 @@ _NEEDED = ("outcome", "first_reversal_time", "t_final")
 
 class MapJob:
     """The state of one map: call :meth:`step` until it returns ``(True, ...)``;
-    :meth:`snapshot` may be called from another thread at any time."""
+    :meth:`snapshot` may be called from another thread at any time. Each step simulates
+    ``chunk`` launches, resized after each step to take about ``piece_seconds`` (s)."""
 
-    def __init__(self, sweep: Any, chunk: int = 32) -> None:
+    def __init__(self, sweep: Any, chunk: int = 16, piece_seconds: float = 0.1) -> None:
         self.sweep = sweep
         self.fine = sweep.finest()
         refine = sweep.refine or {"levels": 0, "axes": list(sweep.dims)}
@@ -39,6 +40,7 @@ class MapJob:
         self.todo = self.levels.level0()
         self.pos = 0
         self.chunk = chunk
+        self.piece_seconds = piece_seconds
         self.simulated = 0
         self.started = time.perf_counter()
         self.seconds = 0.0
@@ -61,7 +63,12 @@ class MapJob:
                 self.pos = 0
             return False, None
         index = self.todo[self.pos:self.pos + self.chunk]
+        t0 = time.perf_counter()
         data, _ = compute_points(self.fine, index)
+        # size the next chunk to about piece_seconds of work: a map gives way to other
+        # sessions' runs that often
+        took = max(time.perf_counter() - t0, 1e-4)
+        self.chunk = int(min(256, max(4, len(index) * self.piece_seconds / took)))
         with self._lock:
             for name, v in self.values.items():
                 v.ravel()[index] = data[name]

@@ -106,13 +106,22 @@ function loadRun(data) {
   const L = Math.max(data.body.a, data.body.b);
   grid.scale.set(8 * L, 8 * L, 8 * L);
   grid.position.x = G0(p).x; grid.position.y = G0(p).y;
-  camera.position.set(G0(p).x + 2.2 * L, G0(p).y - 2.6 * L, 1.6 * L);
-  camera.lookAt(G0(p).x, G0(p).y, 0);
+  if (!cam.dist || Math.abs(Math.log(L / cam.L)) > 0.7) cam.dist = 3.6 * L;  // a new scale
+  cam.L = L;
   state.spinScale = 0.8 * L / Math.max(1e-9, ...data.spin.map((v) => Math.abs(v || 0)));
   for (const c of plots) drawPlotBase(c);
   showFrame(0);
 }
 const G0 = (p) => ({ x: p[0], y: p[1], z: p[2] });
+
+// the camera orbits the body (drag) and zooms (wheel), following it over the floor
+const cam = { az: -0.9, el: 0.42, dist: 0, L: 0.05 };
+function placeCamera(x, y) {
+  camera.position.set(x + cam.dist * Math.cos(cam.el) * Math.cos(cam.az),
+                      y + cam.dist * Math.cos(cam.el) * Math.sin(cam.az),
+                      cam.dist * Math.sin(cam.el));
+  camera.lookAt(x, y, 0);
+}
 
 // ---------------------------------------------------------------- the 3-D view
 const view = $('view');
@@ -173,6 +182,7 @@ function showFrame(i) {
   state.frame = i;
   const q = r.quaternion, p = r.position;
   bodyGroup.position.set(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
+  placeCamera(p[3 * i], p[3 * i + 1]);
   bodyGroup.quaternion.set(q[4 * i + 1], q[4 * i + 2], q[4 * i + 3], q[4 * i]);
   const w = r.spin[i] || 0;
   arrow.position.set(p[3 * i], p[3 * i + 1], p[3 * i + 2] + r.body.c * 0.6);
@@ -186,6 +196,22 @@ function showFrame(i) {
   for (const c of plots) drawCursor(c);
   renderer.render(scene, camera);
 }
+
+let drag = null;
+view.addEventListener('pointerdown', (ev) => { drag = [ev.clientX, ev.clientY]; view.setPointerCapture(ev.pointerId); });
+view.addEventListener('pointerup', () => { drag = null; });
+view.addEventListener('pointermove', (ev) => {
+  if (!drag) return;
+  cam.az -= 0.01 * (ev.clientX - drag[0]);
+  cam.el = Math.max(0.05, Math.min(1.5, cam.el + 0.01 * (ev.clientY - drag[1])));
+  drag = [ev.clientX, ev.clientY];
+  showFrame(state.frame);
+});
+view.addEventListener('wheel', (ev) => {
+  ev.preventDefault();
+  cam.dist = Math.max(1.2 * cam.L, Math.min(30 * cam.L, cam.dist * Math.exp(0.001 * ev.deltaY)));
+  showFrame(state.frame);
+}, { passive: false });
 
 function resize() {
   const w = view.clientWidth, h = view.clientHeight;
