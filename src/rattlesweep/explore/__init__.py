@@ -41,7 +41,22 @@ def warm() -> float:
 def serve(host: str = "127.0.0.1", port: int = 8050, *, open_browser: bool = True,
           caps: Caps | None = None, workers: int | None = None) -> None:
     """Warm the kernels, start the server, print its address, open the browser and serve
-    until interrupted (Ctrl-C)."""
+    until interrupted (Ctrl-C); what ``rattlesweep explore`` runs.
+
+    Parameters
+    ----------
+    host : str
+        Address to listen on. The default, 127.0.0.1, serves this machine only; any
+        other prints that anyone who can reach it can use the explorer.
+    port : int
+        Port (0: any free one).
+    open_browser : bool
+        Open the page in the default browser.
+    caps : Caps, optional
+        Limits on the work of one request (default: :class:`Caps`).
+    workers : int, optional
+        Worker threads running the simulations (default: one per usable core).
+    """
     print("rattlesweep explore: warming the kernels (the first time this compiles them: "
           "a minute or two)...", flush=True)
     print(f"kernels ready ({warm():.1f} s)", flush=True)
@@ -75,8 +90,20 @@ class _Frame:
 
 
 def show(height: int = 900, *, port: int = 0, caps: Caps | None = None) -> Any:
-    """Show the explorer inline in a notebook: starts a server on 127.0.0.1 (once per
-    kernel) and returns an object the notebook displays as the page."""
+    """Show the explorer inline in a notebook.
+
+    Starts a server on 127.0.0.1 on a background thread (once per kernel) and returns an
+    object that the notebook displays as the page in an iframe.
+
+    Parameters
+    ----------
+    height : int
+        Height of the frame (pixels).
+    port : int
+        Port of the server (0: any free one); used when the server starts.
+    caps : Caps, optional
+        Limits on the work of one request; used when the server starts.
+    """
     global _NOTEBOOK_SERVER
     if _NOTEBOOK_SERVER is None:
         warm()

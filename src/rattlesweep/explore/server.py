@@ -241,8 +241,23 @@ class Server(ThreadingHTTPServer):
 
 
 def start(host: str = "127.0.0.1", port: int = 0, **kwargs: Any) -> Server:
-    """Start a server on a background thread and return it (``server.url``; stop it with
-    ``server.shutdown(); server.server_close()``)."""
+    """Start the explorer's server on a background thread and return it.
+
+    Parameters
+    ----------
+    host : str
+        Address to listen on (default 127.0.0.1: this machine only).
+    port : int
+        Port (0: any free one).
+    **kwargs
+        ``caps``, ``workers`` and ``verbose`` (log each request) of :class:`Server`.
+
+    Returns
+    -------
+    Server
+        The running server: its address is ``server.url``; stop it with
+        ``server.shutdown(); server.server_close()``.
+    """
     server = Server(host, port, **kwargs)
     threading.Thread(target=server.serve_forever, name="explore-server", daemon=True).start()
     return server
