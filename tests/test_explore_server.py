@@ -296,3 +296,14 @@ def test_a_new_map_supersedes_the_stale_one(server):
     time.sleep(0.3)
     # the stale map stopped: far from its 625 declared launches, and no further work
     assert stale.simulated == simulated < 625 and not stale.done
+
+
+def test_a_loopback_server_refuses_other_host_names(server):
+    port = server.url.rsplit(":", 1)[1].strip("/")
+    req = urllib.request.Request(f"http://127.0.0.1:{port}/api/config",
+                                 headers={"Host": f"attacker.example:{port}"})
+    with pytest.raises(urllib.error.HTTPError) as info:
+        urllib.request.urlopen(req, timeout=30)
+    assert info.value.code == 403
+    with urllib.request.urlopen(f"http://localhost:{port}/api/config", timeout=30) as r:
+        assert json.loads(r.read())["caps"]["max_t_end"] == Caps().max_t_end

@@ -153,8 +153,23 @@ class _Handler(BaseHTTPRequestHandler):
             self._json(HTTPStatus.INTERNAL_SERVER_ERROR,
                        {"error": f"{type(exc).__name__}: {exc}"})
 
+    def _foreign_host(self) -> bool:
+        """On a loopback address, refuse requests naming another host: a web page
+        elsewhere could otherwise reach the server through a name that resolves to
+        127.0.0.1 (DNS rebinding)."""
+        if not self.server.loopback:
+            return False
+        host = self.headers.get("Host", "")
+        name = host.rsplit(":", 1)[0] if not host.startswith("[") else host[1:].split("]")[0]
+        if name in LOCAL_HOSTS:
+            return False
+        self._json(HTTPStatus.FORBIDDEN, {"error": f"host {host!r} is not this machine"})
+        return True
+
     # --- routes ----------------------------------------------------------------------
     def do_GET(self) -> None:
+        if self._foreign_host():
+            return
         url = urlparse(self.path)
         query = {k: v[0] for k, v in parse_qs(url.query).items()}
         app = self.server.app
@@ -178,6 +193,8 @@ class _Handler(BaseHTTPRequestHandler):
         self._json(HTTPStatus.NOT_FOUND, {"error": f"no such page: {url.path}"})
 
     def do_POST(self) -> None:
+        if self._foreign_host():
+            return
         url = urlparse(self.path)
         length = int(self.headers.get("Content-Length", "0") or 0)
         if length > _MAX_BODY:
@@ -232,6 +249,7 @@ class Server(ThreadingHTTPServer):
         self.app = Explorer(caps, workers)
         self.static = _static_files()
         self.verbose = verbose
+        self.loopback = host in LOCAL_HOSTS
         shown = f"[{host}]" if ":" in host else host
         self.url = f"http://{shown}:{self.server_address[1]}/"
 
