@@ -307,3 +307,14 @@ def test_a_loopback_server_refuses_other_host_names(server):
     assert info.value.code == 403
     with urllib.request.urlopen(f"http://localhost:{port}/api/config", timeout=30) as r:
         assert json.loads(r.read())["caps"]["max_t_end"] == Caps().max_t_end
+
+
+def test_a_repeated_launch_is_answered_from_the_cache(server):
+    first = run(server, session="c1", spin=-9.5)
+    completed, hits = server.app.scheduler.completed, server.app.cache_hits
+    again = run(server, session="c2", spin="-9.5")  # the same launch, typed as text
+    assert first == again and again[0] == 200
+    assert server.app.scheduler.completed == completed  # not simulated again
+    assert server.app.cache_hits == hits + 1
+    status, body = call(server, "api/run.nc?session=c2")  # the session has its run
+    assert status == 200 and body[:4] == b"\x89HDF"

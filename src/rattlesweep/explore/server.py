@@ -43,6 +43,7 @@ _TYPES = {".html": "text/html; charset=utf-8", ".js": "text/javascript; charset=
           ".css": "text/css; charset=utf-8", ".txt": "text/plain; charset=utf-8"}
 _MAX_BODY = 1 << 20  # bytes of a request body
 _MAX_SESSIONS = 256  # sessions remembered (their last run and map); the oldest go first
+_CACHED_RUNS = 64  # runs kept for the next request of the same settings (~0.4 MB each)
 
 
 @dataclass
@@ -60,6 +61,9 @@ class Explorer:
         self.scheduler = Scheduler(workers or max(1, len(os.sched_getaffinity(0))))
         self._sessions: OrderedDict[str, Session] = OrderedDict()
         self._lock = threading.Lock()
+        # a class moving sliders in steps asks for the same launches again and again
+        self._runs: OrderedDict[str, tuple[Any, str]] = OrderedDict()
+        self.cache_hits = 0
 
     def session(self, key: str) -> Session:
         with self._lock:
@@ -79,6 +83,16 @@ class Explorer:
         """Check and run the settings for session ``key`` (waits for the scheduler)."""
         spec = run_spec(settings, self.caps)
         session = self.session(key)
+        same = json.dumps([spec.body_args, spec.kwargs], default=float)
+        with self._lock:
+            hit = self._runs.get(same)
+            if hit is not None:
+                self._runs.move_to_end(same)
+                self.cache_hits += 1
+        if hit is not None:
+            self.scheduler.cancel(key, "run")  # the cached answer supersedes stale work
+            session.run = hit[0]
+            return {"_json": hit[1]}
 
         def step() -> tuple[bool, Any]:
             ds, messages = run(spec, self.caps)
@@ -86,6 +100,10 @@ class Explorer:
 
         ds, text = self.scheduler.submit(key, "run", step).future.result()
         session.run = ds
+        with self._lock:
+            self._runs[same] = (ds, text)
+            while len(self._runs) > _CACHED_RUNS:
+                self._runs.popitem(last=False)
         return {"_json": text}
 
     def start_map(self, key: str, settings: dict[str, Any], axes: dict[str, Any]
