@@ -185,9 +185,10 @@ function showFrame(i) {
   placeCamera(p[3 * i], p[3 * i + 1]);
   bodyGroup.quaternion.set(q[4 * i + 1], q[4 * i + 2], q[4 * i + 3], q[4 * i]);
   const w = r.spin[i] || 0;
-  arrow.position.set(p[3 * i], p[3 * i + 1], p[3 * i + 2] + r.body.c * 0.6);
-  arrow.setDirection(new THREE.Vector3(0, 0, w >= 0 ? 1 : -1));
   const len = Math.max(1e-6, Math.abs(w) * state.spinScale);
+  // above the body: up for counter-clockwise spin, down onto it for clockwise
+  arrow.position.set(p[3 * i], p[3 * i + 1], p[3 * i + 2] + r.body.c * 0.8 + (w >= 0 ? 0 : len));
+  arrow.setDirection(new THREE.Vector3(0, 0, w >= 0 ? 1 : -1));
   arrow.setLength(len, 0.3 * Math.min(len, r.body.a), 0.15 * Math.min(len, r.body.a));
   arrow.setColor(w >= 0 ? 0x2266cc : 0xcc2222);
   track.geometry.setDrawRange(0, i + 1);
