@@ -113,20 +113,25 @@ def test_oversize_maps_are_refused_naming_the_cap(server):
     assert status == 413 and "max_map_levels" in json.loads(body)["error"]
 
 
-def test_a_newer_run_supersedes_the_running_one(server):
+def test_a_newer_run_supersedes_the_running_one():
+    # caps roomy enough for a run of a second or so, so that the newer request surely
+    # arrives while it runs
+    roomy = start(workers=1, caps=Caps(max_t_end=600.0, max_steps=10**6))
     answers = {}
-    app = server.app
+    try:
+        def slow():
+            answers["slow"] = run(roomy, session="race", t_end=600.0, spin=-7.0)
 
-    def slow():  # the longest run the caps allow: about 0.1-0.5 s of kernel work
-        answers["slow"] = run(server, session="race", t_end=30.0, spin=-7.0)
-
-    t = threading.Thread(target=slow)
-    t.start()
-    deadline = time.monotonic() + 30
-    while app.scheduler.busy() == 0 and time.monotonic() < deadline:
-        time.sleep(0.001)
-    answers["new"] = run(server, session="race", t_end=1.0, spin=3.0)
-    t.join()
+        t = threading.Thread(target=slow)
+        t.start()
+        deadline = time.monotonic() + 30
+        while roomy.app.scheduler.busy() == 0 and time.monotonic() < deadline:
+            time.sleep(0.001)
+        answers["new"] = run(roomy, session="race", t_end=1.0, spin=3.0)
+        t.join()
+    finally:
+        roomy.shutdown()
+        roomy.server_close()
     assert answers["slow"][0] == 409 and answers["slow"][1]["superseded"]
     assert answers["new"][0] == 200 and answers["new"][1]["spin"][0] == pytest.approx(3.0)
 
