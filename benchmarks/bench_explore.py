@@ -36,7 +36,8 @@ def peak_rss_mib(pid: int) -> float:
     return float("nan")
 
 
-def session(url: str, name: str, seconds: float, settings: dict, out: list, lock) -> None:
+def session(url: str, name: str, seconds: float, settings: dict, out: list,
+            lock: threading.Lock) -> None:
     rng = random.Random(name)
     time.sleep(rng.random())  # its own phase within the second
     start = time.monotonic()
@@ -58,11 +59,15 @@ def session(url: str, name: str, seconds: float, settings: dict, out: list, lock
                     raw = gzip.decompress(raw)
                 data = json.loads(raw)
                 status = r.status
+                timing = dict(part.strip().split(";dur=") for part in
+                              r.headers.get("Server-Timing", "").split(",") if part.strip())
         except urllib.error.HTTPError as e:
-            status, data = e.code, None
+            status, data, timing = e.code, None, {}
         dt = time.perf_counter() - t0
         with lock:
-            out.append((status, dt, len(data["t"]) if data else 0))
+            out.append((status, dt, len(data["t"]) if data else 0,
+                        float(timing.get("queue", "nan")) / 1000,
+                        float(timing.get("compute", "nan")) / 1000))
         time.sleep(max(0.0, due + 1.0 - time.monotonic()))
 
 
@@ -102,9 +107,15 @@ def main() -> None:
     finally:
         proc.terminate()
         proc.wait(30)
-    ok = sorted(dt for status, dt, _ in out if status == 200)
-    other = [status for status, _, _ in out if status != 200]
-    p95 = ok[min(len(ok) - 1, int(0.95 * len(ok)))] if ok else float("nan")
+    def pct(values: list, q: float) -> float:
+        values = sorted(v for v in values if v == v)
+        return values[min(len(values) - 1, int(q * len(values)))] if values else float("nan")
+
+    ok = sorted(row[1] for row in out if row[0] == 200)
+    other = [row[0] for row in out if row[0] != 200]
+    p95 = pct(ok, 0.95)
+    queue = [row[3] for row in out if row[0] == 200]
+    compute = [row[4] for row in out if row[0] == 200]
     print(f"cores: {len(os.sched_getaffinity(0))}; load average before the end: "
           f"{os.getloadavg()[0]:.2f}")
     print(f"{args.sessions} sessions x {seconds:g} s, one change a second, runs of "
@@ -114,6 +125,10 @@ def main() -> None:
     print(f"change -> updated run parsed by the client: median "
           f"{1000 * statistics.median(ok):.0f} ms, 95th percentile {1000 * p95:.0f} ms, "
           f"max {1000 * ok[-1]:.0f} ms")
+    print(f"  of which waiting for a worker: median {1000 * pct(queue, 0.5):.0f} ms, 95th "
+          f"percentile {1000 * pct(queue, 0.95):.0f} ms; simulating and packing: median "
+          f"{1000 * pct(compute, 0.5):.0f} ms, 95th percentile "
+          f"{1000 * pct(compute, 0.95):.0f} ms (the rest: HTTP, threads, the client)")
     print(f"server peak memory (VmHWM): {peak:.0f} MiB")
 
 

@@ -16,6 +16,7 @@ its future raises :class:`Superseded`.
 from __future__ import annotations
 
 import threading
+import time
 from collections import deque
 from concurrent.futures import Future
 from typing import Any, Callable
@@ -37,6 +38,10 @@ class Job:
         self.future: Future[Any] = Future()
         self.superseded = False
         self.pieces = 0
+        # perf_counter times (s): queued, first piece started, last piece finished
+        self.queued = time.perf_counter()
+        self.started: float | None = None
+        self.finished: float | None = None
 
 
 class Scheduler:
@@ -121,6 +126,8 @@ class Scheduler:
             else:
                 del self._waiting[session]
             self._running[(session, kind)] = job
+            if job.started is None:
+                job.started = time.perf_counter()
             return job
 
     def _work(self) -> None:
@@ -134,6 +141,7 @@ class Scheduler:
             except Exception as exc:  # reported to the request waiting on it
                 done, result, error = True, None, exc
             job.pieces += 1
+            job.finished = time.perf_counter()
             with self._cv:
                 del self._running[(job.session, job.kind)]
                 if job.superseded:

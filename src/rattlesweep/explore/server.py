@@ -98,13 +98,16 @@ class Explorer:
             ds, messages = run(spec, self.caps)
             return True, (ds, to_json(payload(spec, ds, messages)))
 
-        ds, text = self.scheduler.submit(key, "run", step).future.result()
+        job = self.scheduler.submit(key, "run", step)
+        ds, text = job.future.result()
         session.run = ds
         with self._lock:
             self._runs[same] = (ds, text)
             while len(self._runs) > _CACHED_RUNS:
                 self._runs.popitem(last=False)
-        return {"_json": text}
+        assert job.started is not None and job.finished is not None
+        return {"_json": text, "_timing": (job.started - job.queued,
+                                           job.finished - job.started)}
 
     def start_map(self, key: str, settings: dict[str, Any], axes: dict[str, Any]
                   ) -> dict[str, Any]:
@@ -156,7 +159,12 @@ class _Handler(BaseHTTPRequestHandler):
 
     def _json(self, status: int, obj: Any) -> None:
         text = obj["_json"] if isinstance(obj, dict) and "_json" in obj else to_json(obj)
-        self._send(status, text.encode(), "application/json")
+        extra = {}
+        if isinstance(obj, dict) and "_timing" in obj:  # seconds waiting and computing
+            wait, compute = obj["_timing"]
+            extra["Server-Timing"] = (f"queue;dur={1000 * wait:.1f}, "
+                                      f"compute;dur={1000 * compute:.1f}")
+        self._send(status, text.encode(), "application/json", extra)
 
     def _error(self, exc: Exception) -> None:
         if isinstance(exc, CapExceeded):
