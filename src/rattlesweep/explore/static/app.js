@@ -413,14 +413,28 @@ function drawMap() {
     `<span><i style="background:${OUTCOME_COLOURS[k]}"></i>${n.replace(/_/g, ' ')}</span>`).join('');
 }
 
-$('map-canvas').addEventListener('click', (ev) => {
+function mapCell(ev) {
   const m = state.map;
-  if (!m) return;
+  if (!m) return null;
   const { c, x0, x1, y0, y1 } = mapFrame(), rect = c.getBoundingClientRect();
   const nx = m.x.values.length, ny = m.y.values.length;
   const i = Math.floor((ev.clientX - rect.left - x0) / ((x1 - x0) / nx));
   const j = Math.floor((y1 - (ev.clientY - rect.top)) / ((y1 - y0) / ny));
-  if (i < 0 || i >= nx || j < 0 || j >= ny) return;
+  return (i < 0 || i >= nx || j < 0 || j >= ny) ? null : [i, j];
+}
+
+$('map-canvas').addEventListener('mousemove', (ev) => {
+  const m = state.map, cell = mapCell(ev);
+  if (!cell) { $('map-canvas').title = ''; return; }
+  const [i, j] = cell, o = m.outcome[j][i];
+  $('map-canvas').title = `${m.x.param} = ${fmt(m.x.values[i], 4)}, ${m.y.param} = `
+    + `${fmt(m.y.values[j], 4)}: ${o < 0 ? 'not computed yet' : m.outcome_names[o].replace(/_/g, ' ')}`;
+});
+
+$('map-canvas').addEventListener('click', (ev) => {
+  const m = state.map, cell = mapCell(ev);
+  if (!cell) return;
+  const [i, j] = cell;
   state.marker = [i, j];
   $(m.x.param).value = String(m.x.values[i]);
   $(m.y.param).value = String(m.y.values[j]);
