@@ -6,8 +6,10 @@ Starts ``rattlesweep explore --no-browser --port 0`` as its own process, then dr
 spin (a new value each time) once a second, at its own phase, for ``--seconds`` (default
 60), and waits for the updated run to arrive and be parsed (``json.loads`` of the whole
 run). Prints the median and 95th percentile of the time from the change to the parsed
-run, the number of changes superseded or refused, the runs per second served and the
-server process's peak resident memory (VmHWM).
+run (and how much of it the run waited for a worker), the number of changes superseded
+or refused, the runs per second served, the server's CPU time per run (what it costs an
+otherwise idle machine, whatever else loads this one) and its peak resident memory
+(VmHWM).
 
     .venv/bin/python benchmarks/bench_explore.py            # 30 sessions x 60 s
     .venv/bin/python benchmarks/bench_explore.py --quick    # 30 sessions x 10 s
@@ -34,6 +36,13 @@ def peak_rss_mib(pid: int) -> float:
             if line.startswith("VmHWM:"):
                 return int(line.split()[1]) / 1024
     return float("nan")
+
+
+def cpu_seconds(pid: int) -> float:
+    """User + system CPU time (s) of a process so far."""
+    with open(f"/proc/{pid}/stat") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def session(url: str, name: str, seconds: float, settings: dict, out: list,
@@ -97,12 +106,14 @@ def main() -> None:
         threads = [threading.Thread(target=session, args=(url, f"s{i}", seconds, settings,
                                                           out, lock))
                    for i in range(args.sessions)]
+        cpu0 = cpu_seconds(proc.pid)
         t0 = time.perf_counter()
         for t in threads:
             t.start()
         for t in threads:
             t.join()
         wall = time.perf_counter() - t0
+        cpu = cpu_seconds(proc.pid) - cpu0
         peak = peak_rss_mib(proc.pid)
     finally:
         proc.terminate()
@@ -129,6 +140,9 @@ def main() -> None:
           f"percentile {1000 * pct(queue, 0.95):.0f} ms; simulating and packing: median "
           f"{1000 * pct(compute, 0.5):.0f} ms, 95th percentile "
           f"{1000 * pct(compute, 0.95):.0f} ms (the rest: HTTP, threads, the client)")
+    print(f"server CPU time: {cpu:.1f} s over {wall:.1f} s ({cpu / wall:.2f} cores busy on "
+          f"average, {1000 * cpu / max(1, len(ok)):.1f} ms per run: the load it puts on "
+          "an otherwise idle machine)")
     print(f"server peak memory (VmHWM): {peak:.0f} MiB")
 
 
