@@ -350,6 +350,13 @@ def _cmd_design(args: argparse.Namespace, argv: list[str] | None) -> int:
     return 0
 
 
+def _cmd_explore(args: argparse.Namespace, argv: list[str] | None) -> int:
+    from .explore import serve
+
+    serve(args.host, args.port, open_browser=not args.no_browser)
+    return 0
+
+
 def _add_launch_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--preset", default="kane_levinson", choices=sorted(PRESETS))
     p.add_argument("--spin", type=float, default=5.0, help="rad/s about the vertical")
@@ -488,6 +495,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--z-stretch", type=float, default=None,
                    help="draw heights this many times larger (default: automatic)")
     p.set_defaults(func=_cmd_animate)
+
+    p = sub.add_parser("explore", help="the rattleback live in the browser: a local web "
+                       "page with controls, a 3-D view, plots and a reversal map")
+    p.add_argument("--port", type=int, default=8050, help="port (default 8050; 0: any free)")
+    p.add_argument("--host", default="127.0.0.1",
+                   help="address to listen on (default 127.0.0.1: this machine only)")
+    p.add_argument("--no-browser", action="store_true", help="do not open a browser")
+    p.set_defaults(func=_cmd_explore)
     return parser
 
 

@@ -1,0 +1,241 @@
+"""The page's settings, as the library's calls: the body, the keyword arguments of
+:func:`rattlesweep.simulate`, the runnable Python of a run, and the :class:`Sweep` of a map.
+
+Settings arrive as a flat mapping of control name to the text typed (or a number): the
+body (``preset``: a preset name or ``"custom"``; ``a``, ``b``, ``c`` (m), ``mass`` (kg),
+``delta_deg``; ``masses``: a list of ``[mass_kg, x_m, y_m, z_m]``), the launch (``spin``
+rad/s, ``roll_deg``, ``pitch_deg``), friction (``mu``, ``mu_static`` (empty: same as
+``mu``), ``mu_spin`` (m), ``mu_roll`` (m), ``damping`` (N m s)) and ``t_end`` (s).
+Every value is checked by the library itself; its ``ValueError`` is what the page shows.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+from ..batch import launch_inputs
+from ..body import PRESETS, Body
+from .caps import Caps
+
+__all__ = ["CONTROLS", "MAP_AXES", "RunSpec", "SettingError", "defaults", "map_sweep",
+           "run_spec"]
+
+CONTROLS = ("preset", "a", "b", "c", "mass", "delta_deg", "masses", "spin", "roll_deg",
+            "pitch_deg", "mu", "mu_static", "mu_spin", "mu_roll", "damping", "t_end")
+"""The page's controls, in the order their messages are matched."""
+
+MAP_AXES = {"spin": "rad/s", "delta_deg": "deg", "mu": "1", "roll_deg": "deg",
+            "pitch_deg": "deg", "mu_spin": "m", "mu_roll": "m", "damping": "N m s",
+            "a": "m", "b": "m", "c": "m", "mass": "kg"}
+"""Inputs a map may vary (sweep parameter names) and their units; each is also a control."""
+
+_BODY_KEYS = ("a", "b", "c", "mass", "delta_deg")
+
+
+class SettingError(ValueError):
+    """A refused setting: the library's message and the control it belongs to (None when
+    it concerns several)."""
+
+    def __init__(self, message: str, control: str | None) -> None:
+        super().__init__(message)
+        self.control = control
+
+
+def defaults() -> dict[str, Any]:
+    """The page's starting settings: the toy rattleback spun against its preferred sense."""
+    toy = Body.preset("toy")
+    return {"preset": "custom", "a": toy.a, "b": toy.b, "c": toy.c, "mass": toy.mass,
+            "delta_deg": 5.0, "masses": [], "spin": -5.0, "roll_deg": 0.5,
+            "pitch_deg": 0.0, "mu": 0.3, "mu_static": "", "mu_spin": 0.0, "mu_roll": 0.0,
+            "damping": 0.0, "t_end": 5.0}
+
+
+def control_of(message: str) -> str | None:
+    """The control a library message is about: the parameter it starts with."""
+    head = message.split(" ", 1)[0].rstrip(":,")
+    aliases = {"roll": "roll_deg", "pitch": "pitch_deg", "roll/pitch/orientation": "roll_deg",
+               "delta": "delta_deg", "com": "masses"}
+    if head.startswith("masses["):
+        return "masses"
+    if head in CONTROLS:
+        return head
+    return aliases.get(head)
+
+
+def _number(name: str, value: Any) -> float:
+    """A control's value as a float; text that is no number is refused as the library
+    refuses it."""
+    if isinstance(value, bool):
+        raise SettingError(f"{name} must be a number, got {value!r}", name)
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise SettingError(f"{name} must be a number, got {value!r}", name) from None
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """A checked run: the body, how it was described, and :func:`simulate`'s keywords."""
+
+    body: Body
+    body_args: dict[str, Any]  # preset name, or semi-ellipsoid arguments and masses
+    kwargs: dict[str, Any]     # simulate() keywords, SI
+    steps: int
+
+
+def _body(s: Mapping[str, Any], caps: Caps) -> tuple[Body, dict[str, Any]]:
+    preset = str(s.get("preset", "custom"))
+    masses = s.get("masses") or []
+    if not isinstance(masses, list):
+        raise SettingError(f"masses must be a list of [mass, x, y, z], got {masses!r}",
+                           "masses")
+    caps.check("number of point masses", len(masses), "max_point_masses")
+    try:
+        if preset != "custom":
+            body = Body.preset(preset)
+            args: dict[str, Any] = {"preset": preset}
+        else:
+            values = {k: _number(k, s.get(k)) for k in _BODY_KEYS}
+            args = {k: values[k] for k in _BODY_KEYS}
+            body = Body.semi_ellipsoid(values["a"], values["b"], values["c"], values["mass"],
+                                       math.radians(values["delta_deg"]))
+        items = []
+        for i, row in enumerate(masses):
+            if not isinstance(row, (list, tuple)) or len(row) != 4:
+                raise SettingError(f"masses[{i}] must be [mass (kg), x, y, z (m)], got "
+                                   f"{row!r}", "masses")
+            m = _number(f"masses[{i}] mass", row[0])
+            pos = [_number(f"masses[{i}] position", v) for v in row[1:]]
+            items.append((m, pos))
+        if items:
+            body = body.with_point_masses(items)
+        args["masses"] = [[m, *p] for m, p in items]
+    except SettingError:
+        raise
+    except ValueError as exc:
+        raise SettingError(str(exc), control_of(str(exc)) or "preset") from None
+    return body, args
+
+
+def _launch(s: Mapping[str, Any]) -> dict[str, Any]:
+    mu_static = s.get("mu_static")
+    kw: dict[str, Any] = {
+        "spin": _number("spin", s.get("spin")),
+        "roll": math.radians(_number("roll_deg", s.get("roll_deg", 0.0))),
+        "pitch": math.radians(_number("pitch_deg", s.get("pitch_deg", 0.0))),
+        "mu": _number("mu", s.get("mu", math.inf)),
+        "mu_static": None if mu_static in (None, "") else _number("mu_static", mu_static),
+        "mu_spin": _number("mu_spin", s.get("mu_spin", 0.0)),
+        "mu_roll": _number("mu_roll", s.get("mu_roll", 0.0)),
+        "damping": _number("damping", s.get("damping", 0.0)),
+        "t_end": _number("t_end", s.get("t_end")),
+    }
+    return kw
+
+
+def run_spec(settings: Mapping[str, Any], caps: Caps) -> RunSpec:
+    """Check the settings of a run, by the library's own rules and the caps, without
+    running it. Raises :class:`SettingError` (the library's message, or the cap's)."""
+    body, args = _body(settings, caps)
+    kw = _launch(settings)
+    try:
+        inputs = launch_inputs(body, **kw)
+    except ValueError as exc:
+        raise SettingError(str(exc), control_of(str(exc))) from None
+    caps.check("t_end", kw["t_end"], "max_t_end", "s")
+    steps = int(inputs.nsteps.max())
+    caps.check("time steps of this run", steps, "max_steps")
+    return RunSpec(body, args, kw, steps)
+
+
+def _fmt(x: float) -> str:
+    if math.isinf(x):
+        return "math.inf" if x > 0 else "-math.inf"
+    return repr(float(x))
+
+
+def python_code(spec: RunSpec) -> str:
+    """A runnable script that makes the same run with :func:`rattlesweep.simulate`."""
+    args = spec.body_args
+    lines = ["import math", "", "import rattlesweep as rs", ""]
+    if "preset" in args:
+        lines.append(f"body = rs.Body.preset({args['preset']!r})")
+    else:
+        lines.append(f"body = rs.Body.semi_ellipsoid(a={_fmt(args['a'])}, b={_fmt(args['b'])}, "
+                     f"c={_fmt(args['c'])}, mass={_fmt(args['mass'])}, "
+                     f"delta=math.radians({_fmt(args['delta_deg'])}))")
+    if args.get("masses"):
+        items = ", ".join(f"({_fmt(m)}, ({_fmt(x)}, {_fmt(y)}, {_fmt(z)}))"
+                          for m, x, y, z in args["masses"])
+        lines.append(f"body = body.with_point_masses([{items}])  # (kg, (x, y, z) m)")
+    kw = spec.kwargs
+    parts = [f"spin={_fmt(kw['spin'])}",
+             f"roll={_fmt(kw['roll'])}", f"pitch={_fmt(kw['pitch'])}", f"mu={_fmt(kw['mu'])}"]
+    if kw["mu_static"] is not None:
+        parts.append(f"mu_static={_fmt(kw['mu_static'])}")
+    for k in ("mu_spin", "mu_roll", "damping"):
+        if kw[k] != 0.0:
+            parts.append(f"{k}={_fmt(kw[k])}")
+    parts.append(f"t_end={_fmt(kw['t_end'])}")
+    lines.append("run = rs.simulate(body, " + ", ".join(parts) + ")")
+    lines.append("print(run.first_reversal_time.item(), run.n_reversals.item())")
+    return "\n".join(lines) + "\n"
+
+
+def map_sweep(settings: Mapping[str, Any], axes: Mapping[str, Any], caps: Caps) -> Any:
+    """The :class:`rattlesweep.Sweep` of a map: two axes (``x`` and ``y``: ``param``,
+    ``start``, ``stop``, ``num``) over the current other settings, refined ``levels``
+    times, each launch stopped at its first reversal. Raises :class:`SettingError`."""
+    from ..sweep import Sweep
+
+    spec = run_spec(settings, caps)  # the settings themselves must make a valid run
+    caps.check("map t_end", spec.kwargs["t_end"], "max_map_t_end", "s")
+    levels = int(_number("levels", axes.get("levels", 0)))
+    caps.check("map levels", levels, "max_map_levels")
+    grid: dict[str, Any] = {}
+    for key in ("x", "y"):
+        ax = axes.get(key) or {}
+        param = str(ax.get("param"))
+        if param not in MAP_AXES:
+            raise SettingError(f"map {key} axis must be one of {sorted(MAP_AXES)}, got "
+                               f"{param!r}", f"map_{key}")
+        num = int(_number(f"map {key} num", ax.get("num")))
+        caps.check(f"map {key} num", num, "max_map_num")
+        grid[param] = {"start": _number(f"map {key} start", ax.get("start")),
+                       "stop": _number(f"map {key} stop", ax.get("stop")), "num": num}
+    if len(grid) != 2:
+        raise SettingError("the map's two axes must be different inputs", "map_y")
+    fixed: dict[str, Any] = {}
+    args = spec.body_args
+    body_on_axis = any(k in grid for k in _BODY_KEYS)
+    if "preset" in args and not args.get("masses"):
+        if body_on_axis:
+            raise SettingError(f"a map over {'/'.join(k for k in grid if k in _BODY_KEYS)} "
+                               "needs the custom (semi-ellipsoid) body, not a preset", "preset")
+        fixed["body"] = args["preset"]
+    elif args.get("masses"):
+        if body_on_axis:
+            raise SettingError("a map over a body parameter needs a body without point "
+                               "masses", "masses")
+        fixed["body"] = spec.body
+    else:
+        fixed.update({k: args[k] for k in _BODY_KEYS if k not in grid})
+    kw = spec.kwargs
+    launch = {"spin": kw["spin"], "roll_deg": math.degrees(kw["roll"]),
+              "pitch_deg": math.degrees(kw["pitch"]), "mu": kw["mu"],
+              "mu_static": kw["mu_static"], "mu_spin": kw["mu_spin"],
+              "mu_roll": kw["mu_roll"], "damping": kw["damping"], "t_end": kw["t_end"]}
+    for k, v in launch.items():
+        if k not in grid and v is not None and not (k == "mu_static" and "mu" in grid):
+            fixed[k] = v
+    try:
+        return Sweep(axes=grid, fixed=fixed, name="rattlesweep explore map",
+                     stop="first_reversal", refine={"levels": levels} if levels else None)
+    except ValueError as exc:
+        raise SettingError(str(exc), None) from None
+
+
+def presets() -> list[str]:
+    return sorted(PRESETS)

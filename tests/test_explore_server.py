@@ -1,0 +1,325 @@
+"""`rattlesweep explore`, server level: a real server on 127.0.0.1 answering real HTTP.
+
+Refused settings carry the library's own message (compared with what the library raises
+for the same value), requests over a cap name the cap, a session's stale work is
+superseded by its newer request, and what the page offers to take away (Python,
+netCDF, sweep TOML) is what it claims to be."""
+
+import json
+import math
+import subprocess
+import sys
+import threading
+import time
+import urllib.error
+import urllib.request
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import rattlesweep as rs
+from rattlesweep.explore import Caps, start, warm
+from rattlesweep.explore.scheduler import Scheduler, Superseded
+from rattlesweep.explore.settings import defaults
+
+
+@pytest.fixture(scope="module")
+def server():
+    warm()
+    srv = start(workers=1)
+    yield srv
+    srv.shutdown()
+    srv.server_close()
+
+
+def call(srv, path, body=None, session="s"):
+    data = None if body is None else json.dumps({"session": session, **body}).encode()
+    req = urllib.request.Request(srv.url + path, data=data,
+                                 headers={"Content-Type": "application/json"})
+    try:
+        with urllib.request.urlopen(req, timeout=60) as r:
+            return r.status, r.read()
+    except urllib.error.HTTPError as e:
+        return e.code, e.read()
+
+
+def run(srv, session="s", **changes):
+    status, body = call(srv, "api/run", {"settings": {**defaults(), **changes}}, session)
+    return status, json.loads(body)
+
+
+def library_message(fn):
+    with pytest.raises(ValueError) as info:
+        fn()
+    return str(info.value)
+
+
+def test_a_run_answers_with_its_series_and_summary(server):
+    status, data = run(server, spin=-5.0)
+    assert status == 200
+    toy = rs.Body.semi_ellipsoid(0.0475, 0.0095, 0.011, defaults()["mass"], math.radians(5))
+    ref = rs.simulate(toy, spin=-5.0, roll=math.radians(0.5), mu=0.3, t_end=5.0)
+    assert data["summary"]["first_reversal_time"] == pytest.approx(
+        float(ref.first_reversal_time), abs=2 * data["summary"]["dt"])
+    assert data["spin"][0] == pytest.approx(-5.0)
+    n = len(data["t"])
+    assert 100 < n <= Caps().max_frames
+    assert len(data["quaternion"]) == 4 * n and len(data["contact"]) == 2 * n
+
+
+@pytest.mark.parametrize("control, value, library", [
+    ("a", -0.01, lambda: rs.Body.semi_ellipsoid(-0.01, 0.0095, 0.011, 0.01)),
+    ("mass", "heavy", lambda: rs.Body.semi_ellipsoid(0.0475, 0.0095, 0.011, "heavy")),
+    ("mu_static", 0.1, lambda: rs.simulate(rs.Body.preset("toy"), mu=0.3, mu_static=0.1,
+                                           t_end=1.0)),
+    ("damping", -1.0, lambda: rs.simulate(rs.Body.preset("toy"), damping=-1.0, t_end=1.0)),
+])
+def test_refused_values_get_the_library_message_by_their_control(server, control, value,
+                                                                 library):
+    status, data = run(server, **{control: value})
+    assert status == 400
+    assert data["control"] == control
+    message = library_message(library)
+    if control == "mass":  # the page's text is refused before it reaches the library
+        assert data["error"] == "mass must be a number, got 'heavy'"
+    else:
+        assert data["error"] == message
+
+
+def test_the_rim_on_the_floor_is_the_library_message_at_the_roll_control(server):
+    status, data = run(server, roll_deg=95.0)
+    message = library_message(lambda: rs.simulate(rs.Body.preset("toy"),
+                                                  roll=math.radians(95.0), t_end=1.0))
+    assert (status, data["control"], data["error"]) == (400, "roll_deg", message)
+
+
+@pytest.mark.parametrize("changes, cap", [
+    ({"t_end": 1000.0}, "max_t_end"),
+    ({"masses": [[0.001, 0.0, 0.0, -0.001]] * 5}, "max_point_masses"),
+])
+def test_oversize_runs_are_refused_naming_the_cap(server, changes, cap):
+    status, data = run(server, **changes)
+    assert status == 413 and cap in data["error"]
+
+
+def test_oversize_maps_are_refused_naming_the_cap(server):
+    axes = {"x": {"param": "spin", "start": -5, "stop": 5, "num": 500},
+            "y": {"param": "delta_deg", "start": -5, "stop": 5, "num": 5}, "levels": 0}
+    status, body = call(server, "api/map", {"settings": defaults(), "map": axes})
+    assert status == 413 and "max_map_num" in json.loads(body)["error"]
+    axes["x"]["num"], axes["levels"] = 5, 9
+    status, body = call(server, "api/map", {"settings": defaults(), "map": axes})
+    assert status == 413 and "max_map_levels" in json.loads(body)["error"]
+
+
+def test_a_newer_run_supersedes_the_running_one():
+    # caps roomy enough for a run of a second or so, so that the newer request surely
+    # arrives while it runs
+    roomy = start(workers=1, caps=Caps(max_t_end=600.0, max_steps=10**6))
+    answers = {}
+    try:
+        def slow():
+            answers["slow"] = run(roomy, session="race", t_end=600.0, spin=-7.0)
+
+        t = threading.Thread(target=slow)
+        t.start()
+        deadline = time.monotonic() + 30
+        while roomy.app.scheduler.busy() == 0 and time.monotonic() < deadline:
+            time.sleep(0.001)
+        answers["new"] = run(roomy, session="race", t_end=1.0, spin=3.0)
+        t.join()
+    finally:
+        roomy.shutdown()
+        roomy.server_close()
+    assert answers["slow"][0] == 409 and answers["slow"][1]["superseded"]
+    assert answers["new"][0] == 200 and answers["new"][1]["spin"][0] == pytest.approx(3.0)
+
+
+def test_waiting_work_is_superseded_and_sessions_take_turns():
+    sched = Scheduler(1)
+    gate = threading.Event()
+    order = []
+
+    def piece(name, pieces=1):
+        left = [pieces]
+
+        def step():
+            gate.wait(10)
+            order.append(name)
+            left[0] -= 1
+            return left[0] == 0, name
+        return step
+
+    try:
+        blocker = sched.submit("other", "map", piece("blocker", 3))
+        time.sleep(0.05)  # the worker holds the blocker's first piece
+        stale = sched.submit("me", "run", piece("stale"))
+        fresh = sched.submit("me", "run", piece("fresh"))
+        with pytest.raises(Superseded):
+            stale.future.result(timeout=5)
+        gate.set()
+        assert fresh.future.result(timeout=10) == "fresh"
+        assert blocker.future.result(timeout=10) == "blocker"
+    finally:
+        sched.close()
+    # the other session's map gave way to this session's run after one piece
+    assert order == ["blocker", "fresh", "blocker", "blocker"]
+
+
+def test_copy_as_python_makes_the_same_run(server):
+    status, data = run(server, spin=-6.0, mu=0.2, damping=1e-7,
+                       masses=[[0.001, 0.02, 0.002, -0.002]])
+    assert status == 200
+    namespace = {}
+    exec(compile(data["python"].replace("print(", "(lambda *a: None)("), "<python>", "exec"),
+         namespace)
+    ref = namespace["run"]
+    assert int(ref.n_reversals) == data["summary"]["n_reversals"]
+    assert float(ref.final_spin) == pytest.approx(data["summary"]["final_spin"], rel=1e-9)
+
+
+def test_the_run_downloads_as_netcdf(server, tmp_path):
+    status, data = run(server, session="nc", spin=-4.0)
+    status, body = call(server, "api/run.nc?session=nc")
+    assert status == 200
+    path = tmp_path / "run.nc"
+    path.write_bytes(body)
+    with xr.open_dataset(path) as ds:
+        assert ds.spin.attrs["units"] == "rad s-1"
+        assert float(ds.spin[0]) == pytest.approx(-4.0)
+        assert float(ds.final_spin) == pytest.approx(data["summary"]["final_spin"])
+
+
+def test_a_map_runs_to_the_end_and_its_toml_is_the_sweep(server):
+    axes = {"x": {"param": "spin", "start": -20, "stop": 20, "num": 5},
+            "y": {"param": "delta_deg", "start": -6, "stop": 6, "num": 3}, "levels": 1}
+    settings = {**defaults(), "mu": "inf", "t_end": 3.0}
+    status, body = call(server, "api/map", {"settings": settings, "map": axes}, "map")
+    assert status == 200
+    deadline = time.monotonic() + 60
+    while True:
+        snap = json.loads(call(server, "api/map?session=map")[1])
+        if snap["done"] or time.monotonic() > deadline:
+            break
+        time.sleep(0.05)
+    assert snap["done"] and snap["progress"] == 1.0
+    outcome = np.array(snap["outcome"])
+    assert outcome.shape == (5, 9)  # rows: delta (3 refined once), columns: spin
+    assert outcome.min() >= 0
+    # the map agrees with the library's own batch run at the declared grid's corners
+    sweep = rs.Sweep.from_toml(snap["toml"])
+    bodies, kwargs = sweep.points_at(np.array([0, sweep.size - 1]))
+    ref = rs.run_batch(bodies, stop="first_reversal", **kwargs)
+    assert (outcome[0, 0] == 1) == (int(ref.n_reversals[0]) >= 1)
+    assert (outcome[-1, -1] == 1) == (int(ref.n_reversals[1]) >= 1)
+    assert snap["unstable"] is not None  # rolling: the stability boundary is drawn
+    status, text = call(server, "api/toml", {"settings": settings, "map": axes}, "map")
+    assert rs.Sweep.from_toml(text.decode()) == sweep
+
+
+def test_the_command_line_serves_and_warns_off_localhost(tmp_path):
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "rattlesweep.cli", "explore", "--no-browser", "--port", "0",
+         "--host", "0.0.0.0"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    lines = []
+    try:
+        for line in proc.stdout:
+            lines.append(line)
+            if "serving at" in line:
+                break
+        url = lines[-1].split("serving at ")[1].split()[0]
+        port = url.rsplit(":", 1)[1].strip("/")
+        with urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=30) as r:
+            assert b"rattlesweep explore" in r.read()
+    finally:
+        proc.terminate()
+        proc.wait(30)
+    text = "".join(lines)
+    assert "warming the kernels" in text
+    assert "anyone who can reach this address" in text
+
+
+def test_a_run_that_capsizes_is_shown_with_its_warning(server):
+    status, data = run(server, spin=20.0, delta_deg=-4.0, mu="inf", t_end=3.0)
+    assert status == 200
+    assert data["summary"]["status"] == "capsized"
+    assert any("capsized" in w for w in data["warnings"])
+    t_stop = max(t for t, s in zip(data["t"], data["spin"]) if s is not None)
+    assert all(b <= t_stop for _, b in data["slips"])
+
+
+def test_the_notebook_shows_the_page_in_a_frame():
+    from rattlesweep import explore
+
+    frame = explore.show(height=700)
+    try:
+        html = frame._repr_html_()
+        assert 'height="700"' in html
+        url = html.split('src="')[1].split('"')[0]
+        assert url.startswith("http://127.0.0.1:")
+        with urllib.request.urlopen(url, timeout=30) as r:
+            assert b"rattlesweep explore" in r.read()
+        assert explore.show().url == url  # one server per kernel
+    finally:
+        explore._NOTEBOOK_SERVER.shutdown()
+        explore._NOTEBOOK_SERVER.server_close()
+        explore._NOTEBOOK_SERVER = None
+
+
+def test_a_classroom_connecting_at_once_is_answered(server):
+    statuses = []
+
+    def one(i):
+        statuses.append(run(server, session=f"pupil{i}", spin=i - 15.0, t_end=0.5)[0])
+
+    threads = [threading.Thread(target=one, args=(i,)) for i in range(30)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert statuses == [200] * 30
+
+
+def test_a_new_map_supersedes_the_stale_one(server):
+    settings = {**defaults(), "mu": "inf", "t_end": 10.0}
+    big = {"x": {"param": "spin", "start": -30, "stop": 30, "num": 25},
+           "y": {"param": "delta_deg", "start": -8, "stop": 8, "num": 25}, "levels": 2}
+    status, _ = call(server, "api/map", {"settings": settings, "map": big}, "maps")
+    assert status == 200
+    stale = server.app.session("maps").map
+    small = {"x": {"param": "spin", "start": -5, "stop": 5, "num": 3},
+             "y": {"param": "roll_deg", "start": 0.5, "stop": 1, "num": 2}, "levels": 0}
+    status, _ = call(server, "api/map", {"settings": {**settings, "t_end": 1.0},
+                                         "map": small}, "maps")
+    assert status == 200
+    deadline = time.monotonic() + 60
+    while not json.loads(call(server, "api/map?session=maps")[1])["done"]:
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    simulated = stale.simulated
+    time.sleep(0.3)
+    # the stale map stopped: far from its 625 declared launches, and no further work
+    assert stale.simulated == simulated < 625 and not stale.done
+
+
+def test_a_loopback_server_refuses_other_host_names(server):
+    port = server.url.rsplit(":", 1)[1].strip("/")
+    req = urllib.request.Request(f"http://127.0.0.1:{port}/api/config",
+                                 headers={"Host": f"attacker.example:{port}"})
+    with pytest.raises(urllib.error.HTTPError) as info:
+        urllib.request.urlopen(req, timeout=30)
+    assert info.value.code == 403
+    with urllib.request.urlopen(f"http://localhost:{port}/api/config", timeout=30) as r:
+        assert json.loads(r.read())["caps"]["max_t_end"] == Caps().max_t_end
+
+
+def test_a_repeated_launch_is_answered_from_the_cache(server):
+    first = run(server, session="c1", spin=-9.5)
+    completed, hits = server.app.scheduler.completed, server.app.cache_hits
+    again = run(server, session="c2", spin="-9.5")  # the same launch, typed as text
+    assert first == again and again[0] == 200
+    assert server.app.scheduler.completed == completed  # not simulated again
+    assert server.app.cache_hits == hits + 1
+    status, body = call(server, "api/run.nc?session=c2")  # the session has its run
+    assert status == 200 and body[:4] == b"\x89HDF"
