@@ -1,6 +1,7 @@
 """The documentation site builds without a warning (``sphinx-build -W``): every
-docstring in the API reference parses, every cross-reference resolves, the notebooks
-render (without being executed) and the README sections the guide includes exist.
+docstring in the API reference parses, every cross-reference resolves, and the notebooks
+render with the outputs stored in them (without being executed: tests/test_notebooks.py
+executes them).
 
 Needs the ``docs`` extra, which CI (.ci/run) installs; skipped without it."""
 
@@ -26,7 +27,8 @@ def test_docs_build_without_warnings(tmp_path):
          "-d", str(tmp_path / "doctrees"), str(DOCS), str(out)],
         capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, result.stdout[-5000:] + result.stderr[-5000:]
-    for page in ("index", "model", "api", "cli", "toml", "gallery", "notebooks",
+    for page in ("index", "tutorial", "model", "api", "cli", "toml", "gallery", "notebooks",
+                 "guide/simulate", "guide/sweeps", "guide/benchmarks",
                  "generated/api/rattlesweep.run_batch",
                  "generated/notebooks/02_rattleback_reversal"):
         assert (out / f"{page}.html").is_file(), page
