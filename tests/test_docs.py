@@ -37,4 +37,9 @@ def test_docs_build_without_warnings(tmp_path):
     cli = (out / "cli.html").read_text()
     assert "rattlesweep sweep" in cli and "--scheduler" in cli
     assert (out / "_images").is_dir() and any((out / "_images").glob("reversal_map*.png"))
+    # the notebooks are shown with their stored outputs: text and pictures
+    for page in sorted((out / "generated/notebooks").glob("0*.html")):
+        html = page.read_text()
+        assert "rattlesweep 0" in html and "size: full" in html, page.name
+        assert "<img" in html, page.name
     shutil.rmtree(tmp_path, ignore_errors=True)
