@@ -28,7 +28,9 @@ def cli_page() -> str:
              "file that is not a rattlesweep result) print a message naming what is wrong "
              "and exit with status 2.", "", "```text", parser.format_help().rstrip(), "```",
              "", "## At a glance", "", "```text"]
-    lines += [p.format_usage().removeprefix("usage: ").rstrip() for p in sub.choices.values()]
+    for p in sub.choices.values():  # each usage without its "usage: " and that indent
+        usage = p.format_usage().removeprefix("usage: ").rstrip().splitlines()
+        lines += [usage[0], *(line.removeprefix(" " * len("usage: ")) for line in usage[1:])]
     lines += ["```", ""]
     for name, p in sub.choices.items():
         lines += [f"## `rattlesweep {name}`", "", "```text", p.format_help().rstrip(), "```",

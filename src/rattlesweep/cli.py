@@ -549,7 +549,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--config", action="store_true", help="also print the sweep TOML")
     p.set_defaults(func=_cmd_info)
 
-    p = sub.add_parser("simulate", help="simulate one launch of a preset body")
+    p = sub.add_parser("simulate", help="simulate one launch: a preset, a homogeneous "
+                       "semi-ellipsoid or a body from a TOML file")
     _add_launch_options(p)
     p.add_argument("--out", default=None, help="netCDF file to write (default: none)")
     p.add_argument("--png", default=None,
