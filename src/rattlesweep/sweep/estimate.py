@@ -3,7 +3,8 @@
 The time comes from a timed calibration: a sample of the grid's own points, spread evenly
 over it, is run through the kernel on one thread exactly as a tile would run them (the
 stop rule included), and the time per point is scaled to the grid and the number of
-workers. The memory comes from sizes known before anything runs: the bytes of the result
+workers; the sweep layer's own cost (starting, writing each tile) is added from figures
+measured on a 2-core machine. The memory comes from sizes known before anything runs: the bytes of the result
 variables per point, and the kernel's working set per launch in flight (about 830 bytes,
 measured by ``benchmarks/bench_kernel.py``), on top of what this process holds now.
 Nothing is written.
@@ -28,6 +29,11 @@ KERNEL_BYTES_PER_LAUNCH = 830
 # the netCDF output merges the tiles into the whole grid, holding the tiles' values and
 # the merged copy at once
 _MERGE_COPIES = 2
+# the sweep layer around the kernel, measured on a 2-core machine with tiny launches: about
+# 0.3 s to start (the tile files' first write, the lock, the merge's setup) and 15 ms per
+# tile (written by this process alone, one after another)
+_START_SECONDS = 0.3
+_TILE_SECONDS = 0.015
 # calibration budget: about this many trajectory-steps, at most _MAX_SAMPLE points
 _SAMPLE_STEPS = 2e7
 _MAX_SAMPLE = 64
@@ -91,7 +97,8 @@ def estimate(sweep: Sweep, workers: int) -> Estimate:
     finest = sweep.finest()
     # the points shared among the workers, but never less than one whole tile (a tile
     # runs on one worker)
-    seconds = per_point * max(n / workers, min(n, sweep.tile_size))
+    seconds = (per_point * max(n / workers, min(n, sweep.tile_size))
+               + _START_SECONDS + _TILE_SECONDS * sweep.n_tiles)
     finest_seconds = per_point * finest.size / workers
     per_result = sum(np.dtype(d).itemsize for d in result_dtypes(sweep).values())
     result_bytes = per_result * finest.size
