@@ -4,7 +4,9 @@ Build (from the repository root, with the ``docs`` extra installed)::
 
     .venv/bin/sphinx-build -W --keep-going -b html docs docs/_build/html
 
-The notebooks are rendered from ``notebooks/`` without executing them; the pages of
+The notebooks are rendered from ``notebooks/`` with the outputs stored in them (a
+full-size run by ``notebooks/store_outputs.py``), without executing them: the build stays
+fast, and the test suite executes every notebook anyway; the pages of
 generated content (API stubs, the command-line help, the table of sweep parameters) are
 written under ``docs/generated/`` at the start of each build.
 """
@@ -51,7 +53,7 @@ numpydoc_class_members_toctree = False
 numpydoc_xref_param_type = False
 
 # --- notebooks --------------------------------------------------------------------------
-nb_execution_mode = "off"  # rendered as committed: the test suite executes them
+nb_execution_mode = "off"  # rendered with their stored outputs: the suite executes them
 myst_enable_extensions = ["dollarmath", "colon_fence"]
 myst_heading_anchors = 3
 suppress_warnings = ["myst.header"]

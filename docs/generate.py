@@ -27,7 +27,11 @@ def cli_page() -> str:
              "prints the same text as below. Errors in the input (a bad configuration, a "
              "file that is not a rattlesweep result) print a message naming what is wrong "
              "and exit with status 2.", "", "```text", parser.format_help().rstrip(), "```",
-             ""]
+             "", "## At a glance", "", "```text"]
+    for p in sub.choices.values():  # each usage without its "usage: " and that indent
+        usage = p.format_usage().removeprefix("usage: ").rstrip().splitlines()
+        lines += [usage[0], *(line.removeprefix(" " * len("usage: ")) for line in usage[1:])]
+    lines += ["```", ""]
     for name, p in sub.choices.items():
         lines += [f"## `rattlesweep {name}`", "", "```text", p.format_help().rstrip(), "```",
                   ""]

@@ -1,6 +1,7 @@
 """The documentation site builds without a warning (``sphinx-build -W``): every
-docstring in the API reference parses, every cross-reference resolves, the notebooks
-render (without being executed) and the README sections the guide includes exist.
+docstring in the API reference parses, every cross-reference resolves, and the notebooks
+render with the outputs stored in them (without being executed: tests/test_notebooks.py
+executes them).
 
 Needs the ``docs`` extra, which CI (.ci/run) installs; skipped without it."""
 
@@ -26,7 +27,8 @@ def test_docs_build_without_warnings(tmp_path):
          "-d", str(tmp_path / "doctrees"), str(DOCS), str(out)],
         capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, result.stdout[-5000:] + result.stderr[-5000:]
-    for page in ("index", "model", "api", "cli", "toml", "gallery", "notebooks",
+    for page in ("index", "tutorial", "model", "api", "cli", "toml", "gallery", "notebooks",
+                 "guide/simulate", "guide/sweeps", "guide/benchmarks",
                  "generated/api/rattlesweep.run_batch",
                  "generated/notebooks/02_rattleback_reversal"):
         assert (out / f"{page}.html").is_file(), page
@@ -35,4 +37,9 @@ def test_docs_build_without_warnings(tmp_path):
     cli = (out / "cli.html").read_text()
     assert "rattlesweep sweep" in cli and "--scheduler" in cli
     assert (out / "_images").is_dir() and any((out / "_images").glob("reversal_map*.png"))
+    # the notebooks are shown with their stored outputs: text and pictures
+    for page in sorted((out / "generated/notebooks").glob("0*.html")):
+        html = page.read_text()
+        assert "rattlesweep 0" in html and "size: full" in html, page.name
+        assert "<img" in html, page.name
     shutil.rmtree(tmp_path, ignore_errors=True)

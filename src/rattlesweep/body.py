@@ -1,4 +1,4 @@
-"""Rigid semi-ellipsoidal bodies (MODEL.md section 2).
+"""Rigid semi-ellipsoidal bodies (docs/model.md).
 
 A :class:`Body` holds the geometry (semi-axes a, b, c in m), the mass (kg), the centre of
 mass G (m, body frame from the centre C of the flat face) and the inertia tensor about G
@@ -294,7 +294,7 @@ class Body:
         rolling contact the tilt inertia is taken about the contact point (I + mℓ²); for
         frictionless contact about G. With I_xy ≠ 0 the two modes couple: the frequencies
         solve det(K − ω² M) = 0 with K = m g diag(b²/c − ℓ, a²/c − ℓ) and M the x–y block
-        of the inertia (MODEL.md section 7). A neutral mode has frequency 0.
+        of the inertia (docs/model.md). A neutral mode has frequency 0.
         """
         g = positive("g", g)
         ell = self.com_height
@@ -317,7 +317,7 @@ class Body:
 
     def default_dt(self, g: float = 9.81) -> float:
         """Default time step (s): 1/64 of the shortest small-oscillation period over the
-        rolling and frictionless limits (MODEL.md section 5). A body with no restoring
+        rolling and frictionless limits (docs/model.md). A body with no restoring
         stiffness (a sphere with G at its centre) uses the period 2π√(c/g) instead."""
         return _default_dt(self, positive("g", g))
 

@@ -12,6 +12,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ._version import __version__
 from .body import PRESETS, Body
 
 if TYPE_CHECKING:
@@ -93,7 +94,26 @@ def _cmd_sweep(args: argparse.Namespace, argv: list[str] | None) -> int:
             args.refine > 0) else None
     if changes:
         sweep = Sweep(**{**sweep.to_dict(), **changes})
+    if args.dry_run:
+        return _dry_run(sweep, args)
+    if args.out is None:
+        raise ValueError("--out is required to run a sweep (only --dry-run goes without)")
     return _run(sweep, args.out, args, argv)
+
+
+def _dry_run(sweep: Sweep, args: argparse.Namespace) -> int:
+    from .sweep.estimate import estimate, format_estimate
+    from .sweep.run import _cores
+
+    _sweep_args(args)  # the same checks of the options as a run
+    if args.scheduler:
+        workers, where = 1, (f"one worker of the cluster at {args.scheduler} (divide by "
+                             "its number of single-threaded workers)")
+    else:
+        workers = args.workers or _cores()
+        where = f"{workers} local thread{'s' if workers > 1 else ''}"
+    print(format_estimate(sweep, estimate(sweep, workers), where))
+    return 0
 
 
 def _cmd_resume(args: argparse.Namespace, argv: list[str] | None) -> int:
@@ -289,12 +309,42 @@ def _cmd_info(args: argparse.Namespace, argv: list[str] | None) -> int:
     return 2 if failed else 0
 
 
+_SHAPE = ("a", "b", "c", "mass", "delta_deg")
+
+
+def _body_from_args(args: argparse.Namespace) -> Body:
+    """The preset, the body of ``--body FILE``, or a homogeneous semi-ellipsoid whose
+    parameters not given are the ``toy`` preset's (as in a sweep file)."""
+    shape = {k: getattr(args, k) for k in _SHAPE if getattr(args, k) is not None}
+    given = [o for o, used in (("--preset", args.preset is not None),
+                               ("--body", args.body is not None),
+                               ("--a/--b/--c/--mass/--delta-deg", bool(shape))) if used]
+    if len(given) > 1:
+        raise ValueError(f"{' and '.join(given)} each choose the body; give one of them")
+    if args.body is not None:
+        from .sweep.body_file import body_from_toml
+
+        return body_from_toml(args.body)
+    if shape:
+        from .sweep.grid import semi_ellipsoid_defaults
+
+        si = {**semi_ellipsoid_defaults(),
+              **{k: v for k, v in shape.items() if k != "delta_deg"}}
+        if "delta_deg" in shape:
+            si["delta"] = math.radians(shape["delta_deg"])
+        return Body.semi_ellipsoid(si["a"], si["b"], si["c"], si["mass"], si["delta"])
+    return Body.preset(args.preset or "kane_levinson")
+
+
 def _simulate_from_args(args: argparse.Namespace) -> xr.Dataset:
     from .simulate import simulate
 
-    return simulate(Body.preset(args.preset), spin=args.spin,
+    return simulate(_body_from_args(args), spin=args.spin,
                     roll=math.radians(args.roll_deg), pitch=math.radians(args.pitch_deg),
-                    mu=args.mu, damping=args.damping, t_end=args.t_end, dt=args.dt)
+                    yaw=math.radians(args.yaw_deg), velocity=args.velocity,
+                    mu=args.mu, mu_static=args.mu_static, mu_spin=args.mu_spin,
+                    mu_roll=args.mu_roll, damping=args.damping, g=args.g,
+                    t_end=args.t_end, dt=args.dt, method=args.method)
 
 
 def _cmd_simulate(args: argparse.Namespace, argv: list[str] | None) -> int:
@@ -308,7 +358,8 @@ def _cmd_simulate(args: argparse.Namespace, argv: list[str] | None) -> int:
         from .plot import spin_history
 
         spin_history([ds], [f"spin {args.spin:+g} rad/s"],
-                     title=f"{args.preset}, mu={args.mu:g}").savefig(args.png, dpi=120)
+                     title=f"{ds.attrs.get('body_name', 'body')}, mu={args.mu:g}").savefig(
+            args.png, dpi=120)
         print(f"wrote {args.png}")
     t_rev = float(ds.first_reversal_time)
     print(f"first reversal: {'none' if t_rev != t_rev else f'{t_rev:.4f} s'}; "
@@ -358,33 +409,100 @@ def _cmd_explore(args: argparse.Namespace, argv: list[str] | None) -> int:
 
 
 def _add_launch_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--preset", default="kane_levinson", choices=sorted(PRESETS))
-    p.add_argument("--spin", type=float, default=5.0, help="rad/s about the vertical")
-    p.add_argument("--roll-deg", type=float, default=0.5, help="initial roll (degrees)")
-    p.add_argument("--pitch-deg", type=float, default=0.0, help="initial pitch (degrees)")
-    p.add_argument("--mu", type=float, default=math.inf, help="friction (inf: rolling)")
-    p.add_argument("--damping", type=float, default=0.0, help="viscous torque (N m s)")
-    p.add_argument("--t-end", type=float, default=10.0, help="end time (s)")
-    p.add_argument("--dt", type=float, default=None, help="time step (s)")
+    body = p.add_argument_group("body (one of: a preset, a TOML file, a semi-ellipsoid; "
+                                "default: the kane_levinson preset)")
+    body.add_argument("--preset", default=None, choices=sorted(PRESETS),
+                      help="a preset body (default: kane_levinson, unless --body or a "
+                      "semi-ellipsoid option is given)")
+    body.add_argument("--body", default=None, metavar="FILE.toml",
+                      help="the body of the file's [body] table: a, b, c, mass, com, "
+                      "inertia[, full_ellipsoid, name] in SI units, as in a sweep file "
+                      "(a sweep file's fixed.body works too); default: none")
+    for name, what in (("a", "long semi-axis (m)"), ("b", "short semi-axis (m)"),
+                       ("c", "depth semi-axis (m)"), ("mass", "mass (kg)")):
+        body.add_argument(f"--{name}", type=float, default=None,
+                          help=f"homogeneous semi-ellipsoid: {what} (default: the toy "
+                          "preset's)")
+    body.add_argument("--delta-deg", type=float, default=None,
+                      help="homogeneous semi-ellipsoid: misalignment of the inertia axes "
+                      "(degrees; default: the toy preset's)")
+    launch = p.add_argument_group("launch")
+    launch.add_argument("--spin", type=float, default=5.0,
+                        help="rad/s about the vertical, positive counter-clockwise from above")
+    launch.add_argument("--roll-deg", type=float, default=0.5,
+                        help="initial roll (degrees; raises the body's +y side)")
+    launch.add_argument("--pitch-deg", type=float, default=0.0,
+                        help="initial pitch (degrees; lowers the body's +x end)")
+    launch.add_argument("--yaw-deg", type=float, default=0.0,
+                        help="initial heading (degrees about the vertical)")
+    launch.add_argument("--velocity", type=float, nargs=2, default=None,
+                        metavar=("VX", "VY"), help="horizontal velocity of G (m/s), a "
+                        "sliding launch (default: the velocity at which the contact rolls)")
+    friction = p.add_argument_group("friction and numerics")
+    friction.add_argument("--mu", type=float, default=math.inf,
+                          help="kinetic Coulomb friction (inf: pure rolling)")
+    friction.add_argument("--mu-static", type=float, default=None,
+                          help="static friction, >= mu (default: mu)")
+    friction.add_argument("--mu-spin", type=float, default=0.0,
+                          help="spin friction: bound of the couple about the normal per "
+                          "unit normal force (m)")
+    friction.add_argument("--mu-roll", type=float, default=0.0,
+                          help="rolling resistance: bound of the rolling couple per unit "
+                          "normal force (m)")
+    friction.add_argument("--damping", type=float, default=0.0,
+                          help="viscous torque coefficient (N m s)")
+    friction.add_argument("--g", type=float, default=9.81, help="gravity (m/s2)")
+    friction.add_argument("--t-end", type=float, default=10.0, help="end time (s)")
+    friction.add_argument("--dt", type=float, default=None,
+                          help="time step (s; default: 1/64 of the body's shortest "
+                          "small-oscillation period)")
+    friction.add_argument("--method", choices=["rk4", "euler"], default="rk4",
+                          help="integrator: RK4, or first-order semi-implicit Euler")
 
 
 def _add_run_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                   help="address of a running dask.distributed scheduler (default: local "
-                   "threads)")
+                   help="address of a running dask.distributed scheduler (default: none, "
+                   "local threads)")
     p.add_argument("--workers", type=int, default=None, metavar="N",
                    help="local threads (default: all usable cores)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
+class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Adds each option's default to its help, unless the help says it already; flags
+    (default off) and options without a default say what leaving them out means."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        if ("default" in text or not action.option_strings or action.required
+                or action.default is None or action.default is False
+                or action.default is argparse.SUPPRESS):
+            return text
+        return f"{text} (default: %(default)s)" if text else "default: %(default)s"
+
+
+class _Parser(argparse.ArgumentParser):
+    """Every parser and subcommand parser shows the defaults in its --help."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("formatter_class", _HelpFormatter)
+        super().__init__(*args, **kwargs)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="rattlesweep", description=__doc__)
+    parser = _Parser(prog="rattlesweep", description=__doc__)
+    parser.add_argument("--version", action="version", version=f"rattlesweep {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("sweep", help="run a sweep from a TOML file into a directory")
     p.add_argument("config", help="sweep configuration (TOML)")
-    p.add_argument("--out", required=True,
-                   help="output: a directory (netCDF) or a zarr store (a path or URL)")
+    p.add_argument("--out", default=None,
+                   help="output: a directory (netCDF) or a zarr store (a path or URL); "
+                   "required unless --dry-run (default: none)")
+    p.add_argument("--dry-run", action="store_true",
+                   help="compute and write nothing: print the points, tiles, and the time "
+                   "and memory expected (timed on a sample of the grid's launches)")
     p.add_argument("--output", choices=["netcdf", "zarr"], default=None,
                    help="output format (default: the configuration's 'output', netcdf)")
     p.add_argument("--refine", type=int, default=None, metavar="LEVELS",
@@ -423,18 +541,23 @@ def build_parser() -> argparse.ArgumentParser:
                    help="variable (default: outcome, or growth_rate for stability files)")
     p.add_argument("--x", default=None, help="dimension across (default: the first)")
     p.add_argument("--y", default=None, help="dimension up (default: the second)")
-    p.add_argument("--facet", default=None, help="dimension to draw one panel per value")
+    p.add_argument("--facet", default=None, help="dimension to draw one panel per value (default: none, "
+                   "one panel)")
     p.add_argument("--select", action="append", metavar="DIM=VALUE",
-                   help="fix another dimension (nearest value); repeatable")
+                   help="fix another dimension (nearest value); repeatable (default: "
+                   "the first value of each dimension not drawn)")
     p.add_argument("--reduce", choices=["mean"], default=None,
-                   help="average a continuous variable over the remaining dimensions")
+                   help="average a continuous variable over the remaining dimensions "
+                   "(default: none, select instead)")
     p.add_argument("--overlay", default=None, metavar="SWEEP.nc",
-                   help="draw this sweep's simulated reversal boundary on the map")
+                   help="draw this sweep's simulated reversal boundary on the map "
+                   "(default: none)")
     p.add_argument("--versus", default=None, metavar="SWEEP.nc",
                    help="instead of a map: first reversal time in SWEEP.nc against the "
-                   "stability file's 1/growth rate (coloured by --facet)")
+                   "stability file's 1/growth rate (coloured by --facet; default: a map)")
     p.add_argument("--out", default=None, help="PNG path (default: next to the file)")
-    p.add_argument("--dpi", type=int, default=120)
+    p.add_argument("--dpi", type=int, default=120,
+                   help="resolution of the PNG (dots per inch)")
     p.set_defaults(func=_cmd_plot)
 
     p = sub.add_parser("stability", help="linear stability of steady spin over a "
@@ -457,9 +580,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--coin", default=None, help="coin or washer preset (default eur_1): "
                    "eur_1, eur_2, eur_0.50, usd_0.25, usd_0.05, usd_0.01, gbp_0.02, "
                    "gbp_0.10, washer_M8, washer_M10, washer_M12")
-    p.add_argument("--coin-mass", type=float, default=None, help="coin mass (kg)")
-    p.add_argument("--coin-diameter", type=float, default=None, help="coin diameter (m)")
-    p.add_argument("--coin-thickness", type=float, default=None, help="coin thickness (m)")
+    p.add_argument("--coin-mass", type=float, default=None,
+                   help="coin mass (kg; default: the --coin preset's)")
+    p.add_argument("--coin-diameter", type=float, default=None,
+                   help="coin diameter (m; default: the --coin preset's)")
+    p.add_argument("--coin-thickness", type=float, default=None,
+                   help="coin thickness (m; default: the --coin preset's)")
     p.add_argument("--coins", type=int, default=2, help="number of coins (2)")
     p.add_argument("--infill", type=float, default=0.2, help="infill fraction in (0, 1]")
     p.add_argument("--material", default="pla", help="pla, petg or abs")
@@ -477,21 +603,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="output directory")
     p.set_defaults(func=_cmd_design)
 
-    p = sub.add_parser("simulate", help="simulate one launch of a preset body")
+    p = sub.add_parser("simulate", help="simulate one launch: a preset, a homogeneous "
+                       "semi-ellipsoid or a body from a TOML file")
     _add_launch_options(p)
-    p.add_argument("--out", default=None, help="netCDF file to write")
-    p.add_argument("--png", default=None, help="PNG of spin against time to write")
+    p.add_argument("--out", default=None, help="netCDF file to write (default: none)")
+    p.add_argument("--png", default=None,
+                   help="PNG of spin against time to write (default: none)")
     p.set_defaults(func=_cmd_simulate)
 
     p = sub.add_parser("animate", help="3-D animation (GIF, or MP4 with ffmpeg) of one "
                        "launch, simulated from the options or read with --run")
     _add_launch_options(p)
     p.add_argument("--run", default=None, metavar="FILE.nc",
-                   help="animate this saved simulate result instead of simulating")
+                   help="animate this saved simulate result instead of simulating "
+                   "(default: simulate from the options)")
     p.add_argument("--out", required=True, help="animation file (.gif or .mp4)")
     p.add_argument("--frames", type=int, default=100, help="number of frames")
     p.add_argument("--fps", type=float, default=20.0, help="frames per second")
-    p.add_argument("--dpi", type=int, default=80)
+    p.add_argument("--dpi", type=int, default=80,
+                   help="resolution of the frames (dots per inch)")
     p.add_argument("--z-stretch", type=float, default=None,
                    help="draw heights this many times larger (default: automatic)")
     p.set_defaults(func=_cmd_animate)

@@ -3,7 +3,7 @@ recorded :func:`rattlesweep.simulate` run (the picture behind the spin bias).
 
 Everything is computed from the run's own series (quaternion, position, friction force,
 ω) and its attributes (geometry, centre of mass, inertia), with the closed-form contact
-point of MODEL.md section 3, so it needs no body object and works on a run read back
+point of docs/model.md, so it needs no body object and works on a run read back
 from netCDF.
 """
 

@@ -1,4 +1,4 @@
-"""Linear stability of steady upright spin (MODEL.md section 7).
+"""Linear stability of steady upright spin (docs/model.md).
 
 Spinning upright at rate n about the vertical is a relative equilibrium when G lies on the
 body z axis and z is a principal axis of inertia (I_xz = I_yz = 0). Linearising the
@@ -311,7 +311,7 @@ def stability_dataset(sweep: Sweep | str | Path, *, command: str | None = None
         config, f"rattlesweep linear stability of steady spin: {sweep.name}", command))
     ds.attrs.update({
         "Conventions": "CF-1.8",
-        "model": "rolling contact linearised about steady upright spin (MODEL.md section 7)",
+        "model": "rolling contact linearised about steady upright spin",
         "references": "S. Jones and H. E. M. Hunt, Am. J. Phys. 87, 699 (2019)",
     })
     return ds

@@ -1,4 +1,4 @@
-"""The planar rocking semi-ellipse of MODEL.md section 8, on the rattlesweep engine.
+"""The planar rocking semi-ellipse of docs/model.md, on the rattlesweep engine.
 
 A half-ellipse lamina (semi-axes a along the flat edge, b normal to it) rocks by the angle
 θ on a line, with Coulomb friction that sticks or slips under the same switching rules as

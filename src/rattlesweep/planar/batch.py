@@ -110,7 +110,7 @@ def planar_run_attrs(method: str, record_every: int | None) -> dict[str, Any]:
     """Global attributes of a planar result."""
     attrs = results.run_attrs(method, record_every, None)
     attrs["title"] = TITLE
-    attrs["model"] = "MODEL.md section 8: rocking half-ellipse lamina"
+    attrs["model"] = "rocking half-ellipse lamina"
     return attrs
 
 

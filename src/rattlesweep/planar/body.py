@@ -1,4 +1,4 @@
-"""The rocking semi-ellipse lamina (MODEL.md section 8).
+"""The rocking semi-ellipse lamina (docs/model.md).
 
 Body frame: origin C at the centre of the flat edge, x along the edge (semi-axis a), y up
 (semi-axis b); the curved edge is x²/a² + y²/b² = 1 with y ≤ 0. The centre of mass G is on
@@ -168,7 +168,7 @@ class PlanarBody:
 
     def default_dt(self, g: float = 9.81) -> float:
         """Default time step (s): 1/64 of the shorter small-rocking period (the frictionless
-        one, its inertia being the smaller; MODEL.md section 5).
+        one, its inertia being the smaller; docs/model.md).
 
         A (nearly) neutral body rocks slowly at small amplitude but not at large, so the
         period is capped at 2π√(b/g), the time scale of motion over the body's own depth

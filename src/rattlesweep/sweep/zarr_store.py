@@ -20,11 +20,12 @@ zarr is an optional dependency (``pip install 'rattlesweep[zarr]'``), imported h
 
 from __future__ import annotations
 
+import contextlib
 import os
 import warnings
 from pathlib import Path
 from types import ModuleType
-from typing import TYPE_CHECKING, Any, Mapping
+from typing import TYPE_CHECKING, Any, Iterator, Mapping
 
 import numpy as np
 import xarray as xr
@@ -53,6 +54,19 @@ def _zarr() -> ModuleType:
         raise ValueError("a zarr output needs the zarr package: pip install "
                          "'rattlesweep[zarr]'") from None
     return zarr
+
+
+@contextlib.contextmanager
+def _quiet() -> Iterator[None]:
+    """Silence zarr's warning that fixed-length unicode (the body-name coordinates) has no
+    zarr format 3 specification yet: xarray reads such stores back, and the warning,
+    raised on zarr's own I/O thread at every write and read of the metadata, told a user
+    nothing they could act on. The filter list is process-wide, so it also covers that
+    thread while this one waits for it."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=r"The data type \(FixedLengthUTF32",
+                                category=FutureWarning)
+        yield
 
 
 def _is_local(location: str) -> bool:
@@ -96,7 +110,7 @@ def _group(location: str, options: Mapping[str, Any] | None, mode: str = "r") ->
 def _consolidate(location: str, options: Mapping[str, Any] | None) -> None:
     # consolidated metadata lets open_zarr read the layout in one request; zarr warns
     # that format 3 does not standardise it yet, which does not matter to xarray
-    with warnings.catch_warnings():
+    with _quiet(), warnings.catch_warnings():
         warnings.filterwarnings("ignore", message="Consolidated metadata",
                                 category=UserWarning)
         _zarr().consolidate_metadata(_store(location, options))
@@ -218,8 +232,9 @@ class ZarrStore:
             encoding[name] = {"chunks": chunks, "fill_value": _fill(dtype, name)}
         template = xr.Dataset(data, coords=grid_coords(sweep),
                               attrs=result_attrs(sweep, self.command))
-        template.to_zarr(_store(self.location, self.options), mode="w", compute=False,
-                         encoding=encoding, consolidated=False, zarr_format=3)
+        with _quiet():
+            template.to_zarr(_store(self.location, self.options), mode="w", compute=False,
+                             encoding=encoding, consolidated=False, zarr_format=3)
         _group(self.location, self.options, "r+").create_array(DONE_ARRAY, shape=(sweep.n_tiles,), dtype="uint8",
                            chunks=(min(sweep.n_tiles, _DONE_CHUNK),), fill_value=0)
         _consolidate(self.location, self.options)
@@ -251,7 +266,8 @@ class ZarrStore:
 def open_result(location: str, storage_options: Mapping[str, Any] | None = None
                 ) -> xr.Dataset:
     """A sweep's zarr store as a lazy dataset (``xarray.open_zarr``)."""
-    return xr.open_zarr(_store(location, storage_options))
+    with _quiet():
+        return xr.open_zarr(_store(location, storage_options))
 
 
 def export_netcdf(location: str, out: str | os.PathLike,

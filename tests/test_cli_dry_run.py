@@ -1,0 +1,83 @@
+"""``rattlesweep sweep --dry-run`` says what a sweep will cost without computing or
+writing it, and a zarr sweep runs without zarr's own warnings. Tiny sweeps."""
+
+import warnings
+
+import pytest
+
+from rattlesweep import Sweep
+from rattlesweep.cli import main
+from rattlesweep.sweep.estimate import estimate
+
+CONFIG = """\
+name = "dry"
+repeats = 2
+seed = 3
+[axes]
+spin = { start = -6, stop = 6, num = 5 }
+body = ["toy", "kane_levinson"]
+[fixed]
+t_end = 0.2
+mu = 0.3
+[random]
+pitch_deg = { uniform = [-0.3, 0.3] }
+"""
+
+
+def test_dry_run_prints_points_tiles_time_and_memory_and_writes_nothing(tmp_path, capsys):
+    config = tmp_path / "dry.toml"
+    config.write_text(CONFIG.replace('name = "dry"', 'name = "dry"\ntile_size = 8'))
+    out = tmp_path / "never"
+    assert main(["sweep", str(config), "--out", str(out), "--dry-run", "--workers", "2"]) == 0
+    text = capsys.readouterr().out
+    assert not out.exists()
+    assert "dry: dry run, nothing computed or written" in text
+    assert "spin (5), body (2), repeat (2)" in text
+    assert "points: 20 in 3 tiles of at most 8" in text
+    assert "on 2 local threads" in text and "memory: about" in text
+    assert "calibration: 20 of its launches took" in text
+
+
+def test_dry_run_of_a_refined_sweep_names_the_finest_grid(tmp_path, capsys):
+    config = tmp_path / "refined.toml"
+    config.write_text(CONFIG + '[refine]\nlevels = 2\n')
+    assert main(["sweep", str(config), "--dry-run"]) == 0
+    text = capsys.readouterr().out
+    assert "refined 2 levels to: spin (17), body (2), repeat (2) = 68 points" in text
+    assert "for the declared grid" in text
+
+
+def test_a_sweep_without_out_or_dry_run_is_refused(tmp_path, capsys):
+    config = tmp_path / "dry.toml"
+    config.write_text(CONFIG)
+    assert main(["sweep", str(config)]) == 2
+    assert "--out is required" in capsys.readouterr().err
+
+
+def test_estimate_adds_up():
+    sweep = Sweep.from_toml(CONFIG)
+    e = estimate(sweep, workers=2)
+    assert (e.points, e.tiles, e.finest_points, e.workers) == (20, sweep.n_tiles, 20, 2)
+    assert e.sample == 20 and e.sample_seconds > 0
+    # one tile holds every point, so two workers cannot share them; the sweep layer's
+    # start and the one tile's writing come on top
+    assert e.seconds == pytest.approx(e.sample_seconds + 0.3 + 0.015)
+    assert e.peak_bytes == e.process_bytes + e.in_flight_bytes + e.held_bytes
+    assert e.held_bytes == 2 * e.result_bytes > 0  # a netCDF output merges the grid
+    zarr = estimate(Sweep(**{**sweep.to_dict(), "output": "zarr"}), workers=2)
+    assert zarr.held_bytes == 0  # a zarr store is written tile by tile
+
+
+def test_zarr_output_is_quiet(tmp_path, capsys):
+    pytest.importorskip("zarr")
+    config = tmp_path / "z.toml"
+    config.write_text(CONFIG)  # the body axis makes a fixed-length string coordinate
+    store = tmp_path / "z.zarr"
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert main(["sweep", str(config), "--out", str(store), "--output", "zarr",
+                     "--quiet"]) == 0
+        assert main(["info", str(store)]) == 0
+        assert main(["export", str(store), str(tmp_path / "z.nc")]) == 0
+    assert [str(w.message) for w in caught] == []
+    assert "Warning" not in capsys.readouterr().err
