@@ -137,5 +137,10 @@ def test_a_first_reversal_under_way_at_the_end_counts():
 
 
 def test_a_launch_without_spin_counts_none():
-    run = rs.simulate(TOY, spin=0.0, pitch=math.radians(3.0), t_end=2.0)
+    """Pitched 3 degrees without spin, the toy's rattling turns it by more than a turn:
+    no reversal by definition, and its recorded heading still unwraps exactly."""
+    run = rs.simulate(TOY, spin=0.0, pitch=math.radians(3.0), t_end=8.0, record_every=1)
     assert int(run.n_reversals) == 0 and math.isnan(float(run.first_reversal_time))
+    psi = heading_from_quaternions(run.quaternion.values)
+    assert np.ptp(psi) > 2.0 * math.pi
+    np.testing.assert_allclose(run.heading.values, psi, atol=1e-9)

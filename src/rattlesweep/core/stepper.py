@@ -39,14 +39,14 @@ import numpy as np
 from numba import prange
 
 from . import models
-from .jit import allocating_kernel, kernel, parallel_kernel
+from .jit import allocating_kernel, inline_kernel, kernel, parallel_kernel
 from .events import LOCATE_ROWS, locate_where_located, located, switch_marked
 from .stages import set_step_fractions
 from .switching import (
     LOCATED_STOP_HORIZON, STOP_HORIZON, any_slipping, flag_switches, note_slip, pass_step,
 )
 from .workspace import (
-    at, BEYOND, COS2_HEADING_BAND, K_HEAD_EXT_X, K_HEAD_EXT_Y, K_HEAD_PREV_X, K_HEAD_PREV_Y,
+    at, BEYOND, COS2_HEADING_BAND, K_HEAD_EXT_X, K_HEAD_EXT_Y,
     K_HEAD_SENSE, K_HEAD_TURNS, K_PENDING, TURNED_BACK, BLOCK, COUPLES, MU_ROLL, MU_SPIN, S_ROLL, S_ROLL_SENSE, S_SPIN, S_SPIN_SENSE, CAPSIZED, CROSSED, DT, ENDS_AS_IS, EPS_U, H_HALF_DT, H_SIXTH_DT,
     K_BAND, K_FIRST_REV, K_MARK_END, K_MARK_REVERSAL, K_N_REV, K_OPEN, K_RUN, K_SIDE,
     K_SLIP_STEPS, K_SPIN_PREV, K_STOP, K_T_CAND, K_T_CROSS, K_WATCH_LOW, K_WIN0, K_WIN_CNT,
@@ -186,30 +186,24 @@ def observe(W, model, step):
         crossed = (side * spin_prev > 0.0) & (side * spin <= 0.0)
         beyond = side * spin < -W[at(OFF_K, K_BAND, j)]
         W[at(OFF_K, K_SPIN_PREV, j)] = spin
-        # a first reversal the heading has not confirmed yet stays pending while the
-        # spin stays on the other side (the heading's sense is the launch spin's until
-        # the heading reverses, which ends the pending)
-        W[at(OFF_K, K_PENDING, j)] *= 1.0 if W[at(OFF_K, K_HEAD_SENSE, j)] * spin < 0.0 else 0.0
-        # the heading: whole turns across the cut of atan2 at +-pi (the half-line
-        # X < 0, Y = 0), counted so that the record can unwrap it exactly
+        # the heading's reversals: the furthest direction in the present sense follows
+        # the heading while it turns that way; a turn back by more than HEADING_BAND from
+        # there is a reversal (angles from cross and dot products: no trigonometry per
+        # step). The furthest direction stays within the band of the heading, so its
+        # whole turns across the cut of atan2 (the half-line X < 0, Y = 0) unwrap both.
         hx, hy = models.heading(W, model, j)
-        px = W[at(OFF_K, K_HEAD_PREV_X, j)]
-        py = W[at(OFF_K, K_HEAD_PREV_Y, j)]
-        cut = (hx < 0.0) & (px < 0.0)
-        W[at(OFF_K, K_HEAD_TURNS, j)] += (1.0 if cut & (py >= 0.0) & (hy < 0.0) else 0.0) - (
-            1.0 if cut & (py < 0.0) & (hy >= 0.0) else 0.0)
-        W[at(OFF_K, K_HEAD_PREV_X, j)] = hx
-        W[at(OFF_K, K_HEAD_PREV_Y, j)] = hy
-        # its reversals: the furthest direction in the present sense follows the heading
-        # while it turns that way; a turn back by more than HEADING_BAND from there is a
-        # reversal (angles from cross and dot products: no trigonometry per step)
         ex = W[at(OFF_K, K_HEAD_EXT_X, j)]
         ey = W[at(OFF_K, K_HEAD_EXT_Y, j)]
-        turn = W[at(OFF_K, K_HEAD_SENSE, j)] * (ex * hy - ey * hx)
+        sense = W[at(OFF_K, K_HEAD_SENSE, j)]
+        turn = sense * (ex * hy - ey * hx)
         dot = ex * hx + ey * hy
-        ahead = (turn > 0.0) & (dot > 0.0)
-        W[at(OFF_K, K_HEAD_EXT_X, j)] = hx if ahead else ex
-        W[at(OFF_K, K_HEAD_EXT_Y, j)] = hy if ahead else ey
+        # (without a sense, for a launch without spin, it follows the heading throughout)
+        ahead = ((turn > 0.0) & (dot > 0.0)) | (sense == 0.0)
+        nx = hx if ahead else ex
+        ny = hy if ahead else ey
+        W[at(OFF_K, K_HEAD_EXT_X, j)] = nx
+        W[at(OFF_K, K_HEAD_EXT_Y, j)] = ny
+        W[at(OFF_K, K_HEAD_TURNS, j)] += cut_turns(ex, ey, nx, ny)
         back = (turn < 0.0) & ((dot <= 0.0) | (
             dot * dot < COS2_HEADING_BAND * (ex * ex + ey * ey) * (hx * hx + hy * hy)))
         W[at(OFF_K, K_MARK_REVERSAL, j)] = (
@@ -220,19 +214,32 @@ def observe(W, model, step):
     return n
 
 
+@inline_kernel
+def cut_turns(ox, oy, nx, ny):
+    """+1 when a direction moving from (ox, oy) to (nx, ny) (a small turn) crosses the
+    cut of atan2 at +-pi counter-clockwise, -1 clockwise, else 0 (a direction with
+    Y = -0.0 counts as above the cut, as ``atan2(y + 0.0, x)`` puts it)."""
+    cut = (nx < 0.0) & (ox < 0.0)
+    return (1.0 if cut & (oy >= 0.0) & (ny < 0.0) else 0.0) - (
+        1.0 if cut & (oy < 0.0) & (ny >= 0.0) else 0.0)
+
+
 @kernel
-def note_reversals(W, step):
+def note_reversals(W, model, step):
     """Act on the marks :func:`observe` left in the step that reached step ``step``:
     the spin's first reversal time, and the heading's reversals, counted, each of which
     turns the sense the heading is followed in. A lane whose stop rule is
     STOP_AT_REVERSAL ends at the step where it has both a first reversal time and a
     heading reversal (whichever came second): its last step becomes ``step``. Returns
-    how many lanes it so ended."""
+    how many lanes it so ended. A first reversal the heading has not confirmed stays
+    pending until the spin crosses back to its launch side."""
+    numba.literally(model)
     n = 0
     for j in range(BLOCK):
         mark = int(W[at(OFF_K, K_MARK_REVERSAL, j)])
         if mark & CROSSED:
             W[at(OFF_K, K_T_CROSS, j)] = W[at(OFF_K, K_T_CAND, j)]
+            W[at(OFF_K, K_PENDING, j)] = 0.0
         if mark & BEYOND:
             if math.isnan(W[at(OFF_K, K_FIRST_REV, j)]):
                 W[at(OFF_K, K_FIRST_REV, j)] = W[at(OFF_K, K_T_CROSS, j)]
@@ -242,8 +249,11 @@ def note_reversals(W, step):
             W[at(OFF_K, K_N_REV, j)] += 1.0
             W[at(OFF_K, K_PENDING, j)] = 0.0
             W[at(OFF_K, K_HEAD_SENSE, j)] = -W[at(OFF_K, K_HEAD_SENSE, j)]
-            W[at(OFF_K, K_HEAD_EXT_X, j)] = W[at(OFF_K, K_HEAD_PREV_X, j)]
-            W[at(OFF_K, K_HEAD_EXT_Y, j)] = W[at(OFF_K, K_HEAD_PREV_Y, j)]
+            hx, hy = models.heading(W, model, j)
+            W[at(OFF_K, K_HEAD_TURNS, j)] += cut_turns(
+                W[at(OFF_K, K_HEAD_EXT_X, j)], W[at(OFF_K, K_HEAD_EXT_Y, j)], hx, hy)
+            W[at(OFF_K, K_HEAD_EXT_X, j)] = hx
+            W[at(OFF_K, K_HEAD_EXT_Y, j)] = hy
         if (mark != 0 and W[at(OFF_P, STOP_RULE, j)] == STOP_AT_REVERSAL
                 and W[at(OFF_K, K_RUN, j)] > 0.5 and W[at(OFF_K, K_STOP, j)] > step
                 and W[at(OFF_K, K_N_REV, j)] > 0.0
@@ -408,8 +418,6 @@ def advance_block(model, P, Y, nsteps, method, record_every, band, O, REC):
         W[at(OFF_K, K_SIDE, j)] = 1.0 if n0 > 0.0 else (-1.0 if n0 < 0.0 else 0.0)
         # the heading is followed from the launch in the sense of the launch spin
         hx, hy = models.heading(W, model, j)
-        W[at(OFF_K, K_HEAD_PREV_X, j)] = hx
-        W[at(OFF_K, K_HEAD_PREV_Y, j)] = hy
         W[at(OFF_K, K_HEAD_EXT_X, j)] = hx
         W[at(OFF_K, K_HEAD_EXT_Y, j)] = hy
         W[at(OFF_K, K_HEAD_SENSE, j)] = W[at(OFF_K, K_SIDE, j)]
@@ -443,7 +451,7 @@ def advance_block(model, P, Y, nsteps, method, record_every, band, O, REC):
                     evaluate_state(W, model, level, True)
             slipping = COUPLES if couples else (1 if any_slipping(W) else 0)
         if step > 0 and observe(W, model, step - 1) > 0:
-            if note_reversals(W, step) > 0:
+            if note_reversals(W, model, step) > 0:
                 stop = next_stop(W)
         ending = step >= stop
         if ending:

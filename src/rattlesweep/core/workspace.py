@@ -181,16 +181,15 @@ BOOK = Rows(
     Row("mark_end", "1", "how the run ends at this step: ENDS_AS_IS or a status code"),
     Row("mark_reversal", "1", "the sum of CROSSED, BEYOND and TURNED_BACK for what "
         "happened in this step"),
-    Row("heading_previous", "1", "the long axis' horizontal projection after the "
-        "previous step (world; not normalised)", 2, "horizontal"),
-    Row("heading_turns", "1", "signed whole turns of the heading across its branch cut "
-        "at +-pi"),
+    Row("heading_turns", "1", "signed whole turns of heading_extreme's direction across "
+        "the cut of atan2 at +-pi"),
     Row("heading_extreme", "1", "the long axis' horizontal projection where the heading "
-        "turned furthest in its present sense (not normalised)", 2, "horizontal"),
+        "turned furthest in its present sense (world; not normalised; within "
+        "HEADING_BAND of the present heading)", 2, "horizontal"),
     Row("heading_sense", "1", "present sense of turning of the heading (+1, -1; 0: no "
         "reversal tracking)"),
     Row("reversal_pending", "1", "1 from the first reversal time on, while the heading "
-        "has not reversed and the spin has stayed on the other side since"),
+        "has not reversed and the spin has not crossed back to its launch side"),
 )
 K_RUN = BOOK.start("running")
 K_OPEN = BOOK.start("open")
@@ -210,8 +209,6 @@ K_SLIP_STEPS = BOOK.start("slip_steps")
 K_MARK_SWITCH = BOOK.start("mark_switch")
 K_MARK_END = BOOK.start("mark_end")
 K_MARK_REVERSAL = BOOK.start("mark_reversal")
-K_HEAD_PREV_X = BOOK.start("heading_previous")
-K_HEAD_PREV_Y = K_HEAD_PREV_X + 1
 K_HEAD_TURNS = BOOK.start("heading_turns")
 K_HEAD_EXT_X = BOOK.start("heading_extreme")
 K_HEAD_EXT_Y = K_HEAD_EXT_X + 1

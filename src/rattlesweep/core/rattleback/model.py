@@ -12,7 +12,7 @@ import math
 
 from ..jit import inline_kernel, kernel
 from ..workspace import (
-    BLOCK, DT, K_HEAD_TURNS, K_WATCH_LOW, MU_ROLL, OFF_K, OFF_P, OFF_S, OFF_X, S_JX, S_JY, S_MODE, S_ROLL,
+    BLOCK, DT, K_HEAD_EXT_X, K_HEAD_EXT_Y, K_HEAD_TURNS, K_WATCH_LOW, MU_ROLL, OFF_K, OFF_P, OFF_S, OFF_X, S_JX, S_JY, S_MODE, S_ROLL,
     X_FX, X_FY, X_N, X_UX, X_UY, at,
 )
 from .geometry import (
@@ -237,10 +237,14 @@ def record(W, j, out):
     out[R_VELOCITY + 1] = W[at(OFF_Y, VEL_Y, j)]
     out[R_VELOCITY + 2] = vz
     out[R_SPIN] = spin_and_watch(W, j)[0]
+    # the heading, unwrapped: that of the furthest direction the stepper follows (within
+    # HEADING_BAND of it, its whole turns counted), plus the angle from there; + 0.0
+    # turns a -0.0 into +0.0, on the side of the cut that the stepper counts it on
     hx, hy = heading(W, j)
-    # + 0.0 turns a -0.0 into +0.0, on the side of the cut that observe counts it on
-    out[R_HEADING] = (math.atan2(hy + 0.0, hx)
-                      + 2.0 * math.pi * W[at(OFF_K, K_HEAD_TURNS, j)])
+    ex = W[at(OFF_K, K_HEAD_EXT_X, j)]
+    ey = W[at(OFF_K, K_HEAD_EXT_Y, j)]
+    out[R_HEADING] = (math.atan2(ey + 0.0, ex) + 2.0 * math.pi * W[at(OFF_K, K_HEAD_TURNS, j)]
+                      + math.atan2(ex * hy - ey * hx, ex * hx + ey * hy))
     n0, n1, n2 = up_vector(W, OFF_Y, j)
     # atan2 keeps full precision at tiny tilts, where 1 - cos(tilt) underflows float64
     out[R_TILT] = math.atan2(math.sqrt(n0 * n0 + n1 * n1), n2)
