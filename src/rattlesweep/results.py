@@ -108,7 +108,8 @@ def run_dataset(prep: Prepared, raw: Raw, record_every: int, attrs_for: AttrsFor
     every input as an attribute (units in ``<name>_units``) and the configuration as
     JSON in ``config``. A status other than ok raises a RuntimeWarning."""
     assert raw.records is not None  # a single run always records
-    data = series_dataset(prep.model, raw.records[0], ("time",))
+    # a copy: raw.records[0] is a view into the record of the whole block (BLOCK lanes)
+    data = series_dataset(prep.model, raw.records[0].copy(), ("time",))
     data.update(observables_dataset(prep.model, raw.observables, None))
     ds = xr.Dataset(data, coords={
         "time": ("time", _sample_times(prep, raw.records, record_every),
