@@ -222,3 +222,21 @@ def test_stale_kernels_are_dropped_where_numba_caches_them(tmp_path, monkeypatch
     (package / "model" / "hooks.py").write_text("y = 2\n")
     assert drop_stale_cache(package) and not any(k.exists() for k in kernels)
     assert sorted(p.name for p in package.rglob("*")) == ["hooks.py", "model", "stepper.py"]
+
+
+def test_kernels_compiled_says_whether_a_first_call_compiles(tmp_path):
+    """Here the kernels are cached (a run just used the serial entry); in a process whose
+    numba cache is an empty directory they are not."""
+    import os
+    import subprocess
+    import sys
+
+    from rattlesweep.engine import kernels_compiled
+
+    rs.simulate(rs.Body.preset("toy"), spin=5.0, t_end=0.01)
+    assert kernels_compiled(parallel=False)
+    probe = ("from rattlesweep.engine import kernels_compiled; "
+             "print(kernels_compiled(False), kernels_compiled(True))")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         env={**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}, check=True)
+    assert out.stdout.split() == ["False", "False"]

@@ -22,6 +22,7 @@ import numpy as np
 from numba import types
 
 from .core import stepper
+from .core.jit import on_disk
 from .core.rows import Rows
 from .core.workspace import BLOCK, METHODS, OBSERVABLES, STOP_RULES
 from .validation import as_float_array, fail_where
@@ -35,7 +36,7 @@ __all__ = [
     "as_bodies", "blocked", "broadcast_inputs", "check_band", "check_common", "check_method",
     "check_record_every", "check_record_size", "check_single_step", "check_stop",
     "contact_slip_velocity",
-    "default_dts", "execute", "numba_threads", "pack", "physical_memory", "prepared",
+    "default_dts", "execute", "kernels_compiled", "numba_threads", "pack", "physical_memory", "prepared",
     "run_kernel", "steps_for", "unblock", "warn_coarse_dt",
 ]
 
@@ -394,6 +395,13 @@ def check_record_size(prep: Prepared, n_rec: int, record_every: int) -> None:
             f"{BLOCK}), more than this machine's {have / 2**30:.3g} GiB: t_end / (dt * "
             f"record_every) = {t_end:g} / ({dt:g} * {record_every}) samples each; record "
             f"less often (a larger record_every), or a shorter t_end")
+
+
+def kernels_compiled(parallel: bool = True) -> bool:
+    """True when the machine code of the kernel entry that :func:`execute` calls
+    (``parallel`` or serial) is in numba's on-disk cache: a first call in this process
+    then loads it in about a second; otherwise it compiles, for about a minute."""
+    return on_disk(stepper.integrate_parallel if parallel else stepper.integrate_serial)
 
 
 def execute(prep: Prepared, *, method: int, record_every: int | None, band: float = 0.0,

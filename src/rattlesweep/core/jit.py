@@ -53,7 +53,7 @@ from numba.core.caching import FunctionCache
 
 __all__ = [
     "FASTMATH", "JIT_OPTIONS", "OVERLOAD_OPTIONS", "allocating_kernel", "drop_stale_cache",
-    "inline_kernel", "kernel", "parallel_kernel",
+    "inline_kernel", "kernel", "on_disk", "parallel_kernel",
 ]
 
 FASTMATH = {"nsz"}  # see the module docstring for what is left out, and why
@@ -130,6 +130,14 @@ def drop_stale_cache(root: Path = Path(__file__).parent) -> bool:
     except OSError:
         return False
     return True
+
+
+def on_disk(dispatcher: Any) -> bool:
+    """True when numba's on-disk cache holds machine code of the cached kernel
+    ``dispatcher`` (for some signature), so that its first call in a process loads it
+    rather than compiling it, which takes about a minute for the stepper: callers use it
+    to say so before a first call."""
+    return Path(dispatcher._cache._cache_file._index_path).is_file()
 
 
 drop_stale_cache()
