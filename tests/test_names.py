@@ -133,3 +133,18 @@ def test_unstack_gives_the_broadcast_shape_in_one_call():
         rs.unstack(same, ["x"])
     with pytest.raises(ValueError, match="batch_shape"):
         rs.unstack(batch.drop_attrs())
+
+
+def test_the_reading_results_page_runs_as_written():
+    import pathlib
+    import re
+
+    page = pathlib.Path(__file__).parents[1] / "docs" / "guide" / "results.md"
+    if not page.is_file():
+        pytest.skip("the docs are not next to the tests")
+    blocks = re.findall(r"```python\n(.*?)```", page.read_text(), re.S)
+    assert len(blocks) == 4
+    scope: dict = {}
+    exec(compile("\n".join(blocks), str(page), "exec"), scope)
+    assert scope["grid"].first_reversal_time.dims == ("launch_spin", "mu")
+    assert list(scope["named"].status.values) == ["ok"] * 4

@@ -212,10 +212,10 @@ def test_stability_dataset_on_a_sweep_grid_and_cli(tmp_path, capsys):
     ax = fig.axes[0]
     assert ax.get_xlabel().endswith("[s]") and ax.get_ylabel().endswith("[s]")
     legend = reversal_vs_growth(ds, sim, color_by="delta_deg")  # 5 values: a legend
-    assert all(t.get_text().endswith("degree") for t in legend.axes[0].get_legend().get_texts())
+    assert all(t.get_text().endswith("°") for t in legend.axes[0].get_legend().get_texts())
     bar = reversal_vs_growth(ds, sim, color_by="launch_spin")  # 9 values: a colour bar
     assert bar.axes[0].get_legend() is None
-    assert bar.axes[1].get_ylabel() == "initial spin about the vertical [rad s-1]"
+    assert bar.axes[1].get_ylabel() == "initial spin about the vertical [rad/s]"
     # faster growth, earlier reversal: the two times are positively correlated
     both = xr_points(ds, sim)
     assert np.corrcoef(np.log(both[0]), np.log(both[1]))[0, 1] > 0.5

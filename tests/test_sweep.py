@@ -332,9 +332,9 @@ def test_reversal_map_categorical_continuous_and_facets(tmp_path):
     fig = reversal_map(ds, "launch_spin", "delta_deg", facet="mu", select={"repeat": 0})
     axes = [ax for ax in fig.axes if ax.get_visible()]
     assert len(axes) == 2
-    assert axes[0].get_xlabel() == "initial spin about the vertical [rad s-1]"
-    assert axes[0].get_ylabel().endswith("[degree]")
-    assert axes[1].get_title() == "mu = inf"
+    assert axes[0].get_xlabel() == "initial spin about the vertical [rad/s]"
+    assert axes[0].get_ylabel().endswith("[°]")
+    assert axes[1].get_title() == "μ = ∞ (rolling)"
     legend = {t.get_text() for t in fig.legends[0].get_texts()}
     present = {OUTCOME_NAMES[k].replace("_", " ") for k in np.unique(ds.outcome)}
     assert legend == present
