@@ -48,8 +48,11 @@ def test_bad_input_is_refused_with_a_clear_message(kl, kwargs, message):
 
 def test_tilt_past_the_rim_is_refused():
     toy = rs.Body.preset("toy")
-    with pytest.raises(ValueError, match="rim of the semi-ellipsoid"):
+    with pytest.raises(ValueError, match="rim of the semi-ellipsoid"), \
+            pytest.warns(rs.UnitsWarning, match="roll_deg"):
         rs.simulate(toy, roll=math.radians(95), t_end=1.0)
+    with pytest.raises(ValueError, match="rim of the semi-ellipsoid"):
+        rs.simulate(toy, roll_deg=95, t_end=1.0)
     # a full ellipsoid has no rim
     ds = rs.simulate(rs.Body.preset("kane_levinson"), roll=math.radians(95), t_end=0.01)
     assert int(ds.status) == 0
@@ -251,3 +254,60 @@ def test_the_default_step_follows_strong_damping():
     assert float(rs.run_batch(kl, damping=1e-4, t_end=0.1).dt[0]) == kl.default_dt()
     with pytest.warns(CoarseStepWarning, match="follows its damping"):
         rs.run_batch(body, roll=0.03, damping=damping, dt=body.default_dt(), t_end=0.01)
+
+
+def test_angles_in_degrees_are_the_radian_launches_and_keep_their_values(kl):
+    toy = rs.Body.preset("toy")
+    deg = np.array([0.5, 1.0, 3.0])
+    a = rs.run_batch(toy, spin=[[2.0], [-3.0]], roll_deg=deg, pitch_deg=1.5, yaw_deg=30.0,
+                     t_end=0.2)
+    b = rs.run_batch(toy, spin=[[2.0], [-3.0]], roll=np.radians(deg),
+                     pitch=math.radians(1.5), yaw=math.radians(30.0), t_end=0.2)
+    for name in ("final_spin", "max_tilt", "energy_initial", "status"):
+        np.testing.assert_array_equal(a[name].values, b[name].values, err_msg=name)
+    # the user's degrees exactly, not degrees -> radians -> degrees
+    np.testing.assert_array_equal(a.roll_deg.values, np.tile(deg, 2))
+    assert np.all(a.yaw_deg.values == 30.0)
+    np.testing.assert_allclose(b.roll_deg.values, np.tile(deg, 2), rtol=1e-14)
+    for name in ("roll_deg", "pitch_deg", "yaw_deg"):
+        assert a[name].attrs["units"] == "degree" and name not in ("roll", "pitch", "yaw")
+    assert "roll" not in a.variables
+    run = rs.simulate(toy, spin=2.0, pitch_deg=2.0, t_end=0.05)
+    assert run.attrs["pitch_deg"] == 2.0 and run.attrs["pitch_deg_units"] == "degree"
+    assert run.attrs["roll_deg"] == 0.0
+    # delta_deg where a body is made
+    assert rs.Body.semi_ellipsoid(0.1, 0.02, 0.01, 0.02, delta_deg=5.0) == \
+        rs.Body.semi_ellipsoid(0.1, 0.02, 0.01, 0.02, math.radians(5.0))
+
+
+@pytest.mark.parametrize("call", ["run_batch", "simulate"])
+def test_both_forms_of_one_angle_are_refused_naming_both(call):
+    toy = rs.Body.preset("toy")
+    for rad, deg in (("roll", "roll_deg"), ("pitch", "pitch_deg"), ("yaw", "yaw_deg")):
+        with pytest.raises(ValueError, match=rf"either {rad} \(rad\) or {deg}.*"
+                           rf"{rad}=0\.1 and {deg}=5"):
+            getattr(rs, call)(toy, spin=1.0, t_end=0.01, **{rad: 0.1, deg: 5})
+    with pytest.raises(ValueError, match=r"either delta \(rad\) or delta_deg"):
+        rs.Body.semi_ellipsoid(0.1, 0.02, 0.01, 0.02, 0.1, delta_deg=5.0)
+    with pytest.raises(ValueError, match=r"delta_deg must be a finite number \(degrees\)"):
+        rs.Body.semi_ellipsoid(0.1, 0.02, 0.01, 0.02, delta_deg=math.nan)
+
+
+def test_degrees_typed_as_radians_draw_a_units_warning(kl):
+    toy = rs.Body.preset("toy")
+    with pytest.warns(rs.UnitsWarning, match=r"roll = 30 rad \(1719 degrees\).*"
+                      r"roll_deg=30") as record:
+        rs.run_batch(toy, spin=1.0, roll=[0.01, 30.0], t_end=0.01)
+    assert record[0].filename == __file__  # at the caller's line
+    assert issubclass(rs.UnitsWarning, UserWarning)
+    with pytest.warns(rs.UnitsWarning, match="pitch_deg=-2"), \
+            pytest.raises(ValueError, match="rim"):
+        rs.simulate(toy, spin=1.0, pitch=-2.0, t_end=0.01)
+    # a full ellipsoid may lie on its side (up to 180 degrees) without a warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", rs.UnitsWarning)
+        rs.run_batch(toy, spin=1.0, roll=[0.3, -1.5], pitch=0.2, yaw=30.0, t_end=0.01)
+        rs.simulate(kl, spin=1.0, roll=2.5, t_end=0.01)
+        rs.simulate(toy, spin=1.0, roll_deg=30.0, t_end=0.01)
+    with pytest.warns(rs.UnitsWarning, match="roll = 4 rad"):
+        rs.run_batch(kl, spin=1.0, roll=4.0, t_end=0.01)

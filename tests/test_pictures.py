@@ -91,7 +91,7 @@ def test_time_series_panels_have_units_and_shade_slipping(slipping_run):
     fig = time_series(slipping_run)
     axes = fig.axes
     assert len(axes) == 6
-    for ax, units in zip(axes, ["[rad s-1]", "[rad]", "[rad]", "[J]", "[m s-1]", "[N]"]):
+    for ax, units in zip(axes, ["[rad/s]", "[rad]", "[rad]", "[J]", "[m/s]", "[N]"]):
         assert units in ax.get_ylabel().replace("\n", " ")
         assert any(isinstance(a, PolyCollection) for a in ax.collections)  # shading
     assert axes[-1].get_xlabel() == "time [s]"
@@ -116,7 +116,7 @@ def test_time_series_of_the_planar_model():
     fig = time_series(run)
     labels = [ax.get_ylabel().replace("\n", " ") for ax in fig.axes]
     assert len(labels) == 5
-    assert "[rad]" in labels[0] and "[rad s-1]" in labels[1] and "[N]" in labels[4]
+    assert "[rad]" in labels[0] and "[rad/s]" in labels[1] and "[N]" in labels[4]
 
 
 def test_contact_path_panels(kl, slipping_run):

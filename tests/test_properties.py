@@ -384,10 +384,11 @@ def test_broadcasting(data, shapes):
     n = int(np.prod(shape))
     assert ds.sizes["trajectory"] == n
     assert ds.attrs["batch_shape"] == list(shape)
-    launch_names = {"spin": "launch_spin"}
+    launch_names = {"spin": "launch_spin", "roll": "roll_deg", "pitch": "pitch_deg"}
     for name, values in kw.items():
+        given = np.degrees(values) if name in ("roll", "pitch") else values
         np.testing.assert_array_equal(ds[launch_names.get(name, name)].values,
-                                      np.broadcast_to(values, shape).ravel())
+                                      np.broadcast_to(given, shape).ravel())
     flat_bodies = np.broadcast_to(bodies, shape).ravel()
     np.testing.assert_array_equal(ds.body_name.values, [b.name for b in flat_bodies])
     check_trajectories(ds, rerun_batch(functools.partial(rs.run_batch, body_arg), ds, kw))

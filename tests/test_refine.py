@@ -206,7 +206,7 @@ def small_runs(tmp_path_factory):
 
 def test_refined_result_is_the_full_map_where_simulated(small_runs):
     s, _, refined, full = small_runs
-    assert refined.sizes == {"spin": 33, "delta_deg": 17}
+    assert refined.sizes == {"launch_spin": 33, "delta_deg": 17}
     xr.align(refined, full, join="exact")  # the same coordinates
     sim = refined.computed.values == 1
     assert refined.attrs["points_simulated"] == sim.sum()
@@ -233,7 +233,7 @@ def test_refined_sweep_with_random_draws_has_them_at_every_point(tmp_path):
     s = small_sweep(refine={"levels": 2})
     ds = run_sweep(s, tmp_path, progress=False)
     fine = s.finest()
-    assert ds.sizes == {"spin": 13, "delta_deg": 2, "mu": 2, "repeat": 2}
+    assert ds.sizes == {"launch_spin": 13, "delta_deg": 2, "mu": 2, "repeat": 2}
     assert 0 < ds.attrs["points_simulated"] < fine.size
     (rp,) = fine.random_params
     np.testing.assert_array_equal(ds.roll_deg.values.ravel(),
@@ -277,7 +277,7 @@ def test_cli_refine_stop_info_plot(tmp_path, capsys):
     assert stored.refine["levels"] == 1 and stored.stop == "first_reversal"
     assert main(["info", str(out)]) == 0
     info = capsys.readouterr().out
-    assert "spin (17), delta_deg (9)" in info and "simulated:" in info
+    assert "launch_spin (17), delta_deg (9)" in info and "simulated:" in info
     png = tmp_path / "map.png"
     assert main(["plot", str(out / "sweep.nc"), "--out", str(png)]) == 0
     assert png.stat().st_size > 5_000

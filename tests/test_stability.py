@@ -189,12 +189,12 @@ def test_stability_dataset_on_a_sweep_grid_and_cli(tmp_path, capsys):
         "[fixed]\nt_end = 3.0\nroll_deg = 0.5\n")
     sweep = Sweep.from_toml(toml)
     ds = st.stability_dataset(sweep)
-    assert ds.growth_rate.dims == ("spin", "delta_deg")
+    assert ds.growth_rate.dims == ("launch_spin", "delta_deg")
     assert ds.delta_deg.attrs["units"] == "degree" and ds.growth_rate.attrs["units"] == "s-1"
     # one point against a direct evaluation
     body = rs.Body.semi_ellipsoid(TOY.a, TOY.b, TOY.c, TOY.mass, math.radians(-3.0))
     direct = st.eigen(body, 15.0)
-    point = ds.sel(spin=15.0, delta_deg=-3.0)
+    point = ds.sel(launch_spin=15.0, delta_deg=-3.0)
     assert float(point.growth_rate) == pytest.approx(float(direct["growth_rate"]), rel=1e-12)
     assert int(point["mode"]) == int(direct["mode"])
     assert np.all(ds.sel(delta_deg=0.0).growth_rate == pytest.approx(0.0, abs=1e-9))
@@ -204,7 +204,7 @@ def test_stability_dataset_on_a_sweep_grid_and_cli(tmp_path, capsys):
 
     # maps with the simulated boundary, predicted vs simulated, and the CLI
     sim = run_sweep(sweep, tmp_path / "sim", progress=False)
-    fig = stability_map(ds, "spin", "delta_deg", overlay=sim)
+    fig = stability_map(ds, "launch_spin", "delta_deg", overlay=sim)
     labels = {t.get_text() for t in fig.legends[0].get_texts()}
     assert "simulated reversal boundary" in labels
     assert any(ax.collections and len(ax.collections) > 1 for ax in fig.axes)
@@ -212,10 +212,10 @@ def test_stability_dataset_on_a_sweep_grid_and_cli(tmp_path, capsys):
     ax = fig.axes[0]
     assert ax.get_xlabel().endswith("[s]") and ax.get_ylabel().endswith("[s]")
     legend = reversal_vs_growth(ds, sim, color_by="delta_deg")  # 5 values: a legend
-    assert all(t.get_text().endswith("degree") for t in legend.axes[0].get_legend().get_texts())
-    bar = reversal_vs_growth(ds, sim, color_by="spin")  # 9 values: a colour bar
+    assert all(t.get_text().endswith("°") for t in legend.axes[0].get_legend().get_texts())
+    bar = reversal_vs_growth(ds, sim, color_by="launch_spin")  # 9 values: a colour bar
     assert bar.axes[0].get_legend() is None
-    assert bar.axes[1].get_ylabel() == "initial spin about the vertical [rad s-1]"
+    assert bar.axes[1].get_ylabel() == "initial spin about the vertical [rad/s]"
     # faster growth, earlier reversal: the two times are positively correlated
     both = xr_points(ds, sim)
     assert np.corrcoef(np.log(both[0]), np.log(both[1]))[0, 1] > 0.5

@@ -20,7 +20,7 @@ BAND = 0.05
 LAUNCHES = dict(spin=np.concatenate([np.linspace(-24, 24, 9), [-2, -1, 1, 2, np.nan]]
                                     )[:, None, None],
                 mu=np.array([0.3, math.inf])[None, :, None],
-                pitch=np.radians([0.0, 3.0])[None, None, :], roll=math.radians(1.0),
+                pitch_deg=np.array([0.0, 3.0])[None, None, :], roll_deg=1.0,
                 t_end=8.0)
 
 
@@ -74,7 +74,7 @@ def test_stop_time_is_where_spin_and_heading_have_both_reversed(runs):
     full, stop = runs
     rev = np.flatnonzero(full.n_reversals.values > 0)[::3]
     assert rev.size >= 5
-    pick = {k: full[k].values[rev] for k in ("mu", "pitch", "roll")}
+    pick = {k: full[k].values[rev] for k in ("mu", "pitch_deg", "roll_deg")}
     rec = rs.run_batch(TOY, spin=full.launch_spin.values[rev], **pick, t_end=8.0,
                        reversal_band=BAND, record_every=1)
     dt = float(rec.dt[0])

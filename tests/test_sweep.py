@@ -86,7 +86,7 @@ def test_ranges_are_inclusive_linear_or_log():
               fixed={"t_end": 1.0})
     np.testing.assert_allclose(s.grid_axes[0].values, [-2, -1, 0, 1, 2])
     np.testing.assert_allclose(s.grid_axes[1].values, [1e-6, 1e-5, 1e-4])
-    assert s.shape == (5, 3) and s.size == 15 and s.dims == ("spin", "damping")
+    assert s.shape == (5, 3) and s.size == 15 and s.dims == ("launch_spin", "damping")
 
 
 @pytest.mark.parametrize("kwargs, message", [
@@ -146,13 +146,13 @@ def test_bad_toml_is_refused_before_any_compute(tmp_path, capsys):
 def test_sweep_equals_run_batch_on_the_same_points(tmp_path):
     s = small_sweep()
     ds = run_sweep(s, tmp_path, progress=False, workers=2)
-    assert ds.sizes == {"spin": 4, "delta_deg": 2, "mu": 2, "repeat": 2}
+    assert ds.sizes == {"launch_spin": 4, "delta_deg": 2, "mu": 2, "repeat": 2}
     # rebuild every point's inputs independently from the result's own coordinates
     grid = ds[["roll_deg"]].to_dataframe().reset_index()
     bodies = np.array([rs.Body.semi_ellipsoid(TOY.a, TOY.b, TOY.c, TOY.mass,
                                               math.radians(d)) for d in grid.delta_deg],
                       dtype=object)
-    ref = rs.run_batch(bodies, spin=grid.spin.values, mu=grid.mu.values,
+    ref = rs.run_batch(bodies, spin=grid.launch_spin.values, mu=grid.mu.values,
                        roll=np.radians(grid.roll_deg.values), t_end=3.0, damping=1e-7)
     for name in ("first_reversal_time", "n_reversals", "final_spin", "mean_final_spin",
                  "max_tilt", "energy_lost", "slip_fraction", "status", "steps"):
@@ -204,8 +204,8 @@ def test_written_file_carries_cf_metadata_and_configuration(tmp_path):
     with netCDF4.Dataset(path) as nc:
         assert nc.data_model == "NETCDF4"
         assert nc.variables["first_reversal_time"].filters()["zlib"]
-        assert nc.variables["outcome"].dimensions == ("spin", "delta_deg", "mu", "repeat")
-        assert nc.variables["spin"].units == "rad s-1"
+        assert nc.variables["outcome"].dimensions == ("launch_spin", "delta_deg", "mu", "repeat")
+        assert nc.variables["launch_spin"].units == "rad s-1"
         assert nc.variables["delta_deg"].units == "degree"
         assert nc.getncattr("Conventions").startswith("CF-")
         assert "rattlesweep sweep test.toml" in nc.getncattr("history")
@@ -329,23 +329,23 @@ def test_reversal_map_categorical_continuous_and_facets(tmp_path):
     from rattlesweep.plot import reversal_map
 
     ds = run_sweep(small_sweep(), tmp_path, progress=False)
-    fig = reversal_map(ds, "spin", "delta_deg", facet="mu", select={"repeat": 0})
+    fig = reversal_map(ds, "launch_spin", "delta_deg", facet="mu", select={"repeat": 0})
     axes = [ax for ax in fig.axes if ax.get_visible()]
     assert len(axes) == 2
-    assert axes[0].get_xlabel() == "initial spin about the vertical [rad s-1]"
-    assert axes[0].get_ylabel().endswith("[degree]")
-    assert axes[1].get_title() == "mu = inf"
+    assert axes[0].get_xlabel() == "initial spin about the vertical [rad/s]"
+    assert axes[0].get_ylabel().endswith("[°]")
+    assert axes[1].get_title() == "μ = ∞ (rolling)"
     legend = {t.get_text() for t in fig.legends[0].get_texts()}
     present = {OUTCOME_NAMES[k].replace("_", " ") for k in np.unique(ds.outcome)}
     assert legend == present
-    fig = reversal_map(ds, "spin", "delta_deg", "max_tilt", select={"mu": 0.3},
+    fig = reversal_map(ds, "launch_spin", "delta_deg", "max_tilt", select={"mu": 0.3},
                        reduce="mean")
     colorbar = [ax for ax in fig.axes if ax.get_ylabel().startswith("largest tilt")]
     assert colorbar and colorbar[0].get_ylabel().endswith("[rad]")
     with pytest.raises(ValueError, match=r"also varies along \['mu', 'repeat'\]"):
-        reversal_map(ds, "spin", "delta_deg")
+        reversal_map(ds, "launch_spin", "delta_deg")
     with pytest.raises(ValueError, match="not a dimension"):
-        reversal_map(ds, "spin", "nope")
+        reversal_map(ds, "launch_spin", "nope")
 
 
 def test_cli_demo_info_plot(tmp_path, capsys):

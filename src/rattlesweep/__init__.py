@@ -14,12 +14,15 @@ from ._version import __version__
 from .body import PRESETS, Body
 from .batch import run_batch
 from .simulate import simulate
+from .launch import UnitsWarning
+from .tidy import decode, to_csv, to_table, unstack
 from . import planar
 from .planar import PlanarBody, run_planar_batch, simulate_planar
 from . import stability
 
 __all__ = ["Body", "PRESETS", "PlanarBody", "Sweep", "planar", "resume", "run_batch",
-           "run_planar_batch", "run_sweep", "stability", "sweep",
+           "run_planar_batch", "run_sweep", "stability", "sweep", "UnitsWarning",
+           "decode", "to_csv", "to_table", "unstack",
            "simulate", "simulate_planar", "__version__"]
 
 _FROM_SWEEP = ("Sweep", "resume", "run_sweep")

@@ -13,7 +13,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 import xarray as xr
@@ -27,12 +27,15 @@ from .engine import (
     Model, Prepared, as_bodies, check_band, check_method, check_record_every,
     check_single_step, check_stop,
 )
-from .launch import check_unit_quaternion, quaternion_from_angles, tilt_limit_error, up_vector
+from .launch import (
+    angles_in_radians, check_unit_quaternion, quaternion_from_angles, tilt_limit_error,
+    up_vector,
+)
 from .metadata import attrs_for
 from .validation import as_float_array, fail_where
 
 __all__ = ["MODEL", "Inputs", "damping_dts", "launch_inputs", "max_steps", "prepare",
-           "run_batch"]
+           "radian_angles", "run_batch"]
 
 MODEL = Model(
     RATTLEBACK, layout,
@@ -143,6 +146,15 @@ def launch_inputs(
                   engine.steps_for(flat["t_end"], flat["dt"], default_from, (table, index)), q)
 
 
+def radian_angles(body: Bodies, given: dict[str, Any]) -> dict[str, Any]:
+    """roll, pitch, yaw (rad) from the radian or degree keyword arguments of
+    :func:`run_batch` or :func:`rattlesweep.simulate` (see
+    :func:`rattlesweep.launch.angles_in_radians`; warns at the caller's caller)."""
+    bodies = as_bodies(body, Body)
+    full = all(b.full_ellipsoid for b in bodies.flat)
+    return angles_in_radians(given, full_ellipsoid=full, stacklevel=4)
+
+
 def damping_dts(table: list[Body], index: np.ndarray, damping: np.ndarray) -> np.ndarray:
     """The longest step that follows each trajectory's viscous damping (inf without
     damping): the torque -damping * omega makes omega about a principal axis of moment
@@ -169,16 +181,22 @@ def _launch_state(inputs: Inputs) -> dict[str, np.ndarray]:
             "velocity": np.zeros((inputs.n, 2))}
 
 
-def _coords(inputs: Inputs, columns: dict[str, np.ndarray], velocity: np.ndarray | None
-            ) -> dict[str, Any]:
-    """Every input, per trajectory: name -> (dims, values)."""
+def _coords(inputs: Inputs, columns: dict[str, np.ndarray], velocity: np.ndarray | None,
+            degrees: Mapping[str, ArrayLike]) -> dict[str, Any]:
+    """Every input, per trajectory: name -> (dims, values). Angles are in degrees, named
+    ``roll_deg``, ``pitch_deg``, ``yaw_deg``: the values of ``degrees`` (the user's,
+    unrounded) where given, else converted from radians."""
     dim, flat, vec = "trajectory", inputs.flat, inputs.vectors
     coords: dict[str, Any] = {}
     if "orientation" in vec:
         coords["orientation"] = ((dim, "quaternion_component"), vec["orientation"])
     else:
         for k in ("roll", "pitch", "yaw"):
-            coords[k] = (dim, flat[k])
+            if k in degrees:
+                given = np.broadcast_to(as_float_array(f"{k}_deg", degrees[k]), inputs.shape)
+                coords[f"{k}_deg"] = (dim, given.reshape(-1).copy())
+            else:
+                coords[f"{k}_deg"] = (dim, np.degrees(flat[k]))
     if "omega" in vec:
         coords["launch_omega"] = ((dim, "body_axis"), vec["omega"])
     else:
@@ -194,9 +212,11 @@ def _coords(inputs: Inputs, columns: dict[str, np.ndarray], velocity: np.ndarray
     return coords
 
 
-def prepare(body: Bodies, *, stop: str | None = None, **kwargs: Any) -> Prepared:
+def prepare(body: Bodies, *, stop: str | None = None,
+            degrees: Mapping[str, ArrayLike] | None = None, **kwargs: Any) -> Prepared:
     """Check, broadcast and pack launches for the kernel; arguments as for
-    :func:`run_batch`."""
+    :func:`run_batch`, angles in radians; ``degrees`` maps ``roll``, ``pitch``, ``yaw``
+    to the values the user gave in degrees, which the coordinates keep as given."""
     rule = check_stop(stop)
     inputs = launch_inputs(body, **kwargs)
     n = inputs.n
@@ -214,15 +234,18 @@ def prepare(body: Bodies, *, stop: str | None = None, **kwargs: Any) -> Prepared
     else:
         v = rolling
     Y[:, layout.STATE.slice("velocity"), :] = engine.blocked(v, n)
-    return dataclasses.replace(prep, coords=_coords(inputs, columns, given))
+    return dataclasses.replace(prep, coords=_coords(inputs, columns, given, degrees or {}))
 
 
 def run_batch(
     body: Bodies,
     *,
-    spin: ArrayLike | None = None, omega: ArrayLike | None = None, roll: ArrayLike = 0.0,
-    pitch: ArrayLike = 0.0, yaw: ArrayLike = 0.0, orientation: ArrayLike | None = None,
-    velocity: ArrayLike | None = None, mu: ArrayLike = math.inf,
+    spin: ArrayLike | None = None, omega: ArrayLike | None = None,
+    roll: ArrayLike | None = None, pitch: ArrayLike | None = None,
+    yaw: ArrayLike | None = None, roll_deg: ArrayLike | None = None,
+    pitch_deg: ArrayLike | None = None, yaw_deg: ArrayLike | None = None,
+    orientation: ArrayLike | None = None, velocity: ArrayLike | None = None,
+    mu: ArrayLike = math.inf,
     mu_static: ArrayLike | None = None, mu_spin: ArrayLike = 0.0, mu_roll: ArrayLike = 0.0,
     damping: ArrayLike = 0.0, g: ArrayLike = 9.81, dt: ArrayLike | None = None,
     t_end: ArrayLike, method: str = "rk4", record_every: int | None = None,
@@ -246,7 +269,11 @@ def run_batch(
     omega : array_like, shape (..., 3), optional
         Body-frame angular velocity (rad/s) instead of ``spin``.
     roll, pitch, yaw : array_like, optional
-        Initial orientation (rad), R = R_z(yaw) R_y(pitch) R_x(roll). Default 0.
+        Initial orientation (rad), R = R_z(yaw) R_y(pitch) R_x(roll). Default 0. A roll
+        or pitch beyond 90 degrees (180 for a full ellipsoid) in radians draws a
+        :class:`~rattlesweep.UnitsWarning`: degrees typed as radians.
+    roll_deg, pitch_deg, yaw_deg : array_like, optional
+        The same angles in degrees; give one form of each angle, not both.
     orientation : array_like, shape (..., 4), optional
         Unit quaternion (w, x, y, z), body to world, instead of the angles.
     velocity : array_like, shape (..., 2), optional
@@ -327,7 +354,11 @@ def run_batch(
     m = check_method(method)
     rec_every = check_record_every(record_every)
     band = check_band(reversal_band)
-    prep = prepare(body, spin=spin, omega=omega, roll=roll, pitch=pitch, yaw=yaw,
+    degrees = {k: v for k, v in (("roll", roll_deg), ("pitch", pitch_deg), ("yaw", yaw_deg))
+               if v is not None}
+    angles = radian_angles(body, dict(roll=roll, pitch=pitch, yaw=yaw, roll_deg=roll_deg,
+                                      pitch_deg=pitch_deg, yaw_deg=yaw_deg))
+    prep = prepare(body, spin=spin, omega=omega, **angles, degrees=degrees,
                    orientation=orientation, velocity=velocity, mu=mu, mu_static=mu_static,
                    mu_spin=mu_spin, mu_roll=mu_roll, damping=damping, g=g, dt=dt,
                    t_end=t_end, stop=stop)

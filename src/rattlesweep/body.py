@@ -162,22 +162,30 @@ class Body:
     @classmethod
     def semi_ellipsoid(
         cls, a: float, b: float, c: float, mass: float, delta: float = 0.0,
-        *, name: str = "semi_ellipsoid",
+        *, delta_deg: float | None = None, name: str = "semi_ellipsoid",
     ) -> "Body":
         """Homogeneous solid semi-ellipsoid (m, kg) with its horizontal principal inertia
-        axes rotated by the misalignment ``delta`` (rad) about +z.
+        axes rotated by the misalignment ``delta`` (rad) about +z, or ``delta_deg``
+        (degrees; give one of the two). Default 0.
 
         G = (0, 0, −3c/8); inertia about C is diag(b²+c², a²+c², a²+b²)·m/5, moved to G
         by the parallel-axis rule, then rotated.
         """
         a, b, c, mass = (positive("a", a), positive("b", b), positive("c", c),
                          positive("mass", mass))
+        if delta_deg is not None and not (isinstance(delta, (int, float)) and delta == 0.0):
+            raise ValueError(f"give either delta (rad) or delta_deg (degrees), not both; "
+                             f"got delta={delta!r} and delta_deg={delta_deg!r}")
+        key, given, units = (("delta_deg", delta_deg, "degrees") if delta_deg is not None
+                             else ("delta", delta, "rad"))
         try:
-            angle = float(delta)
+            angle = float(given)
         except (TypeError, ValueError):  # not a number: refused as below
             angle = math.nan
         if not math.isfinite(angle):
-            raise ValueError(f"delta must be a finite number (rad), got {delta!r}")
+            raise ValueError(f"{key} must be a finite number ({units}), got {given!r}")
+        if delta_deg is not None:
+            angle = math.radians(angle)
         delta = angle
         zg = -3.0 * c / 8.0
         i_c = np.array([b * b + c * c, a * a + c * c, a * a + b * b]) * mass / 5.0

@@ -2,7 +2,8 @@
 
 Conventions (radians, SI):
 
-* ``roll``, ``pitch``, ``yaw`` give the orientation R = R_z(yaw) R_y(pitch) R_x(roll)
+* ``roll``, ``pitch``, ``yaw`` (rad; or ``roll_deg``, ``pitch_deg``, ``yaw_deg`` in
+  degrees, never both forms of one angle) give the orientation R = R_z(yaw) R_y(pitch) R_x(roll)
   (body → world): starting from upright, turn by ``roll`` about the world X axis (the
   body's long axis x at that moment), then by ``pitch`` about the world Y axis, then by
   ``yaw`` about the vertical Z (the same as yaw, then pitch about the new body y, then
@@ -18,14 +19,60 @@ Conventions (radians, SI):
 from __future__ import annotations
 
 import math
+import warnings
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from .validation import as_float_array
+
 __all__ = [
     "quaternion_from_angles", "rotation_matrices", "up_vector", "check_unit_quaternion",
-    "tilt_limit_error",
+    "tilt_limit_error", "UnitsWarning", "angles_in_radians",
 ]
+
+
+class UnitsWarning(UserWarning):
+    """An input whose value makes sense only in other units: a tilt angle given in
+    radians that can only be degrees typed as radians (``roll=30``)."""
+
+
+def angles_in_radians(given: dict[str, Any], *, full_ellipsoid: bool,
+                      stacklevel: int = 3) -> dict[str, Any]:
+    """``roll``, ``pitch``, ``yaw`` in radians from the radian or the degree form of each
+    (``given`` maps ``roll`` and ``roll_deg`` etc. to a value or None). Raises ValueError
+    when both forms of one angle are given. Warns (:class:`UnitsWarning`) when a tilt
+    angle (roll or pitch) given in radians exceeds what a launch can mean in radians:
+    |angle| > pi/2 for a semi-ellipsoid (its rim would be on the floor), > pi for a full
+    ellipsoid (``full_ellipsoid`` True when every body is one)."""
+    out: dict[str, Any] = {}
+    limit = math.pi if full_ellipsoid else math.pi / 2
+    for name in ("roll", "pitch", "yaw"):
+        rad, deg = given.get(name), given.get(f"{name}_deg")
+        if rad is not None and deg is not None:
+            raise ValueError(f"give either {name} (rad) or {name}_deg (degrees), not both; "
+                             f"got {name}={rad!r} and {name}_deg={deg!r}")
+        if deg is not None:
+            out[name] = np.radians(as_float_array(f"{name}_deg", deg))
+            continue
+        out[name] = 0.0 if rad is None else rad
+        if rad is None or name == "yaw":
+            continue
+        try:
+            values = np.abs(np.asarray(rad, dtype=float))
+        except (TypeError, ValueError):  # refused with its name by the checks
+            continue
+        big = np.isfinite(values) & (values > limit)
+        if np.any(big):
+            signed = np.broadcast_to(np.asarray(rad, dtype=float), values.shape)
+            worst = float(signed[big][np.argmax(values[big])])
+            warnings.warn(
+                f"{name} = {worst:g} rad ({math.degrees(worst):.0f} degrees) is more than "
+                f"{math.degrees(limit):.0f} degrees from upright; {name} is in radians: "
+                f"if {worst:g} is in degrees, give {name}_deg={worst:g}",
+                UnitsWarning, stacklevel=stacklevel)
+    return out
 
 
 def quaternion_from_angles(roll: ArrayLike, pitch: ArrayLike, yaw: ArrayLike) -> np.ndarray:

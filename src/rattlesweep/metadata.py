@@ -27,9 +27,9 @@ STATUS_ATTRS = flag_attrs(
 VARIABLE_ATTRS = {
     "time": ("s", "time"),
     # inputs
-    "roll": ("rad", "initial roll about body x"),
-    "pitch": ("rad", "initial pitch about body y"),
-    "yaw": ("rad", "initial yaw about the vertical"),
+    "roll_deg": ("degree", "initial roll about body x"),
+    "pitch_deg": ("degree", "initial pitch about body y"),
+    "yaw_deg": ("degree", "initial yaw about the vertical"),
     "orientation": ("1", "initial orientation quaternion (w, x, y, z)"),
     "launch_spin": ("rad s-1", "initial spin about the vertical"),
     "launch_omega": ("rad s-1", "initial angular velocity, body components"),

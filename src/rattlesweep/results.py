@@ -105,7 +105,8 @@ def default_record_every(prep: Prepared, record_every: int | None) -> int:
 def run_dataset(prep: Prepared, raw: Raw, record_every: int, attrs_for: AttrsFor,
                 global_attrs: Mapping[str, Any], config: Mapping[str, Any]) -> xr.Dataset:
     """A single run's results over ``time``: its series, its observables as scalars,
-    every input as an attribute (units in ``<name>_units``) and the configuration as
+    every input as an attribute (units in ``<name>_units``, long name in
+    ``<name>_long_name``) and the configuration as
     JSON in ``config``. A status other than ok raises a RuntimeWarning."""
     assert raw.records is not None  # a single run always records
     # a copy: raw.records[0] is a view into the record of the whole block (BLOCK lanes)
@@ -123,6 +124,7 @@ def run_dataset(prep: Prepared, raw: Raw, record_every: int, attrs_for: AttrsFor
             continue
         ds.attrs[name] = value.tolist() if isinstance(value, np.ndarray) else float(value)
         ds.attrs[f"{name}_units"] = attrs_for(name)["units"]
+        ds.attrs[f"{name}_long_name"] = attrs_for(name)["long_name"]
     ds.attrs["config"] = json.dumps(config)
     status = int(raw.observables[O_STATUS, 0])
     if status != OK:

@@ -10,7 +10,7 @@ import xarray as xr
 from numpy.typing import ArrayLike
 
 from . import engine, results
-from .batch import prepare
+from .batch import prepare, radian_angles
 from .body import Body
 from .engine import check_band, check_method, check_record_every
 from .metadata import attrs_for
@@ -21,8 +21,10 @@ __all__ = ["simulate"]
 def simulate(
     body: Body,
     *,
-    spin: float | None = None, omega: ArrayLike | None = None, roll: float = 0.0,
-    pitch: float = 0.0, yaw: float = 0.0, orientation: ArrayLike | None = None,
+    spin: float | None = None, omega: ArrayLike | None = None, roll: float | None = None,
+    pitch: float | None = None, yaw: float | None = None, roll_deg: float | None = None,
+    pitch_deg: float | None = None, yaw_deg: float | None = None,
+    orientation: ArrayLike | None = None,
     velocity: ArrayLike | None = None,
     mu: float = math.inf, mu_static: float | None = None, mu_spin: float = 0.0,
     mu_roll: float = 0.0, damping: float = 0.0,
@@ -32,7 +34,8 @@ def simulate(
     """Simulate one launch and return its time series.
 
     Arguments are those of :func:`rattlesweep.run_batch`, as scalars (``omega`` (3,),
-    ``orientation`` (4,), ``velocity`` (2,)). ``record_every`` defaults to the smallest
+    ``orientation`` (4,), ``velocity`` (2,)); angles in radians, or in degrees as
+    ``roll_deg``, ``pitch_deg``, ``yaw_deg``. ``record_every`` defaults to the smallest
     stride that keeps at most 10 000 samples (1 for runs of up to 10 000 steps).
 
     Returns
@@ -45,7 +48,8 @@ def simulate(
         the previous sample), ``slip_velocity`` and ``slip_speed`` (m/s),
         ``quaternion``, ``omega`` (rad/s), ``position`` (m) and ``velocity`` (m/s) of G;
         the per-run observables of :func:`run_batch` as scalar variables; every input as
-        an attribute (units in ``<name>_units``).
+        an attribute (units in ``<name>_units``, long name in ``<name>_long_name``), named as the coordinates of
+        :func:`run_batch` (``launch_spin``, ``roll_deg`` ...).
 
     Raises
     ------
@@ -54,6 +58,8 @@ def simulate(
 
     Warns
     -----
+    UnitsWarning
+        When a roll or pitch in radians can only be degrees typed as radians.
     RuntimeWarning
         When the run ends with a status other than ``ok``.
     CoarseStepWarning
@@ -64,8 +70,10 @@ def simulate(
     m = check_method(method)
     rec_every = check_record_every(record_every)
     band = check_band(reversal_band)
+    angles = radian_angles(body, dict(roll=roll, pitch=pitch, yaw=yaw, roll_deg=roll_deg,
+                                      pitch_deg=pitch_deg, yaw_deg=yaw_deg))
     inputs: dict[str, Any] = dict(
-        spin=spin, omega=omega, roll=roll, pitch=pitch, yaw=yaw, orientation=orientation,
+        spin=spin, omega=omega, **angles, orientation=orientation,
         velocity=velocity, mu=mu, mu_static=mu_static, mu_spin=mu_spin, mu_roll=mu_roll,
         damping=damping, g=g, dt=dt, t_end=t_end)
     for name in ("spin", "roll", "pitch", "yaw", "mu", "mu_static", "mu_spin", "mu_roll",
@@ -75,7 +83,9 @@ def simulate(
     for name, width in (("omega", 3), ("orientation", 4), ("velocity", 2)):
         if inputs[name] is not None and np.shape(inputs[name]) != (width,):
             raise ValueError(f"{name} must have shape ({width},), got {np.shape(inputs[name])}")
-    prep = prepare(body, **inputs)
+    degrees = {k: v for k, v in (("roll", roll_deg), ("pitch", pitch_deg), ("yaw", yaw_deg))
+               if v is not None}
+    prep = prepare(body, degrees=degrees, **inputs)
     rec_every = results.default_record_every(prep, rec_every)
     raw = engine.execute(prep, method=m, record_every=rec_every, band=band, parallel=False)
     config = {

@@ -304,8 +304,8 @@ def stability_dataset(sweep: Sweep | str | Path, *, command: str | None = None
     data["e_folding_time"] = var(efold, "s", "1 / growth_rate (inf when not growing)")
     for rp in sweep.random_params:
         index = np.arange(sweep.size)
-        data[rp.key] = var(rp.draw(sweep.seed, index), rp.units,
-                           f"{rp.long_name} (random draw)")
+        data[rp.name] = var(rp.result_draw(sweep.seed, index), rp.result_units,
+                            f"{rp.long_name} (random draw)")
     ds = xr.Dataset(data, coords=grid_coords(sweep))
     ds.attrs.update(sweep_attrs(
         config, f"rattlesweep linear stability of steady spin: {sweep.name}", command))

@@ -2,7 +2,7 @@
 (or, for :func:`animate`, writes a file) and never touches pyplot's global state, so
 they work headless and inside libraries. Axis labels carry the variables' units."""
 
-from .animation import animate
+from .animation import InlineAnimation, animate, animate_inline
 from .maps import (
     OUTCOME_COLOURS, mpl_cmap, reversal_map, reversal_vs_growth, reversed_fraction,
     stability_map,
@@ -10,7 +10,7 @@ from .maps import (
 from .runs import contact_path, spin_history, time_series
 
 __all__ = [
-    "OUTCOME_COLOURS", "animate", "contact_path", "mpl_cmap", "reversal_map",
-    "reversal_vs_growth", "reversed_fraction", "spin_history", "stability_map",
+    "InlineAnimation", "OUTCOME_COLOURS", "animate", "animate_inline", "contact_path",
+    "mpl_cmap", "reversal_map", "reversal_vs_growth", "reversed_fraction", "spin_history", "stability_map",
     "time_series",
 ]

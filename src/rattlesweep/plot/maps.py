@@ -9,6 +9,7 @@ import xarray as xr
 from matplotlib.figure import Figure
 
 from .labels import axis_label as _label
+from .labels import value_label
 
 if TYPE_CHECKING:
     import numpy as np
@@ -58,9 +59,37 @@ def _axis_values(da: xr.DataArray, dim: str) -> tuple[np.ndarray, list[str] | No
 
 
 def _fmt_coord(ds: xr.Dataset | xr.DataArray, dim: Hashable, value: object) -> str:
-    units = ds[dim].attrs.get("units", "")
-    text = f"{value:g}" if isinstance(value, float) else str(value)
-    return f"{dim} = {text}" + (f" {units}" if units and units != "1" else "")
+    return value_label(ds, dim, value)
+
+
+def is_log_spaced(values: np.ndarray) -> bool:
+    """True for at least three finite, positive, increasing values in a constant ratio
+    other than 1 (a ``scale = "log"`` sweep axis): such an axis is drawn on a log
+    scale."""
+    import numpy as np
+
+    v = np.asarray(values)
+    if v.dtype.kind not in "fiu" or v.size < 3:
+        return False
+    v = v.astype(float)
+    if not (np.all(np.isfinite(v)) and np.all(v > 0) and np.all(np.diff(v) > 0)):
+        return False
+    ratio = v[1:] / v[:-1]
+    return bool(np.allclose(ratio, ratio[0], rtol=1e-6) and ratio[0] > 1.0 + 1e-6)
+
+
+def _edges(values: np.ndarray, log: bool) -> np.ndarray:
+    """Cell edges around plot positions: geometric midpoints on a log axis,
+    arithmetic ones otherwise (half a step beyond the ends; ±0.5 for one value)."""
+    import numpy as np
+
+    v = np.asarray(values, dtype=float)
+    if v.size == 1:
+        return np.array([v[0] - 0.5, v[0] + 0.5])
+    w = np.log(v) if log else v
+    mid = 0.5 * (w[1:] + w[:-1])
+    edges = np.concatenate([[w[0] - (mid[0] - w[0])], mid, [w[-1] + (w[-1] - mid[-1])]])
+    return np.exp(edges) if log else edges
 
 
 def reversal_map(ds: xr.Dataset, x: str, y: str, var: str = "outcome", *,
@@ -143,6 +172,8 @@ def reversal_map(ds: xr.Dataset, x: str, y: str, var: str = "outcome", *,
         norm = Normalize(*(finite.min(), finite.max()) if finite.size else (0, 1))
     xs, xlabels = _axis_values(da, x)
     ys, ylabels = _axis_values(da, y)
+    xlog = xlabels is None and is_log_spaced(xs)
+    ylog = ylabels is None and is_log_spaced(ys)
     mesh: QuadMesh | None = None
     any_nan = False
     for k, (value, panel) in enumerate(panels):
@@ -151,7 +182,15 @@ def reversal_map(ds: xr.Dataset, x: str, y: str, var: str = "outcome", *,
         if categorical:
             z = np.vectorize({f: i for i, f in enumerate(flags)}.get, otypes=[float])(z)
         any_nan |= bool(np.isnan(z).any())
-        mesh = ax.pcolormesh(xs, ys, z, cmap=cm, norm=norm, shading="nearest")
+        if xlog or ylog:  # cells between geometric midpoints along a log axis
+            mesh = ax.pcolormesh(_edges(xs, xlog), _edges(ys, ylog), z, cmap=cm, norm=norm,
+                                 shading="flat")
+        else:
+            mesh = ax.pcolormesh(xs, ys, z, cmap=cm, norm=norm, shading="nearest")
+        if xlog:
+            ax.set_xscale("log")
+        if ylog:
+            ax.set_yscale("log")
         if overlay is not None:
             _draw_boundary(ax, overlay, x, y, {**(select or {}),
                                                **({facet: value} if facet else {})})
@@ -186,13 +225,27 @@ def reversal_map(ds: xr.Dataset, x: str, y: str, var: str = "outcome", *,
         bad = cm.get_bad() if not categorical else "white"
         handles.append(Patch(color=bad, label="no value (NaN)"))  # type: ignore[arg-type]
     if handles:
-        fig.legend(handles=handles, loc="outside right upper" if categorical
+        # beside the panels, level with their middle: clear of the title above them
+        fig.legend(handles=handles, loc="outside right center" if categorical
                    else "outside lower center", title=da.attrs.get(
                        "long_name", var) if categorical else None)
     fixed = [_fmt_coord(ds, c, ds[c].values.item()) for c in ds.coords
              if ds[c].ndim == 0 and c in ds.coords and ds[c].dtype.kind in "fiu"]
-    fig.suptitle(title or ", ".join(fixed[:6]), fontsize="small")
+    fig.suptitle(title or _wrap_items(fixed[:6], fig), fontsize="small")
     return fig
+
+
+def _wrap_items(items: list[str], fig: Figure) -> str:
+    """Comma-separated items broken into lines that fit the figure's width (about 12
+    characters of the small title font per inch)."""
+    width = max(20, int(12 * fig.get_figwidth()))
+    lines: list[str] = []
+    for item in items:
+        if lines and len(lines[-1]) + 2 + len(item) <= width:
+            lines[-1] += ", " + item
+        else:
+            lines.append(item)
+    return "\n".join(lines)
 
 
 def mpl_cmap(name: str) -> Colormap:
@@ -239,6 +292,21 @@ def stability_map(ds: xr.Dataset, x: str, y: str, var: str = "growth_rate", *,
     return reversal_map(ds, x, y, var, overlay=overlay, **kwargs)
 
 
+def _log_ticks(axis: Any, values: np.ndarray) -> None:
+    """Ticks of a log axis whose labels cannot crowd: plain numbers ("0.05", "2") at 1 to 9
+    times the powers of ten for data within a decade, at 1, 2 and 5 times them up to
+    three decades, at the powers of ten alone beyond; unlabelled minor ticks."""
+    import numpy as np
+    from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
+
+    decades = float(np.log10(values.max() / values.min())) if values.size else 0.0
+    subs: tuple[float, ...] = (tuple(np.arange(1.0, 10.0)) if decades < 1.0
+                               else (1.0, 2.0, 5.0) if decades <= 3.0 else (1.0,))
+    axis.set_major_locator(LogLocator(base=10.0, subs=subs))
+    axis.set_major_formatter(FormatStrFormatter("%g"))
+    axis.set_minor_formatter(NullFormatter())
+
+
 def reversal_vs_growth(stability: xr.Dataset, sweep: xr.Dataset, *,
                        color_by: str | None = None, title: str | None = None) -> Figure:
     """Predicted against simulated: first reversal time (s) of each launch that reversed
@@ -280,6 +348,8 @@ def reversal_vs_growth(stability: xr.Dataset, sweep: xr.Dataset, *,
         ax.scatter(efold.values[ok], t_rev.values[ok], s=8)
     ax.set_xscale("log")
     ax.set_yscale("log")
+    _log_ticks(ax.xaxis, efold.values[ok])
+    _log_ticks(ax.yaxis, t_rev.values[ok])
     ax.set_xlabel(_label(stability.e_folding_time, "e-folding time"))
     ax.set_ylabel(_label(sweep.first_reversal_time, "first reversal time"))
     ax.set_title(title or f"{int(ok.sum())} launches that reversed", fontsize="medium")

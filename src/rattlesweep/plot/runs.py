@@ -133,16 +133,18 @@ def time_series(run: xr.Dataset, variables: Sequence[str] | None = None, *,
     if slipping is not None and slipping.any():
         from matplotlib.patches import Patch
 
+        # below the time axis: a title of any length has the top to itself
         fig.legend(handles=[Patch(color=SLIP_SHADE, label="slipping"),
                             Patch(facecolor="white", edgecolor="0.7", label="sticking")],
-                   loc="outside upper right", ncols=2, fontsize="small")
+                   loc="outside lower center", ncols=2, fontsize="small")
     if title:
         fig.suptitle(title, fontsize="medium")
     return fig
 
 
-def _wrap(text: str, width: int = 28) -> str:
-    """Break a long axis label over lines so stacked panels stay narrow."""
+def _wrap(text: str, width: int = 22) -> str:
+    """Break a long axis label over lines so stacked panels stay narrow and each label
+    stays within the height of its panel (about 22 characters of the small font)."""
     import textwrap
 
     return "\n".join(textwrap.wrap(text, width)) or text
@@ -155,8 +157,8 @@ def contact_path(runs: xr.Dataset | Iterable[xr.Dataset],
 
     ``frame="body"``: where on the body's curved surface it touches, in body x, y (mm;
     the dashed line is the rim x²/a² + y²/b² = 1 where it is in view), the picture of
-    the spin-bias argument. Each panel is scaled to its own path, so x and y scales
-    differ. ``frame="floor"``: the trace on the floor in world X, Y (mm),
+    the spin-bias argument. Every panel has the same x and y ranges, those of all the
+    paths together, so that panels compare at a glance. ``frame="floor"``: the trace on the floor in world X, Y (mm),
     with the centre of mass's ground track in grey. Runs are :func:`rattlesweep.simulate`
     results (or their files).
     """
@@ -169,20 +171,24 @@ def contact_path(runs: xr.Dataset | Iterable[xr.Dataset],
     runs = _runs(runs)
     labels = _labels(labels, len(runs))
     fig = Figure(figsize=(4.2 * len(runs) + 1.2, 4.2), layout="constrained")
-    axes = fig.subplots(1, len(runs), squeeze=False)[0]
+    axes = fig.subplots(1, len(runs), squeeze=False, sharex=True, sharey=True)[0]
     t_max = max(float(r.time.values[-1]) for r in runs)
     from matplotlib.colors import Normalize
 
     norm = Normalize(0.0, t_max)
     lines = None
-    for ax, run, label in zip(axes, runs, labels):
-        c = contact_dataset(run)
-        if frame == "body":
-            xy = c.contact_body.sel(body_axis=["x", "y"]).values * 1e3
-            names = ("contact point, body x", "contact point, body y")
-        else:
-            xy = c.contact_floor.values * 1e3
-            names = ("contact point, floor X", "contact point, floor Y")
+    paths = [contact_dataset(run) for run in runs]
+    if frame == "body":
+        xys = [c.contact_body.sel(body_axis=["x", "y"]).values * 1e3 for c in paths]
+        names = ("contact point, body x", "contact point, body y")
+    else:
+        xys = [c.contact_floor.values * 1e3 for c in paths]
+        names = ("contact point, floor X", "contact point, floor Y")
+    lo = np.min([xy.min(0) for xy in xys], axis=0)
+    hi = np.max([xy.max(0) for xy in xys], axis=0)
+    pad = 0.08 * (hi - lo) + 1e-3  # per axis: a flat path stays a flat picture
+    for k, (ax, run, label, c, xy) in enumerate(zip(axes, runs, labels, paths, xys)):
+        if frame == "floor":
             ax.plot(run.position.sel(axis="X") * 1e3, run.position.sel(axis="Y") * 1e3,
                     color="0.6", lw=0.8, label="centre of mass")
         segments = np.stack([xy[:-1], xy[1:]], axis=1)
@@ -193,17 +199,16 @@ def contact_path(runs: xr.Dataset | Iterable[xr.Dataset],
         lines.set_array(c.time.values[:-1])
         ax.add_collection(lines)
         ax.plot(*xy[0], "o", color="k", ms=4, label="start")
-        lo, hi = xy.min(0), xy.max(0)
-        pad = 0.08 * max(hi - lo) + 1e-3
-        ax.set_xlim(lo[0] - pad, hi[0] + pad)
-        ax.set_ylim(lo[1] - pad, hi[1] + pad)
+        ax.set_xlim(lo[0] - pad[0], hi[0] + pad[0])
+        ax.set_ylim(lo[1] - pad[1], hi[1] + pad[1])
         if frame == "body":
             a, b = (float(run.attrs[k]) * 1e3 for k in ("a", "b"))
             phi = np.linspace(0, 2 * np.pi, 721)
             ax.plot(a * np.cos(phi), b * np.sin(phi), "k--", lw=0.8, scalex=False,
                     scaley=False, label="rim")
         ax.set_xlabel(f"{names[0]} [mm]")
-        ax.set_ylabel(f"{names[1]} [mm]")
+        if k == 0:  # the shared y axis is labelled once
+            ax.set_ylabel(f"{names[1]} [mm]")
         ax.legend(fontsize="x-small", loc="upper right")
         if label:
             ax.set_title(label, fontsize="medium")

@@ -17,7 +17,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..body import Body
-from .params import BODY_PARAMS, DEFAULTS
+from .params import BODY_PARAMS, DEFAULTS, result_name, result_values
 
 __all__ = ["NORMAL_CLIP", "Axis", "RandomParam", "batch_inputs", "body_for",
            "semi_ellipsoid_defaults", "uniform01"]
@@ -43,6 +43,17 @@ class Axis:
     def si(self) -> np.ndarray:
         return self.values * self.factor if self.param != "body" else self.values
 
+    @property
+    def name(self) -> str:
+        """The dimension's name in results (:func:`~rattlesweep.sweep.params.result_name`)."""
+        return result_name(self.key)
+
+    def coordinate(self) -> tuple[np.ndarray, str]:
+        """The coordinate's values and CF units in results (angles in degrees)."""
+        if self.param == "body":
+            return self.values, ""
+        return result_values(self.key, self.values, self.factor, self.units)
+
 
 @dataclass(frozen=True)
 class RandomParam:
@@ -56,6 +67,20 @@ class RandomParam:
     factor: float
     units: str
     long_name: str
+
+    @property
+    def name(self) -> str:
+        """The draws' variable name in results."""
+        return result_name(self.key)
+
+    @property
+    def result_units(self) -> str:
+        """CF units of the draws in results (angles in degrees)."""
+        return result_values(self.key, np.zeros(0), self.factor, self.units)[1]
+
+    def result_draw(self, seed: int, index: np.ndarray) -> np.ndarray:
+        """:meth:`draw` in the units of results (angles in degrees)."""
+        return result_values(self.key, self.draw(seed, index), self.factor, self.units)[0]
 
     def bounds(self) -> tuple[float, float]:
         """Smallest and largest possible draw (user units)."""

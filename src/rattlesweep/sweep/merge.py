@@ -16,7 +16,7 @@ import xarray as xr
 
 from .. import __version__
 from ..results import run_attrs
-from .params import resolve
+from .params import resolve, result_name, result_values
 from .spec import Sweep, fixed_value
 from .tiles import variable_attrs
 
@@ -46,14 +46,17 @@ def sweep_attrs(sweep: Sweep, title: str, command: str | None) -> dict[str, Any]
 
 
 def grid_coords(sweep: Sweep) -> dict[str, Any]:
-    """Coordinates of a result on the sweep's grid: the axes (in the user's units), the
-    ``repeat`` index when there are random draws, and the fixed values as scalars."""
+    """Coordinates of a result on the sweep's grid: the axes (in the user's units, angles
+    in degrees), the ``repeat`` index when there are random draws, and the fixed values
+    as scalars, each named as in :func:`rattlesweep.run_batch` results
+    (:func:`~rattlesweep.sweep.params.result_name`)."""
     coords: dict[str, Any] = {}
     for ax in sweep.grid_axes:
         attrs = {"long_name": ax.long_name}
+        values, units = ax.coordinate()
         if ax.param != "body":
-            attrs["units"] = ax.units
-        coords[ax.key] = (ax.key, ax.values, attrs)
+            attrs["units"] = units
+        coords[ax.name] = (ax.name, values, attrs)
     if sweep.random:
         coords["repeat"] = ("repeat", np.arange(sweep.repeats),
                             {"long_name": "repeat of the grid cell (random draws)"})
@@ -63,9 +66,11 @@ def grid_coords(sweep: Sweep) -> dict[str, Any]:
             coords["body"] = ((), name, {"long_name": "body (preset name or label); full "
                                          "description in sweep_config"})
             continue
-        number, units = fixed_value(value)
-        param, _, cf = resolve(key, units, f"fixed.{key}")
-        coords[key] = ((), number, {"units": cf, "long_name": param.long_name})
+        number, given_units = fixed_value(value)
+        param, factor, cf = resolve(key, given_units, f"fixed.{key}")
+        number, cf = result_values(key, number, factor, cf)
+        coords[result_name(key)] = ((), float(number),
+                                    {"units": cf, "long_name": param.long_name})
     return coords
 
 

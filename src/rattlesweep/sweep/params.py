@@ -2,7 +2,9 @@
 
 Every sweepable input is a scalar named here. Values are given in the units the user
 chooses (``units = "deg"``, or a ``_deg`` suffix on an angle's name) and converted to SI
-before they reach the kernel; coordinates in the result keep the user's units.
+before they reach the kernel. Results name each parameter as :func:`rattlesweep.run_batch`
+does (:func:`result_name`): angles in degrees as ``roll_deg``, ``delta_deg``..., the
+launch spin as ``launch_spin``; other coordinates keep the user's units.
 """
 
 from __future__ import annotations
@@ -12,7 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["BODY_PARAMS", "DEFAULTS", "PARAMS", "Param", "check_values", "resolve"]
+__all__ = ["BODY_PARAMS", "DEFAULTS", "PARAMS", "Param", "check_values", "resolve",
+           "result_name", "result_values"]
 
 _ANGLE = {"rad": (1.0, "rad"), "deg": (math.pi / 180.0, "degree"),
           "degree": (math.pi / 180.0, "degree"), "degrees": (math.pi / 180.0, "degree")}
@@ -52,12 +55,14 @@ PARAMS: dict[str, Param] = {p.name: p for p in (
     Param("yaw", _ANGLE, "finite", "initial yaw about the vertical", "launch"),
     Param("mu", _ONE, "nonneg_inf", "kinetic friction coefficient", "friction"),
     Param("mu_static", _ONE, "nonneg_inf", "static friction coefficient", "friction"),
-    Param("mu_spin", _LENGTH, "nonneg", "spin friction coefficient", "friction"),
-    Param("mu_roll", _LENGTH, "nonneg", "rolling resistance coefficient", "friction"),
+    Param("mu_spin", _LENGTH, "nonneg", "spin friction coefficient (couple bound per "
+          "unit normal force)", "friction"),
+    Param("mu_roll", _LENGTH, "nonneg", "rolling resistance coefficient (couple bound "
+          "per unit normal force)", "friction"),
     Param("damping", _DAMPING, "nonneg", "viscous torque coefficient", "friction"),
     Param("g", _ACCEL, "positive", "gravitational acceleration", "numerics"),
     Param("dt", _TIME, "positive", "time step", "numerics"),
-    Param("t_end", _TIME, "positive", "end time", "numerics"),
+    Param("t_end", _TIME, "positive", "requested end time", "numerics"),
 )}
 
 BODY_PARAMS = ("a", "b", "c", "mass", "delta")
@@ -101,6 +106,33 @@ def resolve(key: str, units: str | None, where: str) -> tuple[Param, float, str]
                          f"{', '.join(repr(k) for k in param.units)}")
     factor, cf = param.units[u]
     return param, factor, cf
+
+
+def _canonical(key: str) -> str:
+    return key[:-4] if key.endswith("_deg") and key[:-4] in PARAMS else key
+
+
+def result_name(key: str) -> str:
+    """The name a parameter given as ``key`` (``roll``, ``roll_deg``, ``spin``) has in
+    results, the same as in :func:`rattlesweep.run_batch` results: ``<angle>_deg`` for an
+    angle (its values in degrees, whatever units the configuration used),
+    ``launch_spin`` for ``spin`` (``spin`` is the spin's time series), else the
+    parameter's name."""
+    name = _canonical(key)
+    if name in PARAMS and PARAMS[name].units is _ANGLE:
+        return f"{name}_deg"
+    return "launch_spin" if name == "spin" else name
+
+
+def result_values(key: str, values: np.ndarray, factor: float, units: str
+                  ) -> tuple[np.ndarray, str]:
+    """Values (user units: SI = values * factor, CF ``units``) as the result holds them
+    under :func:`result_name`: angles in degrees (the user's numbers when given in
+    degrees), anything else as given."""
+    name = _canonical(key)
+    if name in PARAMS and PARAMS[name].units is _ANGLE and units != "degree":
+        return np.degrees(np.asarray(values, dtype=float) * factor), "degree"
+    return values, units
 
 
 def check_values(param: Param, values: np.ndarray, factor: float, where: str) -> None:

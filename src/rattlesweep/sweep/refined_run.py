@@ -190,7 +190,7 @@ def _inputs(fine: Sweep) -> dict[str, np.ndarray]:
         bodies, kwargs = fine.points_at(index)
         out["dt"] = batch.launch_inputs(bodies, **kwargs).flat["dt"].reshape(fine.shape)
     for rp in fine.random_params:
-        out[rp.key] = rp.draw(fine.seed, index).reshape(fine.shape)
+        out[rp.name] = rp.result_draw(fine.seed, index).reshape(fine.shape)
     return out
 
 

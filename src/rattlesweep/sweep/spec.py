@@ -254,7 +254,10 @@ class Sweep:
 
     @property
     def dims(self) -> tuple[str, ...]:
-        return tuple(self.axes) + (("repeat",) if self.random else ())
+        """The result's dimensions: the axes as results name them (``launch_spin``,
+        ``roll_deg``: :func:`~rattlesweep.sweep.params.result_name`), then ``repeat``
+        when there are random draws."""
+        return tuple(ax.name for ax in self.grid_axes) + (("repeat",) if self.random else ())
 
     @property
     def shape(self) -> tuple[int, ...]:

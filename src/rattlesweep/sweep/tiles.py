@@ -51,7 +51,7 @@ def extra_vars(sweep: Sweep) -> tuple[str, ...]:
     """Per-point variables besides the observables: the default time step when dt is not
     given, and the random draws."""
     given = {k[:-4] if k.endswith("_deg") else k for k in (*sweep.axes, *sweep.fixed)}
-    return (("dt",) if "dt" not in given else ()) + tuple(r.key for r in sweep.random_params)
+    return (("dt",) if "dt" not in given else ()) + tuple(r.name for r in sweep.random_params)
 
 
 def result_names(sweep: Sweep) -> tuple[str, ...]:
@@ -91,8 +91,8 @@ def variable_attrs(sweep: Sweep, name: str) -> dict[str, Any]:
     if name == "dt":
         return {"units": "s", "long_name": "time step (the body's default)"}
     for rp in sweep.random_params:
-        if rp.key == name:
-            return {"units": rp.units, "long_name": f"{rp.long_name} (random draw, "
+        if rp.name == name:
+            return {"units": rp.result_units, "long_name": f"{rp.long_name} (random draw, "
                     f"{rp.kind} {rp.a:g}, {rp.b:g})"}
     return MODEL.attrs(name)
 
@@ -113,7 +113,7 @@ def compute_points(sweep: Sweep, index: np.ndarray) -> tuple[dict[str, np.ndarra
     if "dt" in extra_vars(sweep):
         data["dt"] = np.asarray(prep.coords["dt"][1], dtype=float)
     for rp in sweep.random_params:
-        data[rp.key] = rp.draw(sweep.seed, index)
+        data[rp.name] = rp.result_draw(sweep.seed, index)
     return data, int(np.sum(data["steps"]))
 
 
