@@ -535,3 +535,37 @@ def test_summary_and_files_speak_plainly(made, not_robust):
     sweep = tomllib.loads((out / "sweep.toml").read_text())
     assert sweep["fixed"]["body"]["name"] == doc["body"]["name"] == "printed rattleback"
     assert "body_name" not in (out / "sweep.toml").read_text()
+
+
+def coin_table():
+    """The docs' coin table: name -> the cell 'robust on 140 x 40 x 18 mm'."""
+    from pathlib import Path
+
+    page = Path(__file__).resolve().parent.parent / "docs/guide/design.md"
+    if not page.is_file():
+        pytest.skip("docs/guide/design.md is not in this checkout")
+    rows = [line for line in page.read_text().splitlines() if line.startswith("| `")]
+    return {row.split("`")[1]: row.split("|")[-2].strip() for row in rows}
+
+
+def test_the_coin_table_says_what_the_design_runs_show(made, not_robust):
+    table = coin_table()
+    assert table["eur_1"] == "yes"  # made: robust
+    assert table["gbp_0.10"].startswith("no")  # not_robust: exit status 3
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", sorted(COINS))
+def test_every_coin_table_claim(name):
+    """Each row's claim, by the default search: robust or not on the example shell, and
+    robust on the shell named beside a 'no'."""
+    cell = coin_table()[name]
+    d = design(*SHELL, coin=name, reversal_map=False)
+    assert d.robust == cell.startswith("yes"), d.summary()
+    other = re.search(r"`(--[^`]+)`", cell)
+    if other:
+        args = other.group(1).split()
+        shell = dict(zip("abc", SHELL))
+        shell.update({k[2:]: float(v) for k, v in zip(args[::2], args[1::2])})
+        assert design(shell["a"], shell["b"], shell["c"], coin=name,
+                      reversal_map=False).robust
