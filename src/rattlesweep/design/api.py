@@ -333,8 +333,8 @@ def design(
     if reversal_map:
         from .maps import reversal_map_data
 
-        d.reversal_map = reversal_map_data(body, launches)
-        say(f"reversal map: {int(d.reversal_map.attrs['launches'])} launches")
+        say("reversal map: 41 spins x 9 friction values...")
+        d.reversal_map = reversal_map_data(body, launches, n_spin=41, n_mu=9)
     if out_dir is not None:
         from .files import write_files
 

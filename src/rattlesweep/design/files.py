@@ -112,6 +112,9 @@ def write_files(d: "Design", out: Path, overwrite: bool = False) -> dict[str, Pa
     check_out(out, overwrite)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))
+    umask = os.umask(0)
+    os.umask(umask)
+    tmp.chmod(0o777 & ~umask)  # mkdtemp's 0700 would stay with ``out`` after the rename
     try:
         written = _write_all(d, tmp)
         if not out.exists():
