@@ -386,19 +386,36 @@ def _cmd_animate(args: argparse.Namespace, argv: list[str] | None) -> int:
     return 0
 
 
+NOT_ROBUST_STATUS = 3
+"""Exit status of ``rattlesweep design`` for a design that is not robust (without
+``--accept-not-robust``); its files are written all the same."""
+
+
 def _cmd_design(args: argparse.Namespace, argv: list[str] | None) -> int:
     from .design import design
+
+    def say(line: str) -> None:
+        print(line, file=sys.stderr, flush=True)
 
     t0 = time.perf_counter()
     d = design(args.a, args.b, args.c, coin=args.coin, coin_mass=args.coin_mass,
                coin_diameter=args.coin_diameter, coin_thickness=args.coin_thickness,
-               coins=args.coins, infill=args.infill, material=args.material,
+               infill=args.infill, material=args.material, density=args.density,
                wall=args.wall, clearance=args.clearance, rim=args.rim,
-               mu=tuple(args.mu), margin=args.margin, prefer=args.prefer, out=args.out)
+               mu=tuple(args.mu), margin=args.margin, prefer=args.prefer, out=args.out,
+               overwrite=args.force, progress=None if args.quiet else say)
     print(d.summary())
     print(f"wrote {', '.join(str(p) for p in d.files.values())} "
           f"({time.perf_counter() - t0:.1f} s)")
-    return 0
+    if d.robust:
+        return 0
+    if args.accept_not_robust:
+        print("the design is NOT ROBUST; accepted (--accept-not-robust)")
+        return 0
+    print(f"rattlesweep: the design is NOT ROBUST (see above); its files are written, "
+          f"marked so, for you to inspect. Exit status {NOT_ROBUST_STATUS}; give "
+          "--accept-not-robust to accept it.", file=sys.stderr)
+    return NOT_ROBUST_STATUS
 
 
 def _cmd_explore(args: argparse.Namespace, argv: list[str] | None) -> int:
@@ -577,30 +594,48 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--a", type=float, required=True, help="half length of the shell (m)")
     p.add_argument("--b", type=float, required=True, help="half width of the shell (m)")
     p.add_argument("--c", type=float, required=True, help="height of the shell (m)")
-    p.add_argument("--coin", default=None, help="coin or washer preset (default eur_1): "
-                   "eur_1, eur_2, eur_0.50, usd_0.25, usd_0.05, usd_0.01, gbp_0.02, "
-                   "gbp_0.10, washer_M8, washer_M10, washer_M12")
+    p.add_argument("--coin", default=None, help="coin or washer preset, any case (default "
+                   "eur_1): eur_1, eur_2, eur_0.50, usd_0.25, usd_0.05, usd_0.01, gbp_0.02, "
+                   "gbp_0.10, washer_M8, washer_M10, washer_M12. Two coins are used (a pair "
+                   "symmetric about the centre)")
     p.add_argument("--coin-mass", type=float, default=None,
-                   help="coin mass (kg; default: the --coin preset's)")
+                   help="coin mass (kg; default: the --coin preset's, which this "
+                   "overrides; give all three --coin-* for a coin of your own)")
     p.add_argument("--coin-diameter", type=float, default=None,
-                   help="coin diameter (m; default: the --coin preset's)")
+                   help="coin diameter (m; default: the --coin preset's, which this "
+                   "overrides)")
     p.add_argument("--coin-thickness", type=float, default=None,
-                   help="coin thickness (m; default: the --coin preset's)")
-    p.add_argument("--coins", type=int, default=2, help="number of coins (2)")
-    p.add_argument("--infill", type=float, default=0.2, help="infill fraction in (0, 1]")
-    p.add_argument("--material", default="pla", help="pla, petg or abs")
-    p.add_argument("--wall", type=float, default=1.2e-3, help="solid wall thickness (m)")
+                   help="coin thickness (m; default: the --coin preset's, which this "
+                   "overrides)")
+    p.add_argument("--infill", type=float, default=0.2,
+                   help="infill fraction in (0, 1] (default 0.2, i.e. 20 %%)")
+    p.add_argument("--material", default="pla",
+                   help="pla, petg or abs (default pla); any name with --density")
+    p.add_argument("--density", type=float, default=None, metavar="KG_M3",
+                   help="density of the material (kg/m^3; default: the --material "
+                   "preset's, pla 1240, petg 1270, abs 1040, which this overrides)")
+    p.add_argument("--wall", type=float, default=1.2e-3,
+                   help="solid wall thickness (m; default 0.0012)")
     p.add_argument("--clearance", type=float, default=0.4e-3,
-                   help="pocket diameter minus coin diameter (m)")
+                   help="pocket diameter minus coin diameter (m; default 0.0004)")
     p.add_argument("--rim", type=float, default=2e-3,
-                   help="least material beside a pocket (m)")
+                   help="least material beside a pocket (m; default 0.002)")
     p.add_argument("--mu", type=float, nargs=2, default=(0.2, 0.5), metavar=("LOW", "HIGH"),
                    help="friction range to design for (default 0.2 0.5: a table top)")
     p.add_argument("--margin", type=float, default=0.1,
                    help="G at most (1 - margin) x the smaller radius of curvature")
     p.add_argument("--prefer", choices=["cw", "ccw"], default="cw",
                    help="sense (seen from above) in which it spins on")
-    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--out", required=True,
+                   help="output directory: new or empty, unless --force")
+    p.add_argument("--force", action="store_true",
+                   help="write into --out even when it holds files (the design's own "
+                   "files there are replaced, others kept)")
+    p.add_argument("--accept-not-robust", action="store_true",
+                   help=f"exit 0 for a design that is not robust (default: exit status "
+                   f"{NOT_ROBUST_STATUS}, the files written all the same)")
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress lines (on stderr) while it works")
     p.set_defaults(func=_cmd_design)
 
     p = sub.add_parser("simulate", help="simulate one launch: a preset, a homogeneous "

@@ -16,7 +16,8 @@ from ..body import Body
 from .coins import DEFAULT_COIN, Coin, coin_preset
 from .constraints import check_coin_fits, check_margin, check_shell, max_coin_mass
 from .mass import Part, body_of, moments_of
-from .printing import Material, PrintSettings, material_preset, require
+from .printing import MATERIALS, Material, PrintSettings, material_preset, require
+from .progress import Progress, kernels_cached, quiet
 from .search import Launches, SearchResult, bad_sign, search
 
 __all__ = ["Design", "design", "make_coin"]
@@ -49,6 +50,7 @@ class Design:
         """A few lines for people."""
         p, c = self.part, self.part.coin
         pred = self.prediction
+        t_end = self.launches.t_end
         lines = [
             f"shell {2 * p.a * 1e3:.4g} x {2 * p.b * 1e3:.4g} x {p.c * 1e3:.4g} mm "
             f"({p.settings.material.name}, infill {p.settings.infill:.0%}, wall "
@@ -58,24 +60,101 @@ class Design:
             f"({-p.x * 1e3:+.1f}, {-p.y * 1e3:+.1f}) mm; misalignment "
             f"{pred['misalignment_deg']:+.2f} deg; G {pred['com_height'] * 1e3:.3g} mm "
             f"above the contact point (limit {pred['com_height_limit'] * 1e3:.3g} mm)",
-            f"prefers {self.prefer} (seen from above); spun {pred['bad_sense']} it "
-            f"reverses after {_span(pred['first_reversal_time_mu_low'])} at mu = "
-            f"{self.launches.mu[0]:g}, {_span(pred['first_reversal_time_mu_high'])} at "
-            f"mu = {self.launches.mu[1]:g} (spins {min(self.launches.spins):g}-"
-            f"{max(self.launches.spins):g} rad/s, tilts below 1 deg)",
+            f"prefers {self.prefer} (seen from above); spun {pred['bad_sense']} "
+            f"(spins {min(self.launches.spins):g}-{max(self.launches.spins):g} rad/s, "
+            f"tilts below 1 deg) it reverses at mu = {self.launches.mu[0]:g} "
+            f"{_span(pred['first_reversal_time_mu_low'], t_end)}; at mu = "
+            f"{self.launches.mu[1]:g} {_span(pred['first_reversal_time_mu_high'], t_end)}",
             f"search: {self.search.launches} launches ({self.search.table.sizes['candidate']}"
             f" placements, {self.search.levels} refinement levels); "
-            f"{'robust' if self.search.robust else 'NOT robust'} within "
-            f"{self.launches.t_end:g} s",
+            + ("robust: every wrong-way launch reversed and no right-way one did within "
+               f"{t_end:g} s of spinning" if self.robust else "NOT ROBUST (see below)"),
         ]
-        lines += self.search.notes
+        if not self.robust:
+            lines += self.not_robust_report()
         return "\n".join(lines)
 
+    @property
+    def robust(self) -> bool:
+        """Whether every bad-sense launch of the search reversed and no preferred-sense
+        one did, within ``launches.t_end``."""
+        return self.search.robust
 
-def _span(t: dict[str, float]) -> str:
+    def not_robust_report(self) -> list[str]:
+        """For a design that is not robust: what failed (fractions of the launches, the
+        spins and friction values where) and what to try, from the numbers of the
+        design. Empty for a robust design."""
+        return [] if self.robust else not_robust_report(self)
+
+
+def _span(t: dict[str, float], t_end: float) -> str:
     if not math.isfinite(t["max"]):
-        return f"{t['min']:.2g} s to never (within t_end)"
-    return f"{t['min']:.2g}-{t['max']:.2g} s (median {t['median']:.2g} s)"
+        return (f"after {t['min']:.2g} s at the quickest, but {t['not_reversed']:g} of "
+                f"its {t['launches']:g} launches do not within {t_end:g} s of spinning")
+    return (f"after {t['min']:.2g}-{t['max']:.2g} s (median {t['median']:.2g} s) of "
+            "spinning")
+
+
+def _count(mask: np.ndarray) -> str:
+    return f"{int(mask.sum())} of {mask.size}"
+
+
+def not_robust_report(d: Design) -> list[str]:
+    """Lines saying why ``d`` is not robust and what to try (see
+    :meth:`Design.not_robust_report`)."""
+    best, launches, pred, p = d.search.best, d.launches, d.prediction, d.part
+    t_end = launches.t_end
+    bad = best.first_reversal_time.sel(sense="bad")
+    good = best.first_reversal_time.sel(sense="good")
+    missed = bad.isnull()
+    spurious = good.notnull()
+    lines = ["NOT ROBUST: no placement tried reverses every wrong-way launch and no "
+             "right-way one:"]
+    hints: list[str] = []
+    if bool(missed.any()):
+        per_spin = missed.sum(["mu", "tilt"])
+        per_mu = missed.sum(["spin", "tilt"])
+        spins = [f"{float(s):g}" for s in per_spin.spin[per_spin > 0]]
+        mus = [f"{float(m):g}" for m in per_mu.mu[per_mu > 0]]
+        lines.append(
+            f"  spun {pred['bad_sense']} (the wrong way), {_count(missed.values)} launches "
+            f"({float(missed.mean()):.0%}) did not reverse within {t_end:g} s of spinning: "
+            f"at spins {', '.join(spins)} rad/s, mu {', '.join(mus)}")
+        ok_spins = [float(s) for s in per_spin.spin[per_spin == 0]]
+        if ok_spins and min(ok_spins) > float(per_spin.spin.min()):
+            hints.append(f"flicked at {min(ok_spins):g} rad/s or faster it does reverse "
+                         "every time: the design may do if you spin it hard")
+        if len(mus) < len(per_mu) and len(per_mu) > 1:
+            fine = [float(m) for m in per_mu.mu[per_mu == 0]]
+            hints.append(f"a narrower friction range (--mu {min(fine):g} {max(fine):g}) "
+                         "if your table is known to be in it")
+        edge = abs(p.y) / p.b
+        if edge < 0.3:
+            hints.append(
+                f"the coins sit near the long axis (|y| = {abs(p.y) * 1e3:.1f} mm of a "
+                f"{p.b * 1e3:.3g} mm half width): a coin this wide leaves little room off "
+                f"the axis for a bias; a smaller coin, or a wider shell (e.g. --b "
+                f"{p.b * 1.1:.3g}) gives a stronger one")
+        if pred["com_height"] < 0.9 * pred["com_height_limit"]:
+            most = pred["max_coin_mass"]
+            hints.append("a heavier coin of the same size biases it more" + (
+                f" (up to {most * 1e3:.3g} g keeps G within the margin; --coin-mass)"
+                if math.isfinite(most) else " (--coin-mass)"))
+    if bool(spurious.any()):
+        lines.append(
+            f"  spun {pred['preferred_sense']} (the right way), {_count(spurious.values)} "
+            f"launches ({float(spurious.mean()):.0%}) reversed within {t_end:g} s of "
+            "spinning, which it should not")
+        hints.append("a lighter coin, or coins nearer the long axis: the bias is so strong "
+                     "that the right way is unstable too")
+    if pred["com_height"] >= 0.9 * pred["com_height_limit"]:
+        hints.append(
+            f"G is {pred['com_height'] * 1e3:.3g} mm above the contact point, near its "
+            f"limit of {pred['com_height_limit'] * 1e3:.3g} mm: a lighter coin or a lower "
+            "shell (smaller c) rocks more steadily")
+    hints.append("a different shell (a, b, c) or coin; the files are written so that you "
+                 "can look at the map and the sheet, but a print may disappoint")
+    return lines + ["  what to try:"] + [f"  - {h}" for h in hints]
 
 
 def make_coin(coin: str | Coin | None = None, *, mass: float | None = None,
@@ -95,6 +174,20 @@ def make_coin(coin: str | Coin | None = None, *, mass: float | None = None,
         source=f"{base.source}; changed by the user: {', '.join(sorted(given))}", **given)
 
 
+def _material(material: str | Material, density: float | None) -> Material:
+    """The material, its density overridden by ``density`` (kg/m³) when given."""
+    if density is None:
+        return material if isinstance(material, Material) else material_preset(material)
+    rho = require("density", density, "in kg/m^3, from 100 (a foam) to 25000",
+                  lambda v: 100 <= v <= 25000,
+                  lambda v: f"{v:g} looks like g/cm^3: {v:g} g/cm^3 is {v * 1e3:g} kg/m^3"
+                  if 0 < v < 30 else None)
+    name = material.name if isinstance(material, Material) else str(material)
+    source = "given by the user" if name not in MATERIALS else \
+        f"given by the user (the {name} preset's: {MATERIALS[name].density:g} kg/m^3)"
+    return Material(name or "custom", rho, source)
+
+
 def _prediction(part: Part, body: Body, result: SearchResult, launches: Launches,
                 margin: float, prefer: str) -> dict[str, Any]:
     t = result.best.first_reversal_time.sel(sense="bad")
@@ -102,7 +195,8 @@ def _prediction(part: Part, body: Body, result: SearchResult, launches: Launches
     def stats(mu: float) -> dict[str, float]:
         v = t.sel(mu=mu, method="nearest").values.ravel()
         v = np.where(np.isfinite(v), v, np.inf)
-        return {"min": float(v.min()), "median": float(np.median(v)), "max": float(v.max())}
+        return {"min": float(v.min()), "median": float(np.median(v)), "max": float(v.max()),
+                "not_reversed": int(np.isinf(v).sum()), "launches": int(v.size)}
 
     radius = min(body.radii_of_curvature)
     return {
@@ -111,6 +205,7 @@ def _prediction(part: Part, body: Body, result: SearchResult, launches: Launches
         "robust": result.robust,
         "first_reversal_time_mu_low": stats(launches.mu[0]),
         "first_reversal_time_mu_high": stats(launches.mu[1]),
+        "bad_sense_reversed_fraction": float(result.best.bad_reversed),
         "preferred_sense_reversed_fraction": float(result.best.good_reversed),
         "t_end": launches.t_end,
         "print_mass": moments_of(part, coins=False).mass,
@@ -130,10 +225,11 @@ def design(
     a: float, b: float, c: float, *, coin: str | Coin | None = None,
     coin_mass: float | None = None, coin_diameter: float | None = None,
     coin_thickness: float | None = None, coins: int = 2, infill: float = 0.2,
-    material: str | Material = "pla", wall: float = 1.2e-3, clearance: float = 0.4e-3,
-    rim: float = 2.0e-3, mu: tuple[float, float] = (0.2, 0.5), margin: float = 0.1,
-    prefer: str = "cw", launches: Launches | None = None, grid: tuple[int, int] = (10, 6),
-    refine: int = 2, out: str | Path | None = None, reversal_map: bool = True,
+    material: str | Material = "pla", density: float | None = None, wall: float = 1.2e-3,
+    clearance: float = 0.4e-3, rim: float = 2.0e-3, mu: tuple[float, float] = (0.2, 0.5),
+    margin: float = 0.1, prefer: str = "cw", launches: Launches | None = None,
+    grid: tuple[int, int] = (10, 6), refine: int = 2, out: str | Path | None = None,
+    overwrite: bool = False, reversal_map: bool = True, progress: Progress | None = None,
 ) -> Design:
     """Design a printable rattleback: a semi-ellipsoid shell printed flat face down,
     with two coins in pockets in its flat face placed, symmetric about the centre, where
@@ -147,13 +243,17 @@ def design(
         A preset of :data:`rattlesweep.design.COINS` (default ``"eur_1"``) or a
         :class:`Coin`.
     coin_mass, coin_diameter, coin_thickness : float, optional
-        A coin by its numbers (kg, m), all three; or any of them changing the preset's.
+        A coin by its numbers (kg, m), all three; or any of them overriding the figure of
+        the preset ``coin`` (default ``"eur_1"``).
     coins : int
         Number of coins: 2 (a pair symmetric about the centre).
     infill : float
         Infill fraction of the print's core, in (0, 1].
     material : str or Material
-        ``"pla"`` (default), ``"petg"``, ``"abs"`` or a :class:`Material`.
+        ``"pla"`` (default), ``"petg"``, ``"abs"`` or a :class:`Material`; with
+        ``density``, any name.
+    density : float, optional
+        Density of the material (kg/m³), overriding the preset's.
     wall, clearance, rim : float
         Solid wall thickness, pocket diameter minus coin diameter, least material
         between a pocket and the face's edge or the other pocket (m).
@@ -171,9 +271,19 @@ def design(
         Candidate grid (columns along x, placements per column) and refinement levels.
     out : path, optional
         Directory to write the files into: ``rattleback.stl``, ``placement_sheet.png``
-        and ``.pdf``, ``design.toml``, ``sweep.toml`` and ``reversal_map.png``.
+        and ``.pdf``, ``design.toml``, ``sweep.toml``, ``search.nc``,
+        ``reversal_map.png`` and ``.nc``. It must be new or empty unless ``overwrite``;
+        the files are written to a temporary directory beside it first, then moved in,
+        so a run that fails leaves no half design. A design that is not robust is
+        written too, marked NOT ROBUST on the sheet and the map.
+    overwrite : bool
+        Allow ``out`` to hold files already: the design's files replace theirs
+        namesakes, other files stay.
     reversal_map : bool
         Compute the reversal map (written with ``out``).
+    progress : callable, optional
+        Called with one line at each stage (compiling the kernels on a first run,
+        searching, refining, the map, writing files); default: silent.
 
     Returns
     -------
@@ -184,15 +294,17 @@ def design(
     ValueError
         For bad inputs, naming the parameter, the value and the rule, before any
         simulation; :class:`DesignRefused` (a ValueError) when the coins would lift G
-        above the margin, with the largest coin mass that would do.
+        above the margin, with the largest coin mass that would do; ValueError when
+        ``out`` holds anything and ``overwrite`` is not given.
     """
     t0 = time.perf_counter()
+    say = progress or quiet
     if coins != 2:
         raise ValueError(f"coins = {coins!r} is invalid: it must be 2 (a pair symmetric "
                          "about the centre)")
     bad_sign(prefer)
     margin = require("margin", margin, "a fraction in [0, 1)", lambda v: 0 <= v < 1)
-    mat = material if isinstance(material, Material) else material_preset(material)
+    mat = _material(material, density)
     settings = PrintSettings(mat, infill, wall, clearance, rim)
     the_coin = make_coin(coin, mass=coin_mass, diameter=coin_diameter,
                          thickness=coin_thickness)
@@ -208,20 +320,26 @@ def design(
     check_coin_fits(a, b, c, part)
     check_margin(part, margin)
     out_dir = None if out is None else Path(out)
-    if out_dir is not None and out_dir.exists() and not out_dir.is_dir():
-        raise ValueError(f"out = {str(out_dir)!r} is invalid: it must be a directory")
-    result = search(part, launches, prefer, grid=grid, refine=refine)
+    if out_dir is not None:
+        from .files import check_out
+
+        check_out(out_dir, overwrite)
+    if not kernels_cached():
+        say("compiling the simulation kernels (first run only: one to three minutes)...")
+    result = search(part, launches, prefer, grid=grid, refine=refine, progress=say)
     body = body_of(result.part, name="printed rattleback")
     prediction = _prediction(result.part, body, result, launches, margin, prefer)
     d = Design(result.part, body, prefer, margin, launches, result, prediction)
     if reversal_map:
         from .maps import reversal_map_data
 
-        d.reversal_map = reversal_map_data(body, launches)
+        say("reversal map: 41 spins x 9 friction values...")
+        d.reversal_map = reversal_map_data(body, launches, n_spin=41, n_mu=9)
     if out_dir is not None:
         from .files import write_files
 
-        d.files = write_files(d, out_dir)
+        say(f"writing files into {out_dir}...")
+        d.files = write_files(d, out_dir, overwrite)
     d.seconds = time.perf_counter() - t0
     return d
 

@@ -108,9 +108,11 @@ DEFAULT_COIN = "eur_1"
 
 
 def coin_preset(name: str) -> Coin:
-    """The named coin or washer; a ValueError lists the names."""
+    """The named coin or washer, the name in any case (``EUR_1``, ``washer_m10``); a
+    ValueError lists the names."""
+    by_folded = {key.casefold(): coin for key, coin in COINS.items()}
     try:
-        return COINS[name]
+        return by_folded[str(name).casefold()]
     except KeyError:
         raise ValueError(f"coin {name!r} is unknown; choose one of {sorted(COINS)} or give "
                          "its mass, diameter and thickness") from None

@@ -21,7 +21,7 @@ import math
 import numpy as np
 
 from .mass import Part, moments_of, segment_moments
-from .printing import PrintSettings, require
+from .printing import PrintSettings, millimetres_hint, require
 
 __all__ = ["DesignRefused", "check_coin_fits", "check_margin", "check_shell",
            "max_coin_mass", "placement_problem"]
@@ -42,13 +42,20 @@ def check_shell(a: object, b: object, c: object, settings: PrintSettings
                 ) -> tuple[float, float, float]:
     """The semi-axes (m) as floats, after checking them and the stability of the empty
     print; ValueError naming the parameter otherwise."""
+    def length(x: float) -> bool:
+        return 0 < x <= 1.0
     axes = tuple(require(k, v, "a finite length > 0 and at most 1 m (SI units: m)",
-                         lambda x: 0 < x <= 1.0) for k, v in (("a", a), ("b", b), ("c", c)))
+                         length, millimetres_hint(length))
+                 for k, v in (("a", a), ("b", b), ("c", c)))
     a_, b_, c_ = axes
     w = settings.wall
     if min(axes) <= 3 * w:
-        raise ValueError(f"semi-axes a = {a_!r}, b = {b_!r}, c = {c_!r} m are invalid: each "
-                         f"must exceed three wall thicknesses (3 x {w:g} m) to leave a core")
+        name, least = min(zip("abc", axes), key=lambda kv: kv[1])
+        raise ValueError(
+            f"wall = {w:g} m is too thick for this shell: three walls ({3 * w:g} m) must "
+            f"fit in each semi-axis to leave an infill core, and {name} = {least:g} m; "
+            "give a thinner --wall (a slicer's 2 to 4 perimeters: 0.0008 to 0.0016 m) or a "
+            "larger shell")
     rho, void = settings.material.density, (1.0 - settings.infill) * settings.material.density
     m = segment_moments(a_, b_, c_, -c_, 0.0).scaled(rho) + segment_moments(
         a_ - w, b_ - w, c_ - w, -(c_ - w), -w).scaled(-void)

@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import shutil
+import tempfile
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -13,7 +16,7 @@ import xarray as xr
 from .._version import __version__
 from ..io import write_netcdf
 from ..sweep import Sweep
-from .maps import MAP_TILT, write_map
+from .maps import map_tilt, write_map
 from .mesh import write_stl
 from .record import design_document, write_toml
 from .sheet import write_sheet
@@ -21,7 +24,11 @@ from .sheet import write_sheet
 if TYPE_CHECKING:
     from .api import Design
 
-__all__ = ["write_files"]
+__all__ = ["FILE_NAMES", "check_out", "write_files"]
+
+FILE_NAMES = ("rattleback.stl", "placement_sheet.png", "placement_sheet.pdf",
+              "reversal_map.png", "search.nc", "reversal_map.nc", "sweep.toml", "design.toml")
+"""The files a design writes."""
 
 
 def _sections(d: "Design", files: dict[str, Path]) -> dict[str, dict[str, Any]]:
@@ -44,13 +51,38 @@ def _sections(d: "Design", files: dict[str, Path]) -> dict[str, dict[str, Any]]:
 def map_sweep(d: "Design") -> Sweep:
     """The design's reversal map as a sweep (``rattlesweep sweep sweep.toml``)."""
     mu = d.launches.mu
+    roll, pitch = map_tilt(d.launches)
     return Sweep(
         axes={"spin": {"start": -12.0, "stop": 12.0, "num": 41},
               "mu": {"start": mu[0], "stop": mu[1], "num": 9} if mu[1] > mu[0]
               else [mu[0]]},
         fixed={"body": d.body, "t_end": d.launches.t_end,
-               "roll_deg": math.degrees(MAP_TILT[0]), "pitch_deg": math.degrees(MAP_TILT[1])},
+               "roll_deg": math.degrees(roll), "pitch_deg": math.degrees(pitch)},
         stop="first_reversal", name="rattlesweep design: reversal map")
+
+
+def check_out(out: Path, overwrite: bool) -> None:
+    """ValueError unless ``out`` is a directory that does not exist yet or is empty
+    (with ``overwrite``: any directory), naming the path and what is there."""
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"out = {str(out)!r} is invalid: it is a file, and must be a "
+                         "directory (new or empty)")
+    if overwrite or not out.is_dir():
+        return
+    held = sorted(entry.name for entry in out.iterdir())
+    if not held:
+        return
+    ours = [name for name in held if name in FILE_NAMES]
+    what = (f"a previous design ({len(ours)} of its {len(FILE_NAMES)} files: "
+            f"{', '.join(ours)})" if ours else f"{len(held)} entries")
+    others = [name for name in held if name not in FILE_NAMES]
+    shown = ", ".join(others[:6]) + (", ..." if len(others) > 6 else "")
+    raise ValueError(
+        f"out = {str(out)!r} already holds {what}"
+        + (f" and other files ({shown})" if ours and others else
+           (f": {shown}" if not ours else ""))
+        + "; rattlesweep design does not overwrite them: give a new or empty directory, "
+        "or --force (overwrite=True in Python) to replace the design's files there")
 
 
 def _write_data(ds: xr.Dataset, d: "Design", path: Path, title: str) -> Path:
@@ -69,29 +101,62 @@ def _write_data(ds: xr.Dataset, d: "Design", path: Path, title: str) -> Path:
     return write_netcdf(ds, path)
 
 
-def write_files(d: "Design", out: Path) -> dict[str, Path]:
+def write_files(d: "Design", out: Path, overwrite: bool = False) -> dict[str, Path]:
     """Write the STL, the placement sheet, the reversal map (PNG and netCDF), the search
     (``search.nc``: every candidate and launch), ``sweep.toml`` and ``design.toml`` into
-    ``out`` (made if missing); returns the paths by kind."""
-    out.mkdir(parents=True, exist_ok=True)
+    ``out`` (made if missing; see :func:`check_out` for when it may hold files); returns
+    the paths by kind.
+
+    Everything is written into a temporary directory beside ``out`` first and moved in
+    when complete (each file by a rename), so a failure leaves no half design."""
+    check_out(out, overwrite)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))
+    umask = os.umask(0)
+    os.umask(umask)
+    tmp.chmod(0o777 & ~umask)  # mkdtemp's 0700 would stay with ``out`` after the rename
+    try:
+        written = _write_all(d, tmp)
+        if not out.exists():
+            os.rename(tmp, out)
+        else:
+            check_out(out, overwrite)  # nothing appeared there meanwhile
+            for path in written.values():
+                os.replace(path, out / path.name)
+            tmp.rmdir()
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return {kind: out / path.name for kind, path in written.items()}
+
+
+def _write_all(d: "Design", out: Path) -> dict[str, Path]:
+    not_robust = None if d.robust else not_robust_banner(d)
     files: dict[str, Path] = {"stl": write_stl(d.part, out / "rattleback.stl")}
-    files["sheet_png"], files["sheet_pdf"] = write_sheet(d.part, d.prefer, out)
+    files["sheet_png"], files["sheet_pdf"] = write_sheet(d.part, d.prefer, out,
+                                                         not_robust=not_robust)
     if d.reversal_map is not None:
         spins = (min(d.launches.spins), max(d.launches.spins))
         files["reversal_map"] = write_map(d.reversal_map, d.prefer, spins,
-                                          out / "reversal_map.png")
+                                          out / "reversal_map.png", not_robust=not_robust)
     files["search"] = _write_data(d.search.data, d, out / "search.nc",
                                   "rattlesweep design: placement search")
     if d.reversal_map is not None:
         files["reversal_map_data"] = _write_data(d.reversal_map, d, out / "reversal_map.nc",
                                                  "rattlesweep design: reversal map")
-    sweep_path = out / "sweep.toml"
-    tmp = sweep_path.with_name("sweep.toml.tmp")
-    tmp.write_text(map_sweep(d).to_toml(), encoding="ascii")
-    tmp.replace(sweep_path)
-    files["sweep"] = sweep_path
+    files["sweep"] = out / "sweep.toml"
+    files["sweep"].write_text(map_sweep(d).to_toml(), encoding="ascii")
     files["design"] = out / "design.toml"
     write_toml(design_document(d.body, _sections(d, files)), files["design"],
                comment="rattlesweep design: a printable rattleback with coins "
-               "(rattlesweep.design.load_body reads [body])")
+               "(rattlesweep simulate --body design.toml reads [body])")
     return files
+
+
+def not_robust_banner(d: "Design") -> str:
+    """Two lines for the sheet and the map of a design that is not robust."""
+    pred = d.prediction
+    return (f"NOT ROBUST: read the summary's advice before you print\n"
+            f"{pred['bad_sense_reversed_fraction']:.0%} of the wrong-way launches reversed "
+            f"(all should), {pred['preferred_sense_reversed_fraction']:.0%} of the "
+            f"right-way ones (none should), within {d.launches.t_end:g} s")

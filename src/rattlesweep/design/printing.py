@@ -22,7 +22,8 @@ import math
 from dataclasses import dataclass
 from typing import Callable
 
-__all__ = ["MATERIALS", "Material", "PrintSettings", "material_preset", "require"]
+__all__ = ["MATERIALS", "Material", "PrintSettings", "material_preset", "millimetres_hint",
+           "require"]
 
 
 @dataclass(frozen=True)
@@ -51,19 +52,40 @@ def material_preset(name: str) -> Material:
         return MATERIALS[name]
     except KeyError:
         raise ValueError(f"material {name!r} is unknown; choose one of {sorted(MATERIALS)} "
-                         "or give its density") from None
+                         "or give its density (--density KG_M3; from Python, "
+                         "density=...)") from None
 
 
-def require(name: str, value: object, rule: str, test: Callable[[float], bool]) -> float:
+def require(name: str, value: object, rule: str, test: Callable[[float], bool],
+            hint: Callable[[float], str | None] | None = None) -> float:
     """``value`` as a float when it is a finite number passing ``test``; otherwise a
-    ValueError naming the parameter, the value and the rule."""
+    ValueError naming the parameter, the value and the rule, and what ``hint`` says of
+    the value (a likely mistake of units) when it says something."""
     try:
         v = float(value)  # type: ignore[arg-type]
     except (TypeError, ValueError):
         v = math.nan
     if isinstance(value, bool) or not math.isfinite(v) or not test(v):
-        raise ValueError(f"{name} = {value!r} is invalid: it must be {rule}")
+        extra = hint(v) if hint is not None and math.isfinite(v) else None
+        raise ValueError(f"{name} = {value!r} is invalid: it must be {rule}"
+                         + (f"; {extra}" if extra else ""))
     return v
+
+
+def millimetres_hint(test: Callable[[float], bool]) -> Callable[[float], str | None]:
+    """A hint for :func:`require`: the value looks like millimetres when a thousandth of
+    it passes ``test``."""
+    def hint(v: float) -> str | None:
+        if v > 0 and test(v * 1e-3):
+            return f"{v:g} looks like millimetres: give metres, e.g. {v * 1e-3:g}"
+        return None
+    return hint
+
+
+def _percent_hint(v: float) -> str | None:
+    if 1 < v <= 100:
+        return f"it is a fraction: {v:g} % is {v / 100:g}"
+    return None
 
 
 @dataclass(frozen=True)
@@ -94,12 +116,15 @@ class PrintSettings:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "infill", require(
-            "infill", self.infill, "a fraction in (0, 1]", lambda v: 0 < v <= 1))
+            "infill", self.infill, "a fraction in (0, 1]", lambda v: 0 < v <= 1,
+            _percent_hint))
         for name, top in (("wall", 0.02), ("clearance", 0.005), ("rim", 0.05)):
             low = "> 0" if name == "wall" else ">= 0"
+
+            def test(v: float, low: str = low, top: float = top) -> bool:
+                return (v > 0 if low == "> 0" else v >= 0) and v <= top
             value = require(name, getattr(self, name), f"{low} and at most {top} m (SI "
-                            "units: m)", lambda v: (v > 0 if low == "> 0" else v >= 0)
-                            and v <= top)
+                            "units: m)", test, millimetres_hint(test))
             object.__setattr__(self, name, value)
         require("material density", self.material.density, "a finite number > 0 (kg/m^3)",
                 lambda v: v > 0)

@@ -14,7 +14,7 @@ from typing import Any, Mapping
 
 from .._version import __version__
 from ..body import Body
-from ..sweep.schema import body_from_table
+from ..sweep.schema import body_from_table, body_table
 from ..sweep.toml_io import format_toml, read_toml
 
 __all__ = ["body_table", "design_document", "load_body", "write_toml"]
@@ -37,13 +37,6 @@ def write_toml(document: Mapping[str, Any], path: Path, comment: str) -> Path:
     tmp.write_text(format_toml(_plain(dict(document)), comment=comment), encoding="ascii")
     tmp.replace(path)
     return path
-
-
-def body_table(body: Body) -> dict[str, Any]:
-    """The body as a sweep body table (SI units)."""
-    return {"name": body.name, "a": body.a, "b": body.b, "c": body.c, "mass": body.mass,
-            "com": body.com.tolist(), "inertia": body.inertia.tolist(),
-            "full_ellipsoid": body.full_ellipsoid}
 
 
 def load_body(path: str | Path) -> Body:

@@ -14,6 +14,7 @@ the best so far at half the previous spacing.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -211,12 +212,13 @@ def _span(part: Part, x: float, y_sign: float, n: int = 400) -> tuple[float, flo
 
 
 def search(part: Part, launches: Launches, prefer: str, *, grid: tuple[int, int] = (10, 6),
-           refine: int = 2) -> SearchResult:
+           refine: int = 2, progress: Callable[[str], None] | None = None) -> SearchResult:
     """Search coin placements for ``part`` (its own x, y are ignored): a grid of
     ``grid`` = (nx, ny) points over the quarter of the flat face where the preferred
     sense comes out (x > 0, y of the sign that makes it): nx columns across x, each
     with ny points spread over the |y| that fit there, then ``refine`` levels of
-    local refinement around the best. ValueError when no placement fits."""
+    local refinement around the best; ``progress`` is told each level's size. ValueError
+    when no placement fits."""
     nx, ny = grid
     if not (nx >= 1 and ny >= 1):
         raise ValueError(f"grid = {grid!r} is invalid: it must be two integers >= 1")
@@ -245,6 +247,9 @@ def search(part: Part, launches: Launches, prefer: str, *, grid: tuple[int, int]
             "or a wider shell (b)")
     tables, total, level = [], 0, 0
     while True:
+        if progress is not None:
+            what = "searching" if level == 0 else f"refining (level {level} of {refine}):"
+            progress(f"{what} {len(points)} placements x {launches.size} launches...")
         bodies = [body_of(part.at(x, y), name=f"x={x * 1e3:.2f}mm,y={y * 1e3:.2f}mm")
                   for x, y in points]
         ev = evaluate(bodies, launches, prefer)

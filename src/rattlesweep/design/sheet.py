@@ -20,23 +20,26 @@ __all__ = ["MM_PER_INCH", "placement_sheet", "write_sheet"]
 MM_PER_INCH = 25.4
 _MARGIN = 12.0  # mm of paper around the face
 _TEXT = 34.0  # mm of paper below the face for the legend
+_HEADER = 12.0  # mm of paper above the face for the warning of a design not robust
 _SCALE_BAR = 50.0  # mm
 
 
-def placement_sheet(part: Part, prefer: str) -> "Figure":
+def placement_sheet(part: Part, prefer: str, not_robust: str | None = None) -> "Figure":
     """The sheet as a matplotlib figure whose size in inches is the drawing's real size:
     the flat face seen from above (the rattleback resting on its curved side), its
-    pockets and coins, the coin centres in mm from the face's centre, a 50 mm scale bar
-    to check the print's scale and the preferred sense of spin."""
+    pockets and coins, the coin centres in mm from the face's centre (each written
+    outside the face, on the coin's side, with a leader line), a 50 mm scale bar to check
+    the print's scale and the preferred sense of spin. ``not_robust``: a line saying why
+    the design is not robust, printed in red above the face and framed in red."""
     from matplotlib.figure import Figure
-    from matplotlib.patches import Circle, Ellipse
+    from matplotlib.patches import Circle, Ellipse, Rectangle
 
     a, b = part.a * 1e3, part.b * 1e3
     width = max(2 * a, _SCALE_BAR + 60.0) + 2 * _MARGIN
-    height = 2 * b + 2 * _MARGIN + _TEXT
+    height = 2 * b + 2 * _MARGIN + _TEXT + _HEADER
     fig = Figure(figsize=(width / MM_PER_INCH, height / MM_PER_INCH))
     ax = fig.add_axes((0.0, 0.0, 1.0, 1.0))
-    y0 = _TEXT / 2  # centre of the face, mm above the middle of the sheet
+    y0 = (_TEXT - _HEADER) / 2  # centre of the face, mm above the middle of the sheet
     ax.set_xlim(-width / 2, width / 2)
     ax.set_ylim(-height / 2, height / 2)
     ax.set_aspect("equal")
@@ -56,8 +59,13 @@ def placement_sheet(part: Part, prefer: str) -> "Figure":
                                 color="white", lw=0.4))
         ax.plot([x - 2, x + 2], [y0 + y, y0 + y], color="k", lw=0.5)
         ax.plot([x, x], [y0 + y - 2, y0 + y + 2], color="k", lw=0.5)
-        ax.text(x, y0 + y - r_coin - 3.5, f"({x:+.1f}, {y:+.1f}) mm", fontsize=6,
-                ha="center", va="top")
+        # outside the face on the coin's side, so the text never crosses the outline
+        side = 1.0 if y > 0 else -1.0
+        y_text = y0 + side * (b + 3.0)
+        ax.plot([x, x], [y0 + y + side * r_coin, y_text - side * 0.8], color="0.5",
+                lw=0.4)
+        ax.text(x, y_text, f"coin centre ({x:+.1f}, {y:+.1f}) mm", fontsize=6,
+                ha="center", va="bottom" if side > 0 else "top")
     # preferred sense: an arc arrow seen from above (angles grow counter-clockwise)
     sign = 1.0 if prefer == "ccw" else -1.0
     rr = min(6.0, 0.3 * b)
@@ -78,6 +86,11 @@ def placement_sheet(part: Part, prefer: str) -> "Figure":
     ]
     for i, line in enumerate(lines):
         ax.text(-width / 2 + _MARGIN, yt - 4 * i, line, fontsize=5.5, va="top")
+    if not_robust:
+        ax.text(0, height / 2 - 3, not_robust, fontsize=7, color="red", fontweight="bold",
+                ha="center", va="top")
+        ax.add_patch(Rectangle((-width / 2 + 1, -height / 2 + 1), width - 2, height - 2,
+                               fill=False, color="red", lw=2.0))
     xb, yb = -width / 2 + _MARGIN, -height / 2 + 6
     ax.plot([xb, xb + _SCALE_BAR], [yb, yb], color="k", lw=1.0)
     for xt in (xb, xb + _SCALE_BAR):
@@ -86,11 +99,11 @@ def placement_sheet(part: Part, prefer: str) -> "Figure":
     return fig
 
 
-def write_sheet(part: Part, prefer: str, directory: Path, dpi: int = 300
-                ) -> tuple[Path, Path]:
+def write_sheet(part: Part, prefer: str, directory: Path, dpi: int = 300,
+                not_robust: str | None = None) -> tuple[Path, Path]:
     """Write ``placement_sheet.png`` (``dpi`` recorded in the file) and
     ``placement_sheet.pdf`` into ``directory``; returns their paths."""
-    fig = placement_sheet(part, prefer)
+    fig = placement_sheet(part, prefer, not_robust)
     png, pdf = directory / "placement_sheet.png", directory / "placement_sheet.pdf"
     fig.savefig(png, dpi=dpi)
     fig.savefig(pdf)

@@ -62,7 +62,8 @@ def grid_coords(sweep: Sweep) -> dict[str, Any]:
                             {"long_name": "repeat of the grid cell (random draws)"})
     for key, value in sweep.fixed.items():
         if key == "body":
-            name = value if isinstance(value, str) else value.get("body_name", "custom")
+            name = value if isinstance(value, str) else value.get(
+                "name", value.get("body_name", "custom"))
             coords["body"] = ((), name, {"long_name": "body (preset name or label); full "
                                          "description in sweep_config"})
             continue

@@ -79,11 +79,19 @@ def normalise_body(value: object, where: str) -> str | dict[str, Any]:
                              f"{sorted(PRESETS)}")
         return value
     if isinstance(value, Body):
-        return value.describe()
+        return body_table(value)
     if isinstance(value, Mapping):
-        return body_from_table(value, where).describe()
+        return body_table(body_from_table(value, where))
     raise ValueError(f"{where}: a body is a preset name, a Body, or a table with a, b, c, "
                      f"mass, com, inertia; got {value!r}")
+
+
+def body_table(body: Body) -> dict[str, Any]:
+    """The body as a body table: ``name`` first (the key ``rattlesweep design``'s
+    ``[body]`` uses too; ``body_name`` is read as well), then the plain numbers of
+    :meth:`~rattlesweep.Body.describe`."""
+    d = body.describe()
+    return {"name": d.pop("body_name"), **d}
 
 
 def body_from_table(d: Mapping[str, Any], where: str) -> Body:
