@@ -43,7 +43,7 @@ def test_dry_run_of_a_refined_sweep_names_the_finest_grid(tmp_path, capsys):
     config.write_text(CONFIG + '[refine]\nlevels = 2\n')
     assert main(["sweep", str(config), "--dry-run"]) == 0
     text = capsys.readouterr().out
-    assert "refined 2 levels to: spin (17), body (2), repeat (2) = 68 points" in text
+    assert "refined 2 levels to: launch_spin (17), body (2), repeat (2) = 68 points" in text
     assert "for the declared grid" in text
 
 

@@ -67,13 +67,13 @@ def test_simulate_takes_every_launch_and_friction_input_and_a_body_file(tmp_path
     body = rs.Body(0.05, 0.01, 0.01, 0.02, (0.0, 0.0, -0.004),
                    [[4e-7, 5e-8, 0.0], [5e-8, 1.4e-5, 0.0], [0.0, 0.0, 1.4e-5]],
                    name="two coins")
-    expected = rs.simulate(body, spin=-3.0, roll=math.radians(1), pitch=math.radians(-0.5),
-                           yaw=math.radians(30), velocity=(0.01, -0.02), mu=0.4,
+    expected = rs.simulate(body, spin=-3.0, roll_deg=1.0, pitch_deg=-0.5,
+                           yaw_deg=30.0, velocity=(0.01, -0.02), mu=0.4,
                            mu_static=0.5, mu_spin=1e-4, mu_roll=2e-4, damping=1e-7,
                            g=9.7, dt=dt, t_end=0.3, method="euler")
     with xr.open_dataset(out) as got:
         assert got.attrs["body_name"] == "two coins"
-        for key in ("launch_spin", "roll", "pitch", "yaw", "mu", "mu_static", "mu_spin",
+        for key in ("launch_spin", "roll_deg", "pitch_deg", "yaw_deg", "mu", "mu_static", "mu_spin",
                     "mu_roll", "damping", "g", "dt", "t_end", "inertia_xy", "method"):
             assert got.attrs[key] == expected.attrs[key], key
         np.testing.assert_array_equal(got.spin.values, expected.spin.values)

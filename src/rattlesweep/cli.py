@@ -340,8 +340,8 @@ def _simulate_from_args(args: argparse.Namespace) -> xr.Dataset:
     from .simulate import simulate
 
     return simulate(_body_from_args(args), spin=args.spin,
-                    roll=math.radians(args.roll_deg), pitch=math.radians(args.pitch_deg),
-                    yaw=math.radians(args.yaw_deg), velocity=args.velocity,
+                    roll_deg=args.roll_deg, pitch_deg=args.pitch_deg,
+                    yaw_deg=args.yaw_deg, velocity=args.velocity,
                     mu=args.mu, mu_static=args.mu_static, mu_spin=args.mu_spin,
                     mu_roll=args.mu_roll, damping=args.damping, g=args.g,
                     t_end=args.t_end, dt=args.dt, method=args.method)
