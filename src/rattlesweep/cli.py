@@ -453,6 +453,11 @@ def main(argv: list[str] | None = None) -> int:
         status = args.func(args, argv)
         sys.stdout.flush()  # a closed pipe is then found here, not at interpreter exit
         return status
+    except KeyboardInterrupt:
+        # Ctrl-C outside the tiles (while an output is checked or merged): what was
+        # written is intact, as every file is written atomically
+        print("rattlesweep: interrupted", file=sys.stderr)
+        return 130
     except BrokenPipeError:
         # the reader of the output went away (``rattlesweep info DIR | head``): nothing to
         # report; stdout is pointed at devnull so that Python's flush at exit stays quiet
