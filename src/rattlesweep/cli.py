@@ -110,6 +110,17 @@ def _cmd_export(args: argparse.Namespace, argv: list[str] | None) -> int:
     return 0
 
 
+def _cmd_verify(args: argparse.Namespace, argv: list[str] | None) -> int:
+    from .sweep.verify import verify
+
+    failed = 0
+    for out in args.outputs:
+        found = verify(out)
+        print(found.report())
+        failed += not found.ok
+    return 1 if failed else 0
+
+
 def _cmd_demo(args: argparse.Namespace, argv: list[str] | None) -> int:
     from .sweep import Sweep
     from .sweep.demo import DEMO_TOML
@@ -394,6 +405,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("store", help="zarr store (a path or URL)")
     p.add_argument("out", help="netCDF file to write")
     p.set_defaults(func=_cmd_export)
+
+    p = sub.add_parser("verify", help="read back every tile of sweep outputs (sweep "
+                       "directories or zarr stores) and name what is missing or damaged; "
+                       "exit status 1 if anything is")
+    p.add_argument("outputs", nargs="+", metavar="OUT",
+                   help="sweep directory or zarr store (a path or URL)")
+    p.set_defaults(func=_cmd_verify)
 
     p = sub.add_parser("plot", help="draw a map of a sweep result to PNG")
     p.add_argument("files", nargs="+", help="sweep result netCDF file(s)")

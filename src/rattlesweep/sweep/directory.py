@@ -90,6 +90,7 @@ class TileDirectory:
         self.tiles_dir = self.out / TILES_DIR
         self.lock = SweepLock(self.out / LOCK_NAME)
         self.written = 0
+        self.notes: list[str] = []
 
     def open(self) -> list[int]:
         """Create or check the directory for the sweep and take its lock; return the tiles
@@ -148,6 +149,9 @@ class TileDirectory:
                 "Restore the configuration, or use a new directory")
         for path in damaged:
             path.unlink()
+        if damaged:
+            self.notes.append(f"{len(damaged)} tile files in {self.tiles_dir} were damaged "
+                              f"(the first: {damaged[0].name}); recomputing them")
         if not config.exists():
             write_text_atomic(config, sweep.to_toml())
         self.written = sweep.n_tiles - len(todo)

@@ -30,6 +30,11 @@ class Progress:
         if enabled and done_tiles:
             self._write(f"resuming: {done_tiles} of {total_tiles} tiles already done\n")
 
+    def note(self, text: str) -> None:
+        """Report something the user must know (even with the bar disabled), on a line
+        of its own."""
+        self._write(text + "\n")
+
     @property
     def rate(self) -> float:
         """Trajectories per second computed in this run."""

@@ -112,6 +112,8 @@ def run_sweep(sweep: Sweep, out: str | os.PathLike, *, client: Client | None = N
         done = [t for t in range(sweep.n_tiles) if t not in left]
         bar = Progress(sweep.n_tiles, sweep.size, len(done),
                        sum(_points(sweep, t) for t in done), enabled=progress)
+        for note in getattr(store, "notes", ()):
+            bar.note(note)
         if scheduler is not None:
             client = own_client = _client(scheduler)
 
