@@ -86,3 +86,59 @@ def test_netcdf_directory_verified_tile_by_tile_and_merged_file(tmp_path, capsys
     assert "damaged: tile 3: tile-000003.nc" in capsys.readouterr().out
     assert main(["resume", str(out), "--quiet"]) == 0
     assert verify(out).ok
+
+
+# --- a sweep never destroys what it cannot show it wrote -------------------------------
+
+def _tree(root):
+    return {str(p.relative_to(root)): p.read_bytes() for p in root.rglob("*") if p.is_file()}
+
+
+def test_zarr_store_with_damaged_root_metadata_is_refused_not_wiped(tmp_path):
+    store = tmp_path / "a.zarr"
+    run_sweep(as_zarr(small_sweep(tile_size=3)), store, progress=False)
+    (store / "zarr.json").write_text("{broken")
+    before = _tree(store)
+    with pytest.raises(ValueError, match=r"a\.zarr holds a zarr store whose root metadata "
+                                         r"cannot be read.*not overwriting it"):
+        run_sweep(as_zarr(small_sweep(tile_size=4)), store, progress=False)
+    assert _tree(store) == before
+
+
+def test_netcdf_directory_without_config_keeps_results_it_cannot_claim(tmp_path):
+    out = tmp_path / "run"
+    s = small_sweep(tile_size=3)
+    run_sweep(s, out, progress=False)
+    (out / "sweep.toml").unlink()
+    (out / RESULT_NAME).rename(tmp_path / RESULT_NAME)
+    tiles = _tree(out / "tiles")
+    # tiles left without their configuration: not this sweep's to delete or overwrite
+    with pytest.raises(ValueError, match=r"tiles holds 16 files .* no sweep\.toml"):
+        run_sweep(small_sweep(tile_size=4), out, progress=False)
+    assert _tree(out / "tiles") == tiles
+    for path in (out / "tiles").iterdir():
+        path.unlink()
+    (tmp_path / RESULT_NAME).rename(out / RESULT_NAME)
+    merged = (out / RESULT_NAME).read_bytes()
+    with pytest.raises(ValueError, match=r"holds sweep\.nc but no sweep\.toml.*not "
+                                         r"overwriting it"):
+        run_sweep(small_sweep(tile_size=4), out, progress=False)
+    assert (out / RESULT_NAME).read_bytes() == merged
+    assert not (out / "sweep.toml").exists()
+    # the same configuration's result is this sweep's: it runs and rewrites it
+    run_sweep(s, out, progress=False)
+    assert (out / "sweep.toml").exists()
+
+
+def test_netcdf_sweep_refuses_a_zarr_store_and_a_file(tmp_path, capsys):
+    store = tmp_path / "a.zarr"
+    run_sweep(as_zarr(small_sweep(tile_size=3)), store, progress=False)
+    before = _tree(store)
+    with pytest.raises(ValueError, match=r"a\.zarr is a zarr store: a netCDF sweep"):
+        run_sweep(small_sweep(tile_size=3), store, progress=False)
+    assert _tree(store) == before
+    config = tmp_path / "s.toml"
+    config.write_text(small_sweep(tile_size=3).to_toml())
+    (tmp_path / "file").write_text("x")
+    assert main(["sweep", str(config), "--out", str(tmp_path / "file"), "--quiet"]) == 2
+    assert "file exists and is not a directory" in capsys.readouterr().err

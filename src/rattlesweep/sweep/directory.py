@@ -101,6 +101,7 @@ class TileDirectory:
         ``sweep.toml`` edited after they were written); leftover temporary files are
         removed; truncated or corrupt tile files are deleted so they are recomputed.
         """
+        self._check_path()
         self.out.mkdir(parents=True, exist_ok=True)
         self.lock.acquire()
         try:
@@ -109,11 +110,51 @@ class TileDirectory:
             self.lock.release()
             raise
 
+    def _check_path(self) -> None:
+        """Refuse an output path that is no directory, or a zarr store."""
+        from .zarr_store import is_zarr_store
+
+        if self.out.exists() and not self.out.is_dir():
+            raise ValueError(f"output {self.out} exists and is not a directory: a netCDF "
+                             "sweep writes a directory (sweep.toml, tiles/, sweep.nc); "
+                             "give a new path or an earlier sweep's directory")
+        if is_zarr_store(self.out):
+            raise ValueError(f"output {self.out} is a zarr store: a netCDF sweep writes a "
+                             "directory of its own (resume the store with `rattlesweep "
+                             f"resume {self.out}`, or give a new path)")
+
+    def _check_unclaimed(self) -> None:
+        """In a directory without a configuration file, refuse to touch results this
+        sweep cannot be shown to have written: a merged file of another configuration
+        (or unreadable), or any tile file."""
+        result = self.out / RESULT_NAME
+        if result.exists():
+            try:
+                with NETCDF_LOCK, netCDF4.Dataset(result) as nc:
+                    ours = nc.getncattr("sweep_config_hash") == self.sweep.config_hash()
+            except Exception:  # unreadable, or no rattlesweep result
+                ours = False
+            if not ours:
+                raise ValueError(
+                    f"{self.out} holds {RESULT_NAME} but no {CONFIG_NAME}, and that file is "
+                    "not this sweep's result (another configuration, or unreadable): not "
+                    "overwriting it. Move it away, or use a new directory")
+        if self.tiles_dir.is_dir():
+            files = sorted(p for p in self.tiles_dir.rglob("*") if p.is_file())
+            if files:
+                raise ValueError(
+                    f"{self.tiles_dir} holds {len(files)} files (the first: {files[0].name}) "
+                    f"but {self.out} has no {CONFIG_NAME}, so they cannot be shown to be "
+                    "this sweep's: not touching them. Restore the configuration, or use a "
+                    "new directory")
+
     def _check_config(self) -> Path:
-        """Refuse a directory that holds another sweep's configuration; return the path
-        of the configuration file."""
+        """Refuse a directory that holds another sweep's configuration, or results of
+        unknown origin; return the path of the configuration file."""
         sweep, out = self.sweep, self.out
         config = out / CONFIG_NAME
+        if not config.exists():
+            self._check_unclaimed()
         if config.exists():
             stored = read_config(config)
             if stored != sweep:

@@ -68,6 +68,7 @@ class _Interrupts:
             signal.signal(signal.SIGINT, self._previous)
 
 
+_END = object()
 _POLL = 0.1
 """Seconds between checks for Ctrl-C while tiles run."""
 
@@ -82,10 +83,11 @@ def _run_threads(sweep: Sweep, todo: list[Any], on_result: Handler, workers: int
     pool = ThreadPoolExecutor(workers, thread_name_prefix="rattlesweep-tile")
 
     def refill() -> None:
-        for tile in queue:
+        while len(running) < window:
+            tile = next(queue, _END)
+            if tile is _END:
+                return
             running.add(pool.submit(compute, sweep, tile))
-            if len(running) >= window:
-                break
 
     with _Interrupts() as interrupts:
         try:

@@ -296,8 +296,8 @@ class ZarrStore:
 
     def _exists(self) -> bool:
         """True for a zarr store at the location; False where there is nothing, and a
-        ValueError where something else is there (laying out the store would delete
-        it)."""
+        ValueError where something else is there, or a store whose root metadata cannot
+        be read (laying out the store would delete it)."""
         if _is_local(self.location):
             root = _local_path(self.location)
             if not is_zarr_store(root):
@@ -307,9 +307,29 @@ class ZarrStore:
                 return False
         try:
             _group(self.location, self.options)
-        except (FileNotFoundError, KeyError, ValueError):
-            return False
+        except FileNotFoundError:
+            if _is_local(self.location) or not self._holds_objects():
+                return False
+            raise ValueError(f"{self.location} holds objects but no zarr store; a zarr "
+                             "output needs a new location (or a store it wrote)") from None
+        except Exception as exc:
+            raise ValueError(f"{self.location} holds a zarr store whose root metadata "
+                             f"cannot be read ({_first_line(exc)}): not overwriting it. "
+                             "Restore it, or use a new location") from None
         return True
+
+    def _holds_objects(self) -> bool:
+        """True when anything is stored under the (remote) location."""
+        from zarr.core.sync import sync
+
+        store = _store(self.location, self.options)
+
+        async def first() -> bool:
+            async for _ in store.list():
+                return True
+            return False
+
+        return bool(sync(first()))
 
     def _layout(self) -> None:
         import dask.array
