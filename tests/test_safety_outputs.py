@@ -142,3 +142,13 @@ def test_netcdf_sweep_refuses_a_zarr_store_and_a_file(tmp_path, capsys):
     (tmp_path / "file").write_text("x")
     assert main(["sweep", str(config), "--out", str(tmp_path / "file"), "--quiet"]) == 2
     assert "file exists and is not a directory" in capsys.readouterr().err
+
+
+def test_orphan_merge_tmp_is_removed_on_resume(tmp_path):
+    out = tmp_path / "run"
+    s = small_sweep(tile_size=3)
+    run_sweep(s, out, progress=False)
+    orphan = out / ".sweep.nc.x1y2z3.tmp"  # what a kill during the merge leaves
+    orphan.write_bytes(b"partial")
+    run_sweep(s, out, progress=False)
+    assert not orphan.exists()

@@ -168,10 +168,13 @@ class TileDirectory:
         sweep = self.sweep
         config = self._check_config()
         self.tiles_dir.mkdir(exist_ok=True)
-        # temporary files of a process killed while writing a tile or the merge; the
-        # lock is held, so no other process writes them now
-        for stale in (*self.tiles_dir.glob(".*.tmp"), *self.out.glob(f".{RESULT_NAME}.*.tmp")):
-            stale.unlink(missing_ok=True)
+        # temporary files of a process killed while writing a tile or the merge of this
+        # sweep (a directory without sweep.toml holds none of its files); the lock is
+        # held, so no other process writes them now
+        if config.exists():
+            for stale in (*self.tiles_dir.glob(".*.tmp"),
+                          *self.out.glob(f".{RESULT_NAME}.*.tmp")):
+                stale.unlink(missing_ok=True)
         todo, damaged, foreign = [], [], []
         for tile in range(sweep.n_tiles):
             path = tile_path(self.tiles_dir, tile)
