@@ -152,3 +152,23 @@ def test_orphan_merge_tmp_is_removed_on_resume(tmp_path):
     orphan.write_bytes(b"partial")
     run_sweep(s, out, progress=False)
     assert not orphan.exists()
+
+
+@pytest.mark.parametrize("output", ["netcdf", "zarr"])
+def test_a_symlink_to_an_output_in_use_meets_its_lock(tmp_path, output):
+    from rattlesweep.sweep.lock import SweepLocked
+    from rattlesweep.sweep.run import open_output
+
+    s = small_sweep(output=output, tile_size=3)
+    real = tmp_path / ("real.zarr" if output == "zarr" else "real")
+    link = tmp_path / ("link.zarr" if output == "zarr" else "link")
+    holder = open_output(s, real)
+    holder.open()
+    link.symlink_to(real, target_is_directory=True)
+    try:
+        with pytest.raises(SweepLocked, match=r"real(\.zarr)? is in use by another sweep"):
+            run_sweep(s, link, progress=False)
+    finally:
+        holder.close()
+    run_sweep(s, link, progress=False)
+    assert verify(real).ok

@@ -88,7 +88,9 @@ class TileDirectory:
         self.out = Path(out_dir)
         self.location = str(self.out)
         self.tiles_dir = self.out / TILES_DIR
-        self.lock = SweepLock(self.out / LOCK_NAME)
+        # inside the directory's real path (a symlink to it leads to the same lock, and
+        # a refusal names the real path)
+        self.lock = SweepLock(self.out.resolve() / LOCK_NAME)
         self.written = 0
         self.notes: list[str] = []
 

@@ -230,7 +230,9 @@ class ZarrStore:
         self.options = dict(storage_options) if storage_options else None
         self.lock = None
         if _is_local(self.location):
-            root = _local_path(self.location)
+            # beside the store's real path: a symlink to a store being written leads
+            # to the same lock
+            root = _local_path(self.location).resolve()
             self.lock = SweepLock(root.with_name(root.name + ".lock"))
         # the root group once open; Any, as zarr types its members as arrays or groups and
         # these are the arrays _layout made
