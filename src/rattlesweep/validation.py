@@ -8,11 +8,13 @@ Non-numbers (strings, other objects) get the same kind of message as bad numbers
 from __future__ import annotations
 
 import math
+import os
 from typing import Any
 
 import numpy as np
 
-__all__ = ["as_float_array", "fail_where", "finite_vector", "positive"]
+__all__ = ["as_float_array", "available_memory", "check_memory", "fail_where",
+           "finite_vector", "positive"]
 
 
 def positive(name: str, value: Any) -> float:
@@ -69,3 +71,34 @@ def fail_where(name: str, arr: np.ndarray, bad: np.ndarray, rule: str) -> None:
         idx = tuple(int(i) for i in np.argwhere(bad)[0])
         where = f" at index {idx}" if arr.ndim else ""
         raise ValueError(f"{name} {rule}; got {arr[idx]!r}{where}")
+
+
+def available_memory() -> int | None:
+    """Bytes of memory available to a new allocation now (Linux: ``MemAvailable`` of
+    /proc/meminfo; elsewhere the physical memory), None where the system does not say."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, ValueError, OSError):
+        return None
+
+
+def _gib(n: float) -> str:
+    return f"{n / 2**30:.3g} GiB"
+
+
+def check_memory(name: str, value: Any, need: float, what: str, advice: str = "") -> None:
+    """Refuse, before anything is allocated, what would need ``need`` bytes when that is
+    more than the memory available now: ``ValueError("<name> = <value>: <what> would
+    need about N GiB, more than the M GiB of memory available; <advice>")``."""
+    have = available_memory()
+    if have is not None and need > have:
+        tail = f"; {advice}" if advice else ""
+        raise ValueError(f"{name} = {value}: {what} would need about {_gib(need)}, more "
+                         f"than the {_gib(have)} of memory available{tail}")

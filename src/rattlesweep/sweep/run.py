@@ -10,6 +10,7 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Iterator, Mapping
 
+import numpy as np
 import xarray as xr
 
 from .directory import CONFIG_NAME, RESULT_NAME, TILES_DIR, TileDirectory, read_config
@@ -94,6 +95,7 @@ def run_sweep(sweep: Sweep, out: str | os.PathLike, *, client: Client | None = N
     if workers is not None and (client is not None or scheduler is not None):
         raise ValueError("workers sets the local scheduler's threads; a distributed "
                          "cluster's size is set where the cluster is started")
+    check_size(sweep)
     if sweep.refine is not None:
         from .refined_run import run_refined
 
@@ -132,6 +134,41 @@ def run_sweep(sweep: Sweep, out: str | os.PathLike, *, client: Client | None = N
         if own_client is not None:
             own_client.close()
         store.close()
+
+
+MERGED_BYTES = 3
+"""Bytes held per byte of a point's results while a netCDF sweep merges its tiles (the
+merged arrays, a tile read, the writer's buffers)."""
+REFINED_BYTES = 1000
+"""Bytes a refined sweep holds per point of its finest grid: every result, its inputs
+and the ``computed`` flag (about 250 bytes), the level plans and the written dataset."""
+TILE_BYTES = 200
+"""Bytes held per tile: its done flag, its entry in the list of tiles to compute."""
+
+
+def check_size(sweep: Sweep) -> None:
+    """Refuse, before anything is written or computed, a sweep whose result would not
+    fit in the memory available: a netCDF sweep merges the whole grid in memory, a
+    refined one holds its finest grid, a zarr one a flag per tile."""
+    from ..validation import check_memory
+    from .tiles import result_dtypes
+
+    if sweep.refine is not None:
+        fine_shape = tuple(2**sweep.refine["levels"] * (n - 1) + 1
+                           if k in sweep.refine["axes"] else n
+                           for k, n in zip(sweep.dims, sweep.shape))
+        points = int(np.prod(fine_shape, dtype=float))
+        check_memory("refine.levels", sweep.refine["levels"], points * REFINED_BYTES,
+                     f"the finest grid {fine_shape} ({points:,} points)",
+                     "refine fewer levels or fewer axes, or start from a coarser grid")
+        return
+    check_memory("axes", f"grid {sweep.shape}", sweep.n_tiles * TILE_BYTES,
+                 f"the list of its {sweep.n_tiles:,} tiles", "a larger tile_size")
+    if sweep.output == "netcdf":
+        per_point = sum(d.itemsize for d in result_dtypes(sweep).values())
+        check_memory("axes", f"grid {sweep.shape}", sweep.size * per_point * MERGED_BYTES,
+                     f"merging its {sweep.size:,} points into sweep.nc",
+                     "fewer points, or output = \"zarr\" (written tile by tile)")
 
 
 def _client(scheduler: str) -> Client:

@@ -21,6 +21,7 @@ import numpy as np
 from ..core.workspace import METHODS
 from ..engine import check_band
 from ..body import PRESETS, Body
+from ..validation import check_memory
 from .grid import RandomParam
 from .params import BODY_PARAMS, DEFAULTS, PARAMS, check_values, resolve
 
@@ -178,6 +179,7 @@ def _normalise_range(spec: Mapping[str, Any], where: str) -> dict[str, Any]:
     if scale == "log" and not (start > 0 and stop > 0):
         raise ValueError(f"{where}: a log range needs start > 0 and stop > 0, got "
                          f"start={start!r}, stop={stop!r}")
+    check_memory(f"{where}.num", num, 8 * num, f"{num:,} axis values")
     out = {"start": float(start), "stop": float(stop), "num": int(num)}
     if scale != "linear":
         out["scale"] = scale
