@@ -25,7 +25,8 @@ from numba import types
 from .core import stepper
 from .core.rows import Rows
 from .core.workspace import BLOCK, METHODS, OBSERVABLES, STOP_RULES
-from .validation import as_float_array, check_memory, fail_where
+from .validation import (as_float_array, check_boolean, check_memory, fail_where,
+                         is_real)
 
 if TYPE_CHECKING:
     from .body import Body
@@ -319,7 +320,8 @@ def numba_threads(threads: int | None) -> Iterator[None]:
         return
     # numba sets its config attributes from the environment at import, out of mypy's sight
     limit = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]
-    if not (isinstance(threads, (int, np.integer)) and 1 <= threads <= limit):
+    if not (isinstance(threads, (int, np.integer)) and not isinstance(threads, bool)
+            and 1 <= threads <= limit):
         raise ValueError(f"threads must be an integer from 1 to {limit}, got {threads!r}")
     old = numba.get_num_threads()
     numba.set_num_threads(int(threads))
@@ -354,10 +356,7 @@ def check_single_step(prep: Prepared) -> None:
 
 
 def check_band(reversal_band: float) -> float:
-    try:
-        band = float(reversal_band)
-    except (TypeError, ValueError):  # None, a string, a list: refused as below
-        band = np.nan
+    band = float(reversal_band) if is_real(reversal_band) else np.nan  # else refused below
     if not (0.0 <= band < 1.0):
         raise ValueError(f"reversal_band must be in [0, 1) (a fraction of |initial spin|), "
                          f"got {reversal_band!r}")
@@ -417,6 +416,7 @@ def check_record_size(prep: Prepared, n_rec: int, record_every: int) -> None:
 def execute(prep: Prepared, *, method: int, record_every: int | None, band: float = 0.0,
             parallel: bool = True, threads: int | None = None) -> Raw:
     """Run a prepared batch through the kernel."""
+    check_boolean("parallel", parallel)
     layout = prep.model.layout
     n_blocks = prep.P.shape[0]
     n_rec = 0

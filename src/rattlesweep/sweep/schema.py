@@ -21,7 +21,7 @@ import numpy as np
 from ..core.workspace import METHODS
 from ..engine import check_band
 from ..body import PRESETS, Body
-from ..validation import check_memory
+from ..validation import check_memory, is_real
 from .grid import RandomParam
 from .params import BODY_PARAMS, DEFAULTS, PARAMS, check_values, resolve
 
@@ -98,7 +98,7 @@ def body_from_table(d: Mapping[str, Any], where: str) -> Body:
         raise ValueError(f"{where}: body table lacks {sorted(missing)}")
     try:
         return Body(d["a"], d["b"], d["c"], d["mass"], d["com"], d["inertia"],
-                    bool(d.get("full_ellipsoid", False)),
+                    d.get("full_ellipsoid", False),
                     name=str(d.get("name", d.get("body_name", "custom"))))
     except ValueError as exc:
         raise ValueError(f"{where}: {exc}") from None
