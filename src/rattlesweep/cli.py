@@ -88,6 +88,9 @@ def _cmd_sweep(args: argparse.Namespace, argv: list[str] | None) -> int:
         changes["output"] = args.output
     if args.stop is not None:
         changes["stop"] = None if args.stop == "t_end" else args.stop
+    if args.refine is not None and args.refine < 0:
+        raise ValueError(f"--refine must be an integer >= 0 (levels of refinement; 0: "
+                         f"none), got {args.refine}")
     if args.refine is not None:
         changes["refine"] = {**(sweep.refine or {}), "levels": args.refine} if (
             args.refine > 0) else None
