@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import math
 import os
+import threading
 import warnings
 from dataclasses import dataclass, field
 from types import ModuleType
@@ -413,6 +414,13 @@ def check_record_size(prep: Prepared, n_rec: int, record_every: int) -> None:
             f"less often (a larger record_every), or a shorter t_end")
 
 
+_PARALLEL = threading.Lock()
+"""Held by a parallel kernel call. numba's ``workqueue`` threading layer (the one it uses
+where neither TBB nor OpenMP is available) aborts the interpreter when two threads
+launch parallel regions at once; a parallel call already occupies every core, so calls
+from several threads take turns at no cost in throughput."""
+
+
 def execute(prep: Prepared, *, method: int, record_every: int | None, band: float = 0.0,
             parallel: bool = True, threads: int | None = None) -> Raw:
     """Run a prepared batch through the kernel."""
@@ -427,7 +435,7 @@ def execute(prep: Prepared, *, method: int, record_every: int | None, band: floa
     O = np.empty((n_blocks, layout.N_OBS, BLOCK))
     Y = prep.Y.copy()
     entry = stepper.integrate_parallel if parallel else stepper.integrate_serial
-    with numba_threads(threads):
+    with _PARALLEL if parallel else contextlib.nullcontext(), numba_threads(threads):
         run_kernel(entry, prep.model.number, prep.P, Y, prep.nsteps, method,
                    record_every or 1, band, O, REC)
     rec = None
