@@ -83,13 +83,14 @@ def launch_inputs(
     orientation: ArrayLike | None = None, velocity: ArrayLike | None = None,
     mu: ArrayLike = math.inf, mu_static: ArrayLike | None = None, mu_spin: ArrayLike = 0.0,
     mu_roll: ArrayLike = 0.0, damping: ArrayLike = 0.0, g: ArrayLike = 9.81,
-    dt: ArrayLike | None = None, t_end: ArrayLike,
+    dt: ArrayLike | None = None, t_end: ArrayLike, announce: bool = True,
 ) -> Inputs:
     """Check and broadcast launch inputs (see :func:`run_batch` for their meaning and
     units), without the kernel. Raises ValueError naming the parameter, the value and
     the rule for any invalid input. Non-finite launch values (spin, omega, angles,
     orientation, velocity) are not errors: those trajectories get the status
-    ``non_finite``."""
+    ``non_finite``. ``announce`` warns (:class:`~rattlesweep.engine.LongRunWarning`) of
+    a batch of more than :data:`~rattlesweep.engine.LONG_RUN_STEPS` steps."""
     if spin is not None and omega is not None:
         raise ValueError("give either spin (about the vertical) or omega (body frame), not both")
     angles = {"roll": roll, "pitch": pitch, "yaw": yaw}
@@ -129,6 +130,9 @@ def launch_inputs(
         default_from = {"g": flat["g"], "damping": flat["damping"]}
         flat["dt"] = default
     else:
+        fail_where("dt", flat["dt"], flat["dt"] > flat["t_end"],
+                   "must be at most t_end (a launch takes whole steps, so one step of dt "
+                   "would run it past t_end)")
         # warn at the user's call: run_batch or simulate -> prepare -> launch_inputs
         engine.warn_coarse_dt(table, index, flat["g"], flat["dt"], stacklevel=4,
                               default=default)
@@ -139,8 +143,11 @@ def launch_inputs(
         q = quaternion_from_angles(flat["roll"], flat["pitch"], flat["yaw"])
     full = np.array([b.full_ellipsoid for b in table], dtype=bool)[index]
     tilt_limit_error(up_vector(q)[:, 2], full)
-    return Inputs(shape, n, table, index, flat, flat_vec,
-                  engine.steps_for(flat["t_end"], flat["dt"], default_from, (table, index)), q)
+    steps = engine.steps_for(flat["t_end"], flat["dt"], default_from, (table, index))
+    if announce:
+        engine.announce_long_run(steps, flat["t_end"], flat["dt"], default_from,
+                                 stacklevel=4)
+    return Inputs(shape, n, table, index, flat, flat_vec, steps, q)
 
 
 def damping_dts(table: list[Body], index: np.ndarray, damping: np.ndarray) -> np.ndarray:
@@ -194,11 +201,12 @@ def _coords(inputs: Inputs, columns: dict[str, np.ndarray], velocity: np.ndarray
     return coords
 
 
-def prepare(body: Bodies, *, stop: str | None = None, **kwargs: Any) -> Prepared:
+def prepare(body: Bodies, *, stop: str | None = None, announce: bool = True,
+            **kwargs: Any) -> Prepared:
     """Check, broadcast and pack launches for the kernel; arguments as for
-    :func:`run_batch`."""
+    :func:`run_batch` (``announce`` as for :func:`launch_inputs`)."""
     rule = check_stop(stop)
-    inputs = launch_inputs(body, **kwargs)
+    inputs = launch_inputs(body, announce=announce, **kwargs)
     n = inputs.n
     columns = {**inputs.body_columns(), **inputs.flat, "stop_rule": np.full(n, rule)}
     Y = engine.pack(layout.STATE, _launch_state(inputs), n)
@@ -287,8 +295,10 @@ def run_batch(
     stop : {None, "first_reversal"}, optional
         None runs every launch to ``t_end``; ``"first_reversal"`` ends a launch at its
         first reversal (once the spin is beyond the band on the other side), unless it
-        capsizes or lifts off first. Its ``first_reversal_time``, ``status`` and whether
-        it reversed are then those of the full run, bit for bit; ``n_reversals`` is at
+        capsizes or lifts off first. Its ``first_reversal_time`` and whether it reversed
+        are then those of the full run, bit for bit, and so is its ``status`` up to the
+        stop: a launch that reverses and only later capsizes or lifts off ends ``ok``
+        where the full run says ``capsized`` or ``lifted_off``; ``n_reversals`` is at
         most 1, and ``final_spin``, ``energy_final``, ``energy_lost``, ``slip_fraction``
         and ``max_tilt`` are taken at the stop, ``t_final``; ``mean_final_spin`` is
         the mean over the part of the last 10 % of ``t_end`` it ran (NaN for none).
@@ -319,6 +329,9 @@ def run_batch(
     -----
     CoarseStepWarning
         When a given ``dt`` is more than 4 times the default step.
+    LongRunWarning
+        Before a batch of more than 10**8 steps in all (minutes or more), with the
+        step count and where it comes from.
     """
     m = check_method(method)
     rec_every = check_record_every(record_every)

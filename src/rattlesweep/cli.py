@@ -161,6 +161,22 @@ def _cmd_stability(args: argparse.Namespace, argv: list[str] | None) -> int:
     return 0
 
 
+def _open_netcdf(path: str) -> xr.Dataset:
+    """A result file, or a ValueError saying it is none (not xarray's list of
+    backends)."""
+    import xarray as xr
+
+    try:
+        return xr.open_dataset(path)
+    except (OSError, ValueError) as exc:
+        reason = str(exc).splitlines()[0] if str(exc).strip() else type(exc).__name__
+        if "did not find a match" in reason:
+            reason = "it is not a netCDF file"
+        raise ValueError(f"cannot read {path}: expected a rattlesweep result file "
+                         f"(netCDF; a zarr store: `rattlesweep export` it first); "
+                         f"{reason}") from None
+
+
 def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
     import xarray as xr
 
@@ -175,9 +191,9 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
             select[key] = float(value)
         except ValueError:
             select[key] = value
-    overlay = xr.open_dataset(args.overlay) if args.overlay else None
+    overlay = _open_netcdf(args.overlay) if args.overlay else None
     for path in args.files:
-        with xr.open_dataset(path) as ds:
+        with _open_netcdf(path) as ds:
             if args.versus:
                 with xr.open_dataset(args.versus) as sweep:
                     fig = reversal_vs_growth(ds, sweep, color_by=args.facet)
@@ -228,9 +244,13 @@ def _info_directory(path: Path) -> Path | None:
         print(f"  levels started: {len(levels)} of {sweep.refine['levels'] + 1}, {done} tiles "
               f"written; 'rattlesweep resume {path}' completes it")
         return None
-    done = len(list((path / "tiles").glob("tile-*.nc")))
-    print(f"  tiles written: {done} of {sweep.n_tiles}; 'rattlesweep resume {path}' "
-          "completes it")
+    from .sweep.verify import verify
+
+    found = verify(path)
+    done = sweep.n_tiles - len(found.missing) - len(found.damaged)
+    damaged = f", {len(found.damaged)} damaged" if found.damaged else ""
+    print(f"  tiles written: {done} of {sweep.n_tiles} (complete and readable){damaged}; "
+          f"'rattlesweep resume {path}' completes it")
     return None
 
 

@@ -34,8 +34,9 @@ if TYPE_CHECKING:
     from .planar.body import PlanarBody
 
 __all__ = [
-    "COARSE_DT", "MAX_STEPS", "RK4_LIMIT", "CoarseStepWarning", "Model", "Prepared", "Raw",
-    "as_bodies", "blocked", "broadcast_inputs", "check_band", "check_common", "check_method",
+    "COARSE_DT", "LONG_RUN_STEPS", "MAX_STEPS", "RK4_LIMIT", "CoarseStepWarning",
+    "LongRunWarning", "Model", "Prepared", "Raw", "announce_long_run", "as_bodies",
+    "blocked", "broadcast_inputs", "check_band", "check_common", "check_method",
     "check_record_every", "check_record_size", "check_single_step", "check_stop",
     "contact_slip_velocity",
     "default_dts", "execute", "numba_threads", "pack", "physical_memory", "prepared",
@@ -198,6 +199,34 @@ def warn_coarse_dt(table: Sequence[Body | PlanarBody], index: np.ndarray, g: np.
             f"and is unstable from about {RK4_LIMIT:.0f} times it (semi-implicit Euler "
             f"sooner); statuses such as capsized or lifted_off of such a run may be "
             f"numerical artefacts", CoarseStepWarning, stacklevel=stacklevel + 1)
+
+
+LONG_RUN_STEPS = 10**8
+"""Steps in a batch (over all its launches) beyond which :func:`announce_long_run` warns
+before the run: at about 10**6 steps per second on a core, a minute or more."""
+
+
+class LongRunWarning(UserWarning):
+    """A batch about to take a very large number of steps (minutes or more)."""
+
+
+def announce_long_run(steps: np.ndarray, t_end: np.ndarray, dt: np.ndarray,
+                      default_from: Mapping[str, np.ndarray] | None, stacklevel: int
+                      ) -> None:
+    """Warn before a batch of more than LONG_RUN_STEPS steps, with the count, the
+    longest launch's t_end and dt, and the inputs a default dt came from."""
+    total = float(np.sum(steps, dtype=float))
+    if total <= LONG_RUN_STEPS:
+        return
+    i = int(np.argmax(steps))
+    source = "" if default_from is None else " (the body's default step at " + ", ".join(
+        f"{k} = {float(v.flat[i]):g}" for k, v in default_from.items()) + ")"
+    warnings.warn(
+        f"this batch takes {total:.3g} steps in all ({len(steps):,} launch{'es' if len(steps) != 1 else ''}; the longest "
+        f"t_end = {float(t_end.flat[i]):g} s / dt = {float(dt.flat[i]):.3g} s{source} = "
+        f"{int(steps.flat[i]):,} steps): at about 1e6 steps per second on a core, "
+        f"roughly {total / 1e6 / 60:.3g} core-minutes", LongRunWarning,
+        stacklevel=stacklevel + 1)
 
 
 MAX_STEPS = 2**53

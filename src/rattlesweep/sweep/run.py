@@ -85,6 +85,9 @@ def run_sweep(sweep: Sweep, out: str | os.PathLike, *, client: Client | None = N
     """
     if not isinstance(sweep, Sweep):
         raise ValueError(f"sweep must be a rattlesweep.Sweep, got {type(sweep).__name__}")
+    if not str(out).strip():
+        raise ValueError(f"out must name a directory or a store, got {str(out)!r} (give "
+                         "'.' for the current directory)")
     if not sweep.simulates:
         raise ValueError("fixed.t_end: the end time (s) is required to simulate a sweep "
                          "(fixed or as an axis)")
