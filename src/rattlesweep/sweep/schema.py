@@ -51,7 +51,8 @@ _BODY_REQUIRED = {"a", "b", "c", "mass", "com", "inertia"}
 
 
 def _is_number(x: object) -> TypeGuard[int | float | np.integer | np.floating]:
-    return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool)
+    # the rule of the whole API (validation.is_real): 0-d real arrays are numbers too
+    return is_real(x)
 
 
 def _is_int(x: object) -> TypeGuard[int | np.integer]:
