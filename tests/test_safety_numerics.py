@@ -31,3 +31,17 @@ def test_billions_of_steps_are_announced_before_the_run():
     with warnings.catch_warnings():
         warnings.simplefilter("error", LongRunWarning)
         rs.run_batch(TOY, spin=np.ones(4), t_end=0.5)  # 1.4e3 steps: nothing said
+
+
+def test_a_long_sweep_is_announced_before_anything_is_written(tmp_path):
+    from rattlesweep.sweep import Sweep, run_sweep
+
+    s = Sweep(axes={"spin": {"start": 1, "stop": 5, "num": 4}},
+              fixed={"t_end": 1.0, "damping": 1e3})
+    assert s.max_steps == 3_630_359_508
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", LongRunWarning)
+        with pytest.raises(LongRunWarning, match=r"this sweep takes up to 1\.45e\+10 steps "
+                           r"\(4 launches, the longest 3,630,359,508 steps\)"):
+            run_sweep(s, tmp_path / "out", progress=False)
+    assert not (tmp_path / "out").exists()

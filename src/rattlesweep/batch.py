@@ -164,7 +164,7 @@ def damping_dts(table: list[Body], index: np.ndarray, damping: np.ndarray) -> np
 def max_steps(body: Bodies, **kwargs: Any) -> int:
     """The largest number of steps a trajectory of these launches takes, 0 for an empty
     batch (checks every input as :func:`launch_inputs` does, without the kernel)."""
-    return int(launch_inputs(body, **kwargs).nsteps.max(initial=0))
+    return int(launch_inputs(body, announce=False, **kwargs).nsteps.max(initial=0))
 
 
 def _launch_state(inputs: Inputs) -> dict[str, np.ndarray]:

@@ -99,6 +99,7 @@ def run_sweep(sweep: Sweep, out: str | os.PathLike, *, client: Client | None = N
         raise ValueError("workers sets the local scheduler's threads; a distributed "
                          "cluster's size is set where the cluster is started")
     check_size(sweep)
+    announce(sweep)
     if sweep.refine is not None:
         from .refined_run import run_refined
 
@@ -172,6 +173,23 @@ def check_size(sweep: Sweep) -> None:
         check_memory("axes", f"grid {sweep.shape}", sweep.size * per_point * MERGED_BYTES,
                      f"merging its {sweep.size:,} points into sweep.nc",
                      "fewer points, or output = \"zarr\" (written tile by tile)")
+
+
+def announce(sweep: Sweep) -> None:
+    """Warn (:class:`~rattlesweep.engine.LongRunWarning`) before a sweep of more than
+    :data:`~rattlesweep.engine.LONG_RUN_STEPS` steps at most, with the count."""
+    import warnings
+
+    from ..engine import LONG_RUN_STEPS, LongRunWarning
+
+    fine = sweep.finest()
+    total = float(fine.size) * sweep.max_steps
+    if total > LONG_RUN_STEPS:
+        warnings.warn(
+            f"this sweep takes up to {total:.3g} steps ({fine.size:,} launches, the "
+            f"longest {sweep.max_steps:,} steps): at about 1e6 steps per second on a "
+            f"core, up to {total / 1e6 / 60:.3g} core-minutes", LongRunWarning,
+            stacklevel=3)
 
 
 def _client(scheduler: str) -> Client:
