@@ -189,6 +189,8 @@ def stored_sweep(location: str, storage_options: Mapping[str, Any] | None = None
         group = _group(location, storage_options)
     except (FileNotFoundError, KeyError, ValueError) as exc:
         raise ValueError(f"{location} is not a zarr store ({exc})") from None
+    except Exception as exc:  # the store's own errors: credentials, network, permissions
+        raise ValueError(f"cannot open {location}: {_first_line(exc)}") from None
     text = group.attrs.get("sweep_config")
     if not isinstance(text, str):
         raise ValueError(f"{location} is a zarr store without a sweep configuration "
