@@ -330,8 +330,8 @@ def run_batch(
     CoarseStepWarning
         When a given ``dt`` is more than 4 times the default step.
     LongRunWarning
-        Before a batch of more than 10**8 steps in all (minutes or more), with the
-        step count and where it comes from.
+        Before a batch of more than 10**9 steps in all (a quarter of an hour of a
+        core or more), with the step count and where it comes from.
     """
     m = check_method(method)
     rec_every = check_record_every(record_every)

@@ -201,9 +201,10 @@ def warn_coarse_dt(table: Sequence[Body | PlanarBody], index: np.ndarray, g: np.
             f"numerical artefacts", CoarseStepWarning, stacklevel=stacklevel + 1)
 
 
-LONG_RUN_STEPS = 10**8
+LONG_RUN_STEPS = 10**9
 """Steps in a batch (over all its launches) beyond which :func:`announce_long_run` warns
-before the run: at about 10**6 steps per second on a core, a minute or more."""
+before the run: at about 10**6 steps per second on a core, a quarter of an hour of one
+core or more."""
 
 
 class LongRunWarning(UserWarning):

@@ -188,7 +188,8 @@ def _inputs(fine: Sweep) -> dict[str, np.ndarray]:
     out = {}
     if "dt" in extra_vars(fine):
         bodies, kwargs = fine.points_at(index)
-        out["dt"] = batch.launch_inputs(bodies, **kwargs).flat["dt"].reshape(fine.shape)
+        out["dt"] = batch.launch_inputs(bodies, announce=False, **kwargs
+                                        ).flat["dt"].reshape(fine.shape)
     for rp in fine.random_params:
         out[rp.key] = rp.draw(fine.seed, index).reshape(fine.shape)
     return out

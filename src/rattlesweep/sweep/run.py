@@ -177,16 +177,16 @@ def check_size(sweep: Sweep) -> None:
 
 def announce(sweep: Sweep) -> None:
     """Warn (:class:`~rattlesweep.engine.LongRunWarning`) before a sweep of more than
-    :data:`~rattlesweep.engine.LONG_RUN_STEPS` steps at most, with the count."""
+    :data:`~rattlesweep.engine.LONG_RUN_STEPS` steps at most, with the count. A refined
+    sweep simulates an unknown part of its finest grid; its first level is counted."""
     import warnings
 
     from ..engine import LONG_RUN_STEPS, LongRunWarning
 
-    fine = sweep.finest()
-    total = float(fine.size) * sweep.max_steps
+    total = float(sweep.size) * sweep.max_steps
     if total > LONG_RUN_STEPS:
         warnings.warn(
-            f"this sweep takes up to {total:.3g} steps ({fine.size:,} launches, the "
+            f"this sweep takes up to {total:.3g} steps ({sweep.size:,} launches, the "
             f"longest {sweep.max_steps:,} steps): at about 1e6 steps per second on a "
             f"core, up to {total / 1e6 / 60:.3g} core-minutes", LongRunWarning,
             stacklevel=3)
