@@ -292,16 +292,20 @@ def test_positive_refuses_with_name_value_and_rule(value):
 
 
 def test_positive_returns_a_float():
-    for value in (2, 2.0, np.float32(2.0), np.int64(2), "2"):
+    for value in (2, 2.0, np.float32(2.0), np.int64(2), np.array(2.0)):
         v = positive("a", value)
         assert v == 2.0 and type(v) is float
+    for value in ("2", True, 2 + 0j):  # real numbers only, as in the TOML file
+        with pytest.raises(ValueError, match="a must be a finite number > 0"):
+            positive("a", value)
     assert positive("a", 5e-324) == 5e-324
 
 
 @pytest.mark.parametrize("kwargs, message", [
     (dict(a="wide"), "a must be a finite number > 0, got 'wide'"),
     (dict(mass=None), "mass must be a finite number > 0, got None"),
-    (dict(com="low"), "com must be a number or an array of numbers, got 'low'"),
+    (dict(com="low"), r"com must be a number or an array of numbers \(real numbers: not "
+                      r"booleans, strings or complex numbers\), got 'low'"),
     (dict(com=(0.0, -0.0075)), r"com must have shape \(3,\), got \(2,\)"),
     (dict(com=(0.0, math.nan, -0.0075)), r"com must be finite, got \[0.0, nan, -0.0075\]"),
     (dict(inertia=[[1, 0], [0, 1, 2]]), "inertia must be a number or an array of numbers"),
@@ -341,7 +345,9 @@ def test_as_float_array():
     for bad in ("fast", [1.0, [2.0, 3.0]], {"x": 1}, 1j):
         with pytest.raises(ValueError) as info:
             as_float_array("spin", bad)
-        assert str(info.value) == f"spin must be a number or an array of numbers, got {bad!r}"
+        assert str(info.value) == ("spin must be a number or an array of numbers (real "
+                                   "numbers: not booleans, strings or complex numbers), "
+                                   f"got {bad!r}")
 
 
 def test_fail_where():

@@ -31,7 +31,7 @@ def test_dry_run_prints_points_tiles_time_and_memory_and_writes_nothing(tmp_path
     assert main(["sweep", str(config), "--out", str(out), "--dry-run", "--workers", "2"]) == 0
     text = capsys.readouterr().out
     assert not out.exists()
-    assert "dry: dry run, nothing computed or written" in text
+    assert "dry: dry run, nothing written (only a few launches timed)" in text
     assert "spin (5), body (2), repeat (2)" in text
     assert "points: 20 in 3 tiles of at most 8" in text
     assert "on 2 local threads" in text and "memory: about" in text

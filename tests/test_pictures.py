@@ -177,3 +177,21 @@ def test_cli_animate_from_options_and_from_a_file(tmp_path, capsys):
     assert "3 frames" in capsys.readouterr().out
     assert main(["animate", "--run", str(nc), "--out", str(tmp_path / "x.webm")]) == 2
     assert "suffix must be one of" in capsys.readouterr().err
+
+
+def test_a_map_over_mu_with_rolling_among_the_values(tmp_path):
+    """mu = [0.1, 0.3, inf] as an axis (the TOML reference's own example): the map draws
+    one row per value, the rolling one labelled as infinity, from Python and from the
+    command line."""
+    from rattlesweep.plot import reversal_map
+    from rattlesweep.sweep import Sweep, run_sweep
+
+    s = Sweep(axes={"spin": {"start": -15, "stop": 15, "num": 5}, "mu": [0.1, 0.3, math.inf]},
+              fixed={"t_end": 1.0, "roll_deg": 0.5})
+    ds = run_sweep(s, tmp_path / "mu", progress=False)
+    fig = reversal_map(ds, x="launch_spin", y="mu")
+    labels = [t.get_text() for t in fig.axes[0].get_yticklabels()]
+    assert labels == ["0.1", "0.3", "∞"]
+    assert main(["plot", str(tmp_path / "mu" / "sweep.nc"), "--out",
+                 str(tmp_path / "map.png")]) == 0
+    assert (tmp_path / "map.png").stat().st_size > 0

@@ -86,13 +86,14 @@ def launch_inputs(
     orientation: ArrayLike | None = None, velocity: ArrayLike | None = None,
     mu: ArrayLike = math.inf, mu_static: ArrayLike | None = None, mu_spin: ArrayLike = 0.0,
     mu_roll: ArrayLike = 0.0, damping: ArrayLike = 0.0, g: ArrayLike = 9.81,
-    dt: ArrayLike | None = None, t_end: ArrayLike,
+    dt: ArrayLike | None = None, t_end: ArrayLike, announce: bool = True,
 ) -> Inputs:
     """Check and broadcast launch inputs (see :func:`run_batch` for their meaning and
     units), without the kernel. Raises ValueError naming the parameter, the value and
     the rule for any invalid input. Non-finite launch values (spin, omega, angles,
     orientation, velocity) are not errors: those trajectories get the status
-    ``non_finite``."""
+    ``non_finite``. ``announce`` warns (:class:`~rattlesweep.engine.LongRunWarning`) of
+    a batch of more than :data:`~rattlesweep.engine.LONG_RUN_STEPS` steps."""
     if spin is not None and omega is not None:
         raise ValueError("give either spin (about the vertical) or omega (body frame), not both")
     angles = {"roll": roll, "pitch": pitch, "yaw": yaw}
@@ -132,6 +133,9 @@ def launch_inputs(
         default_from = {"g": flat["g"], "damping": flat["damping"]}
         flat["dt"] = default
     else:
+        fail_where("dt", flat["dt"], flat["dt"] > flat["t_end"],
+                   "must be at most t_end (a launch takes whole steps, so one step of dt "
+                   "would run it past t_end)")
         # warn at the user's call: run_batch or simulate -> prepare -> launch_inputs
         engine.warn_coarse_dt(table, index, flat["g"], flat["dt"], stacklevel=4,
                               default=default)
@@ -142,8 +146,11 @@ def launch_inputs(
         q = quaternion_from_angles(flat["roll"], flat["pitch"], flat["yaw"])
     full = np.array([b.full_ellipsoid for b in table], dtype=bool)[index]
     tilt_limit_error(up_vector(q)[:, 2], full)
-    return Inputs(shape, n, table, index, flat, flat_vec,
-                  engine.steps_for(flat["t_end"], flat["dt"], default_from, (table, index)), q)
+    steps = engine.steps_for(flat["t_end"], flat["dt"], default_from, (table, index))
+    if announce:
+        engine.announce_long_run(steps, flat["t_end"], flat["dt"], default_from,
+                                 stacklevel=4)
+    return Inputs(shape, n, table, index, flat, flat_vec, steps, q)
 
 
 def radian_angles(body: Bodies, given: dict[str, Any]) -> dict[str, Any]:
@@ -169,7 +176,7 @@ def damping_dts(table: list[Body], index: np.ndarray, damping: np.ndarray) -> np
 def max_steps(body: Bodies, **kwargs: Any) -> int:
     """The largest number of steps a trajectory of these launches takes, 0 for an empty
     batch (checks every input as :func:`launch_inputs` does, without the kernel)."""
-    return int(launch_inputs(body, **kwargs).nsteps.max(initial=0))
+    return int(launch_inputs(body, announce=False, **kwargs).nsteps.max(initial=0))
 
 
 def _launch_state(inputs: Inputs) -> dict[str, np.ndarray]:
@@ -213,12 +220,14 @@ def _coords(inputs: Inputs, columns: dict[str, np.ndarray], velocity: np.ndarray
 
 
 def prepare(body: Bodies, *, stop: str | None = None,
-            degrees: Mapping[str, ArrayLike] | None = None, **kwargs: Any) -> Prepared:
+            degrees: Mapping[str, ArrayLike] | None = None, announce: bool = True,
+            **kwargs: Any) -> Prepared:
     """Check, broadcast and pack launches for the kernel; arguments as for
     :func:`run_batch`, angles in radians; ``degrees`` maps ``roll``, ``pitch``, ``yaw``
-    to the values the user gave in degrees, which the coordinates keep as given."""
+    to the values the user gave in degrees, which the coordinates keep as given
+    (``announce`` as for :func:`launch_inputs`)."""
     rule = check_stop(stop)
-    inputs = launch_inputs(body, **kwargs)
+    inputs = launch_inputs(body, announce=announce, **kwargs)
     n = inputs.n
     columns = {**inputs.body_columns(), **inputs.flat, "stop_rule": np.full(n, rule)}
     Y = engine.pack(layout.STATE, _launch_state(inputs), n)
@@ -316,11 +325,13 @@ def run_batch(
         first reversal, unless it capsizes or lifts off first: at the first step at
         which it has both a first reversal time (the spin beyond the band on the other
         side) and a reversal of its heading (see ``n_reversals``). Its
-        ``first_reversal_time``, ``status`` and whether it reversed are then those of
-        the full run, bit for bit; ``n_reversals`` is at most 1, and ``final_spin``,
-        ``energy_final``, ``energy_lost``, ``slip_fraction`` and ``max_tilt`` are
-        taken at the stop, ``t_final``; ``mean_final_spin`` is the mean over the part
-        of the last 10 % of ``t_end`` it ran (NaN for none).
+        ``first_reversal_time`` and whether it reversed are then those of the full run,
+        bit for bit, and so is its ``status`` up to the stop: a launch that reverses and
+        only later capsizes or lifts off ends ``ok`` where the full run says
+        ``capsized`` or ``lifted_off``; ``n_reversals`` is at most 1, and
+        ``final_spin``, ``energy_final``, ``energy_lost``, ``slip_fraction`` and
+        ``max_tilt`` are taken at the stop, ``t_final``; ``mean_final_spin`` is the
+        mean over the part of the last 10 % of ``t_end`` it ran (NaN for none).
     parallel : bool, optional
         Spread blocks of trajectories over numba threads (default); ``False`` runs on
         the calling thread only, releasing the GIL, for callers that bring their own
@@ -350,6 +361,9 @@ def run_batch(
     -----
     CoarseStepWarning
         When a given ``dt`` is more than 4 times the default step.
+    LongRunWarning
+        Before a batch of more than 10**9 steps in all (a quarter of an hour of a
+        core or more), with the step count and where it comes from.
     """
     m = check_method(method)
     rec_every = check_record_every(record_every)

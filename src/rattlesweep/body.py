@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any, Iterable, Sequence, TypeAlias, Union
 import numpy as np
 import numpy.typing as npt
 
-from .validation import as_float_array, finite_vector, positive
+from .validation import as_float_array, check_boolean, finite_vector, positive
 
 __all__ = ["Bodies", "Body", "PRESETS", "distinct_bodies", "rotated_inertia"]
 
@@ -99,6 +99,8 @@ class Body:
                      name: str = "custom") -> None: ...
 
     def __post_init__(self) -> None:
+        # checked first: the rim check below depends on it
+        check_boolean("full_ellipsoid", self.full_ellipsoid)
         for key in ("a", "b", "c", "mass"):
             object.__setattr__(self, key, positive(key, getattr(self, key)))
         com = finite_vector("com", self.com, 3)
@@ -142,7 +144,8 @@ class Body:
         inertia.setflags(write=False)
         object.__setattr__(self, "com", com)
         object.__setattr__(self, "inertia", inertia)
-        object.__setattr__(self, "full_ellipsoid", bool(self.full_ellipsoid))
+        object.__setattr__(self, "full_ellipsoid", check_boolean("full_ellipsoid",
+                                                                 self.full_ellipsoid))
         # Scales so far apart (c = 1e-300 m under a = 486 m, a mass of 1e165 kg) that the
         # rocking frequencies overflow leave no time step to integrate with.
         freqs: tuple[float, ...]

@@ -89,6 +89,9 @@ def _cmd_sweep(args: argparse.Namespace, argv: list[str] | None) -> int:
         changes["output"] = args.output
     if args.stop is not None:
         changes["stop"] = None if args.stop == "t_end" else args.stop
+    if args.refine is not None and args.refine < 0:
+        raise ValueError(f"--refine must be an integer >= 0 (levels of refinement; 0: "
+                         f"none), got {args.refine}")
     if args.refine is not None:
         changes["refine"] = {**(sweep.refine or {}), "levels": args.refine} if (
             args.refine > 0) else None
@@ -130,6 +133,17 @@ def _cmd_export(args: argparse.Namespace, argv: list[str] | None) -> int:
     return 0
 
 
+def _cmd_verify(args: argparse.Namespace, argv: list[str] | None) -> int:
+    from .sweep.verify import verify
+
+    failed = 0
+    for out in args.outputs:
+        found = verify(out)
+        print(found.report())
+        failed += not found.ok
+    return 1 if failed else 0
+
+
 def _cmd_demo(args: argparse.Namespace, argv: list[str] | None) -> int:
     from .sweep import Sweep
     from .sweep.demo import DEMO_TOML
@@ -167,6 +181,22 @@ def _cmd_stability(args: argparse.Namespace, argv: list[str] | None) -> int:
     return 0
 
 
+def _open_netcdf(path: str) -> xr.Dataset:
+    """A result file, or a ValueError saying it is none (not xarray's list of
+    backends)."""
+    import xarray as xr
+
+    try:
+        return xr.open_dataset(path)
+    except (OSError, ValueError) as exc:
+        reason = str(exc).splitlines()[0] if str(exc).strip() else type(exc).__name__
+        if "did not find a match" in reason:
+            reason = "it is not a netCDF file"
+        raise ValueError(f"cannot read {path}: expected a rattlesweep result file "
+                         f"(netCDF; a zarr store: `rattlesweep export` it first); "
+                         f"{reason}") from None
+
+
 def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
     import xarray as xr
 
@@ -181,9 +211,9 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
             select[key] = float(value)
         except ValueError:
             select[key] = value
-    overlay = xr.open_dataset(args.overlay) if args.overlay else None
+    overlay = _open_netcdf(args.overlay) if args.overlay else None
     for path in args.files:
-        with xr.open_dataset(path) as ds:
+        with _open_netcdf(path) as ds:
             if args.versus:
                 with xr.open_dataset(args.versus) as sweep:
                     fig = reversal_vs_growth(ds, sweep, color_by=args.facet)
@@ -234,9 +264,13 @@ def _info_directory(path: Path) -> Path | None:
         print(f"  levels started: {len(levels)} of {sweep.refine['levels'] + 1}, {done} tiles "
               f"written; 'rattlesweep resume {path}' completes it")
         return None
-    done = len(list((path / "tiles").glob("tile-*.nc")))
-    print(f"  tiles written: {done} of {sweep.n_tiles}; 'rattlesweep resume {path}' "
-          "completes it")
+    from .sweep.verify import verify
+
+    found = verify(path)
+    done = sweep.n_tiles - len(found.missing) - len(found.damaged)
+    damaged = f", {len(found.damaged)} damaged" if found.damaged else ""
+    print(f"  tiles written: {done} of {sweep.n_tiles} (complete and readable){damaged}; "
+          f"'rattlesweep resume {path}' completes it")
     return None
 
 
@@ -287,6 +321,7 @@ def _cmd_info(args: argparse.Namespace, argv: list[str] | None) -> int:
                 if name in ds.coords:
                     c = ds[name]
                     units = c.attrs.get("units", "")
+                    units = "" if units == "1" else units  # CF's dimensionless
                     vals = c.values
                     span = (f"{vals[0]} .. {vals[-1]}" if vals.dtype.kind in "fiu"
                             else ", ".join(map(str, vals)))
@@ -552,6 +587,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("out", help="netCDF file to write")
     p.set_defaults(func=_cmd_export)
 
+    p = sub.add_parser("verify", help="read back every tile of sweep outputs (sweep "
+                       "directories or zarr stores) and name what is missing or damaged; "
+                       "exit status 1 if anything is")
+    p.add_argument("outputs", nargs="+", metavar="OUT",
+                   help="sweep directory or zarr store (a path or URL)")
+    p.set_defaults(func=_cmd_verify)
+
     p = sub.add_parser("plot", help="draw a map of a sweep result to PNG")
     p.add_argument("files", nargs="+", help="sweep result netCDF file(s)")
     p.add_argument("--var", default=None,
@@ -677,6 +719,11 @@ def main(argv: list[str] | None = None) -> int:
         status = args.func(args, argv)
         sys.stdout.flush()  # a closed pipe is then found here, not at interpreter exit
         return status
+    except KeyboardInterrupt:
+        # Ctrl-C outside the tiles (while an output is checked or merged): what was
+        # written is intact, as every file is written atomically
+        print("rattlesweep: interrupted", file=sys.stderr)
+        return 130
     except BrokenPipeError:
         # the reader of the output went away (``rattlesweep info DIR | head``): nothing to
         # report; stdout is pointed at devnull so that Python's flush at exit stays quiet

@@ -11,7 +11,9 @@ into flat per-trajectory inputs and a launch state, and hands them here.
 from __future__ import annotations
 
 import contextlib
+import math
 import os
+import threading
 import warnings
 from dataclasses import dataclass, field
 from types import ModuleType
@@ -25,18 +27,21 @@ from .core import stepper
 from .core.jit import on_disk
 from .core.rows import Rows
 from .core.workspace import BLOCK, METHODS, OBSERVABLES, STOP_RULES
-from .validation import as_float_array, fail_where
+from .validation import (as_float_array, check_boolean, check_memory, fail_where,
+                         is_real)
 
 if TYPE_CHECKING:
     from .body import Body
     from .planar.body import PlanarBody
 
 __all__ = [
-    "COARSE_DT", "MAX_STEPS", "RK4_LIMIT", "CoarseStepWarning", "Model", "Prepared", "Raw",
-    "as_bodies", "blocked", "broadcast_inputs", "check_band", "check_common", "check_method",
+    "COARSE_DT", "LONG_RUN_STEPS", "MAX_STEPS", "RK4_LIMIT", "CoarseStepWarning",
+    "LongRunWarning", "Model", "Prepared", "Raw", "announce_long_run", "as_bodies",
+    "blocked", "broadcast_inputs", "check_band", "check_common", "check_method",
     "check_record_every", "check_record_size", "check_single_step", "check_stop",
     "contact_slip_velocity",
-    "default_dts", "execute", "kernels_compiled", "numba_threads", "pack", "physical_memory", "prepared",
+    "default_dts", "execute", "kernels_compiled", "numba_threads", "pack",
+    "physical_memory", "prepared",
     "run_kernel", "steps_for", "unblock", "warn_coarse_dt",
 ]
 
@@ -135,7 +140,9 @@ def broadcast_inputs(bodies: np.ndarray, scalars: Mapping[str, Any],
         shapes = {k: v.shape for k, v in {**arrays, **vectors}.items()}
         raise ValueError(f"inputs cannot be broadcast together: shapes {shapes}, "
                          f"body {bodies.shape}") from None
-    n = int(np.prod(shape))
+    n = math.prod(shape)
+    check_launches(n, {**{k: v.shape for k, v in arrays.items()},
+                       **{k: v.shape[:-1] for k, v in vectors.items()}, "body": bodies.shape})
     flat = {k: np.broadcast_to(v, shape).reshape(n) for k, v in arrays.items()}
     flat_vec = {k: np.broadcast_to(v, shape + v.shape[-1:]).reshape(n, v.shape[-1])
                 for k, v in vectors.items()}
@@ -194,6 +201,35 @@ def warn_coarse_dt(table: Sequence[Body | PlanarBody], index: np.ndarray, g: np.
             f"and is unstable from about {RK4_LIMIT:.0f} times it (semi-implicit Euler "
             f"sooner); statuses such as capsized or lifted_off of such a run may be "
             f"numerical artefacts", CoarseStepWarning, stacklevel=stacklevel + 1)
+
+
+LONG_RUN_STEPS = 10**9
+"""Steps in a batch (over all its launches) beyond which :func:`announce_long_run` warns
+before the run: at about 10**6 steps per second on a core, a quarter of an hour of one
+core or more."""
+
+
+class LongRunWarning(UserWarning):
+    """A batch about to take a very large number of steps (minutes or more)."""
+
+
+def announce_long_run(steps: np.ndarray, t_end: np.ndarray, dt: np.ndarray,
+                      default_from: Mapping[str, np.ndarray] | None, stacklevel: int
+                      ) -> None:
+    """Warn before a batch of more than LONG_RUN_STEPS steps, with the count, the
+    longest launch's t_end and dt, and the inputs a default dt came from."""
+    total = float(np.sum(steps, dtype=float))
+    if total <= LONG_RUN_STEPS:
+        return
+    i = int(np.argmax(steps))
+    source = "" if default_from is None else " (the body's default step at " + ", ".join(
+        f"{k} = {float(v.flat[i]):g}" for k, v in default_from.items()) + ")"
+    warnings.warn(
+        f"this batch takes {total:.3g} steps in all ({len(steps):,} launch{'es' if len(steps) != 1 else ''}; the longest "
+        f"t_end = {float(t_end.flat[i]):g} s / dt = {float(dt.flat[i]):.3g} s{source} = "
+        f"{int(steps.flat[i]):,} steps): at about 1e6 steps per second on a core, "
+        f"roughly {total / 1e6 / 60:.3g} core-minutes", LongRunWarning,
+        stacklevel=stacklevel + 1)
 
 
 MAX_STEPS = 2**53
@@ -317,7 +353,8 @@ def numba_threads(threads: int | None) -> Iterator[None]:
         return
     # numba sets its config attributes from the environment at import, out of mypy's sight
     limit = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]
-    if not (isinstance(threads, (int, np.integer)) and 1 <= threads <= limit):
+    if not (isinstance(threads, (int, np.integer)) and not isinstance(threads, bool)
+            and 1 <= threads <= limit):
         raise ValueError(f"threads must be an integer from 1 to {limit}, got {threads!r}")
     old = numba.get_num_threads()
     numba.set_num_threads(int(threads))
@@ -352,10 +389,7 @@ def check_single_step(prep: Prepared) -> None:
 
 
 def check_band(reversal_band: float) -> float:
-    try:
-        band = float(reversal_band)
-    except (TypeError, ValueError):  # None, a string, a list: refused as below
-        band = np.nan
+    band = float(reversal_band) if is_real(reversal_band) else np.nan  # else refused below
     if not (0.0 <= band < 1.0):
         raise ValueError(f"reversal_band must be in [0, 1) (a fraction of |initial spin|), "
                          f"got {reversal_band!r}")
@@ -370,6 +404,21 @@ def check_stop(stop: str | None) -> float:
     except (KeyError, TypeError):
         raise ValueError(f"stop must be None (run to t_end) or 'first_reversal', got "
                          f"{stop!r}") from None
+
+
+LAUNCH_BYTES = 1024
+"""Memory a batch holds per launch, at its peak (inputs, packed rows, state, results;
+measured: 832 bytes for run_batch), for the check before anything is allocated."""
+
+
+def check_launches(n: int, shapes: Mapping[str, tuple[int, ...]]) -> None:
+    """Refuse a batch of ``n`` launches (the broadcast of inputs of ``shapes``) that would
+    not fit in the memory available, naming the inputs that set its size."""
+    big = {k: v for k, v in shapes.items() if math.prod(v) > 1}
+    named = ", ".join(f"{k} {v}" for k, v in big.items()) or "the inputs"
+    check_memory("launches", f"{n:,} (the broadcast of {named})", n * LAUNCH_BYTES,
+                 f"a batch of {n:,} launches",
+                 "run fewer at once (a sweep runs them in tiles: rattlesweep.Sweep)")
 
 
 def physical_memory() -> int | None:
@@ -404,9 +453,17 @@ def kernels_compiled(parallel: bool = True) -> bool:
     return on_disk(stepper.integrate_parallel if parallel else stepper.integrate_serial)
 
 
+_PARALLEL = threading.Lock()
+"""Held by a parallel kernel call. numba's ``workqueue`` threading layer (the one it uses
+where neither TBB nor OpenMP is available) aborts the interpreter when two threads
+launch parallel regions at once; a parallel call already occupies every core, so calls
+from several threads take turns at no cost in throughput."""
+
+
 def execute(prep: Prepared, *, method: int, record_every: int | None, band: float = 0.0,
             parallel: bool = True, threads: int | None = None) -> Raw:
     """Run a prepared batch through the kernel."""
+    check_boolean("parallel", parallel)
     layout = prep.model.layout
     n_blocks = prep.P.shape[0]
     n_rec = 0
@@ -417,7 +474,7 @@ def execute(prep: Prepared, *, method: int, record_every: int | None, band: floa
     O = np.empty((n_blocks, layout.N_OBS, BLOCK))
     Y = prep.Y.copy()
     entry = stepper.integrate_parallel if parallel else stepper.integrate_serial
-    with numba_threads(threads):
+    with _PARALLEL if parallel else contextlib.nullcontext(), numba_threads(threads):
         run_kernel(entry, prep.model.number, prep.P, Y, prep.nsteps, method,
                    record_every or 1, band, O, REC)
     rec = None

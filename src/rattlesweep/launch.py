@@ -60,6 +60,8 @@ def angles_in_radians(given: dict[str, Any], *, full_ellipsoid: bool,
         if rad is None or name == "yaw":
             continue
         try:
+            if np.iscomplexobj(rad):
+                raise TypeError
             values = np.abs(np.asarray(rad, dtype=float))
         except (TypeError, ValueError):  # refused with its name by the checks
             continue

@@ -8,26 +8,47 @@ Non-numbers (strings, other objects) get the same kind of message as bad numbers
 from __future__ import annotations
 
 import math
+import os
 from typing import Any
 
 import numpy as np
 
-__all__ = ["as_float_array", "fail_where", "finite_vector", "positive"]
+__all__ = ["as_float_array", "available_memory", "check_boolean", "check_memory",
+           "fail_where", "finite_vector", "is_real", "positive"]
 
 
 def positive(name: str, value: Any) -> float:
-    """``value`` as a float, which must be finite and > 0.
+    """``value`` as a float, which must be a real number (not a bool, a string or a
+    complex number), finite and > 0.
 
-    Raises ``ValueError("<name> must be a finite number > 0, got <value>")`` otherwise,
-    non-numbers included.
+    Raises ``ValueError("<name> must be a finite number > 0, got <value>")`` otherwise.
     """
-    try:
-        v = float(value)
-    except (TypeError, ValueError, OverflowError):
-        v = math.nan
+    v = math.nan
+    if is_real(value):
+        try:
+            v = float(value)
+        except (TypeError, ValueError, OverflowError):
+            pass
     if not (math.isfinite(v) and v > 0.0):
         raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
     return v
+
+
+def is_real(value: Any) -> bool:
+    """True for a real number: a Python or NumPy int or float, or a 0-d array of one;
+    False for bools, strings, complex numbers and anything else."""
+    if isinstance(value, np.ndarray):
+        return value.ndim == 0 and value.dtype.kind in "iuf"
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
+        value, (bool, np.bool_))
+
+
+def check_boolean(name: str, value: Any) -> bool:
+    """``value``, which must be a boolean (Python's or NumPy's): ``"false"``, 0 or 1 are
+    refused, as their meaning would be a guess."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} must be a boolean (true or false), got {value!r}")
+    return bool(value)
 
 
 def finite_vector(name: str, value: Any, n: int) -> np.ndarray:
@@ -47,15 +68,46 @@ def finite_vector(name: str, value: Any, n: int) -> np.ndarray:
 def as_float_array(name: str, value: Any) -> np.ndarray:
     """``value`` as a float array (0-d for a scalar; no copy when it already is one).
 
-    Raises ``ValueError("<name> must be a number or an array of numbers, got <value>")``
-    when numpy cannot convert it (a string, a ragged list). numpy turns ``None`` into NaN,
-    which a finiteness rule then refuses.
+    Only real numbers are accepted: ints and floats of Python or NumPy, arrays and
+    (nested) lists of them, and ``None`` (which becomes NaN, for a finiteness rule to
+    refuse). Raises ``ValueError("<name> must be a number or an array of numbers (real
+    numbers: ...), got <value>")`` for anything else: strings (numeric or not), booleans,
+    complex numbers, ragged lists, other objects.
     """
+    if isinstance(value, np.ndarray) and value.dtype.kind == "f":
+        return value.astype(float, copy=False)
+    if not _real_entries(value):
+        raise ValueError(f"{name} {_RULE}, got {_shown(value)}")
     try:
-        return np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number or an array of numbers, got {value!r}"
-                         ) from None
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"{name} {_RULE}, got {_shown(value)}") from None
+    return arr
+
+
+_RULE = ("must be a number or an array of numbers (real numbers: not booleans, strings "
+         "or complex numbers)")
+
+
+def _real_entries(value: Any) -> bool:
+    """True when every entry of ``value`` (a scalar, an array or nested lists) is a real
+    number or None."""
+    if value is None or is_real(value):
+        return True
+    if isinstance(value, np.ndarray):
+        if value.dtype.kind in "iuf":
+            return True
+        if value.dtype.kind != "O":
+            return False
+        return all(_real_entries(v) for v in value.ravel().tolist())
+    if isinstance(value, (list, tuple)):
+        return all(_real_entries(v) for v in value)
+    return False
+
+
+def _shown(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 200 else text[:200] + "..."
 
 
 def fail_where(name: str, arr: np.ndarray, bad: np.ndarray, rule: str) -> None:
@@ -69,3 +121,34 @@ def fail_where(name: str, arr: np.ndarray, bad: np.ndarray, rule: str) -> None:
         idx = tuple(int(i) for i in np.argwhere(bad)[0])
         where = f" at index {idx}" if arr.ndim else ""
         raise ValueError(f"{name} {rule}; got {arr[idx]!r}{where}")
+
+
+def available_memory() -> int | None:
+    """Bytes of memory available to a new allocation now (Linux: ``MemAvailable`` of
+    /proc/meminfo; elsewhere the physical memory), None where the system does not say."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, ValueError, OSError):
+        return None
+
+
+def _gib(n: float) -> str:
+    return f"{n / 2**30:.3g} GiB"
+
+
+def check_memory(name: str, value: Any, need: float, what: str, advice: str = "") -> None:
+    """Refuse, before anything is allocated, what would need ``need`` bytes when that is
+    more than the memory available now: ``ValueError("<name> = <value>: <what> would
+    need about N GiB, more than the M GiB of memory available; <advice>")``."""
+    have = available_memory()
+    if have is not None and need > have:
+        tail = f"; {advice}" if advice else ""
+        raise ValueError(f"{name} = {value}: {what} would need about {_gib(need)}, more "
+                         f"than the {_gib(have)} of memory available{tail}")

@@ -49,12 +49,17 @@ def _select(da: xr.DataArray, select: Mapping[str, Any]) -> xr.DataArray:
 
 
 def _axis_values(da: xr.DataArray, dim: str) -> tuple[np.ndarray, list[str] | None]:
-    """Plot positions and tick labels (None for numeric axes) of a dimension."""
+    """Plot positions and tick labels (None for numeric axes) of a dimension. A numeric
+    axis with a non-finite value (``mu = [0.1, 0.3, inf]``: rolling beside friction) is
+    drawn as categories, one cell per value, labelled with the values."""
     import numpy as np
 
     values = da[dim].values
     if values.dtype.kind in "OUS":
         return np.arange(len(values)), [str(v) for v in values]
+    if values.dtype.kind == "f" and not np.all(np.isfinite(values)):
+        return np.arange(len(values)), [
+            "∞" if v == np.inf else ("−∞" if v == -np.inf else f"{v:g}") for v in values]
     return values, None
 
 

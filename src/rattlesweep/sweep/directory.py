@@ -88,8 +88,11 @@ class TileDirectory:
         self.out = Path(out_dir)
         self.location = str(self.out)
         self.tiles_dir = self.out / TILES_DIR
-        self.lock = SweepLock(self.out / LOCK_NAME)
+        # inside the directory's real path (a symlink to it leads to the same lock, and
+        # a refusal names the real path)
+        self.lock = SweepLock(self.out.resolve() / LOCK_NAME)
         self.written = 0
+        self.notes: list[str] = []
 
     def open(self) -> list[int]:
         """Create or check the directory for the sweep and take its lock; return the tiles
@@ -100,6 +103,7 @@ class TileDirectory:
         ``sweep.toml`` edited after they were written); leftover temporary files are
         removed; truncated or corrupt tile files are deleted so they are recomputed.
         """
+        self._check_path()
         self.out.mkdir(parents=True, exist_ok=True)
         self.lock.acquire()
         try:
@@ -108,11 +112,51 @@ class TileDirectory:
             self.lock.release()
             raise
 
+    def _check_path(self) -> None:
+        """Refuse an output path that is no directory, or a zarr store."""
+        from .zarr_store import is_zarr_store
+
+        if self.out.exists() and not self.out.is_dir():
+            raise ValueError(f"output {self.out} exists and is not a directory: a netCDF "
+                             "sweep writes a directory (sweep.toml, tiles/, sweep.nc); "
+                             "give a new path or an earlier sweep's directory")
+        if is_zarr_store(self.out):
+            raise ValueError(f"output {self.out} is a zarr store: a netCDF sweep writes a "
+                             "directory of its own (resume the store with `rattlesweep "
+                             f"resume {self.out}`, or give a new path)")
+
+    def _check_unclaimed(self) -> None:
+        """In a directory without a configuration file, refuse to touch results this
+        sweep cannot be shown to have written: a merged file of another configuration
+        (or unreadable), or any tile file."""
+        result = self.out / RESULT_NAME
+        if result.exists():
+            try:
+                with NETCDF_LOCK, netCDF4.Dataset(result) as nc:
+                    ours = nc.getncattr("sweep_config_hash") == self.sweep.config_hash()
+            except Exception:  # unreadable, or no rattlesweep result
+                ours = False
+            if not ours:
+                raise ValueError(
+                    f"{self.out} holds {RESULT_NAME} but no {CONFIG_NAME}, and that file is "
+                    "not this sweep's result (another configuration, or unreadable): not "
+                    "overwriting it. Move it away, or use a new directory")
+        if self.tiles_dir.is_dir():
+            files = sorted(p for p in self.tiles_dir.rglob("*") if p.is_file())
+            if files:
+                raise ValueError(
+                    f"{self.tiles_dir} holds {len(files)} files (the first: {files[0].name}) "
+                    f"but {self.out} has no {CONFIG_NAME}, so they cannot be shown to be "
+                    "this sweep's: not touching them. Restore the configuration, or use a "
+                    "new directory")
+
     def _check_config(self) -> Path:
-        """Refuse a directory that holds another sweep's configuration; return the path
-        of the configuration file."""
+        """Refuse a directory that holds another sweep's configuration, or results of
+        unknown origin; return the path of the configuration file."""
         sweep, out = self.sweep, self.out
         config = out / CONFIG_NAME
+        if not config.exists():
+            self._check_unclaimed()
         if config.exists():
             stored = read_config(config)
             if stored != sweep:
@@ -126,8 +170,13 @@ class TileDirectory:
         sweep = self.sweep
         config = self._check_config()
         self.tiles_dir.mkdir(exist_ok=True)
-        for stale in self.tiles_dir.glob(".*.tmp"):
-            stale.unlink(missing_ok=True)
+        # temporary files of a process killed while writing a tile or the merge of this
+        # sweep (a directory without sweep.toml holds none of its files); the lock is
+        # held, so no other process writes them now
+        if config.exists():
+            for stale in (*self.tiles_dir.glob(".*.tmp"),
+                          *self.out.glob(f".{RESULT_NAME}.*.tmp")):
+                stale.unlink(missing_ok=True)
         todo, damaged, foreign = [], [], []
         for tile in range(sweep.n_tiles):
             path = tile_path(self.tiles_dir, tile)
@@ -146,6 +195,9 @@ class TileDirectory:
                 "Restore the configuration, or use a new directory")
         for path in damaged:
             path.unlink()
+        if damaged:
+            self.notes.append(f"{len(damaged)} tile files in {self.tiles_dir} were damaged "
+                              f"(the first: {damaged[0].name}); recomputing them")
         if not config.exists():
             write_text_atomic(config, sweep.to_toml())
         self.written = sweep.n_tiles - len(todo)

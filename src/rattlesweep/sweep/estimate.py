@@ -135,7 +135,7 @@ def _size(n: float) -> str:
 def format_estimate(sweep: Sweep, e: Estimate, where: str) -> str:
     """The dry run's report, ``where`` naming the workers (``"2 local threads"``)."""
     dims = ", ".join(f"{d} ({k})" for d, k in zip(sweep.dims, sweep.shape))
-    lines = [f"{sweep.name}: dry run, nothing computed or written",
+    lines = [f"{sweep.name}: dry run, nothing written (only a few launches timed)",
              f"  dimensions: {dims}",
              f"  points: {e.points:,} in {e.tiles:,} tile{'s' if e.tiles > 1 else ''} of "
              f"at most {e.tile_size:,}"]

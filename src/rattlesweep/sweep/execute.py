@@ -5,6 +5,8 @@ the output."""
 
 from __future__ import annotations
 
+import signal
+import threading
 from concurrent.futures import FIRST_COMPLETED, Future, ThreadPoolExecutor, wait
 from typing import Any, Callable
 
@@ -25,14 +27,50 @@ def run_tiles(sweep: Sweep, todo: list[Any], on_result: Handler, *, client: Any 
     item of ``todo``: by default an item is a tile number (:func:`compute_tile`); other
     items name their task by their ``key`` attribute.
 
-    Ctrl-C stops handing out tiles; on local threads the tiles in flight finish (the
-    kernel cannot be interrupted) and are handed over, on a cluster they are cancelled.
+    Ctrl-C stops handing out tiles and raises ``KeyboardInterrupt``: on local threads the
+    tiles in flight finish (the kernel cannot be interrupted) and are handed over first,
+    unless Ctrl-C is pressed again; on a cluster they are cancelled. A result being
+    handed over when Ctrl-C comes is handed over in full.
     An exception in ``on_result`` or a task stops the run and propagates.
     """
     if client is None:
         _run_threads(sweep, todo, on_result, workers, compute)
     else:
         _run_cluster(sweep, todo, on_result, client, compute)
+
+
+class _Interrupts:
+    """Ctrl-C turned into a count the runner polls, for the duration of a ``with``.
+
+    A ``KeyboardInterrupt`` raised at an arbitrary instant can leave a lock held: the one
+    xarray takes around a netCDF write, or one inside ``concurrent.futures``; whatever
+    takes that lock again (the next tile's write, the pool's shutdown) then waits forever.
+    So in the main thread, where Python delivers SIGINT, the default handler is replaced
+    by one that only counts, and the runner decides where to stop. Elsewhere (a thread,
+    or a handler of the caller's own) nothing changes and ``count`` stays 0.
+    """
+
+    def __init__(self) -> None:
+        self.count = 0
+        self._previous: Any = None
+
+    def _handler(self, signum: int, frame: Any) -> None:
+        self.count += 1
+
+    def __enter__(self) -> "_Interrupts":
+        if (threading.current_thread() is threading.main_thread()
+                and signal.getsignal(signal.SIGINT) is signal.default_int_handler):
+            self._previous = signal.signal(signal.SIGINT, self._handler)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+
+
+_END = object()
+_POLL = 0.1
+"""Seconds between checks for Ctrl-C while tiles run."""
 
 
 def _run_threads(sweep: Sweep, todo: list[Any], on_result: Handler, workers: int,
@@ -45,28 +83,28 @@ def _run_threads(sweep: Sweep, todo: list[Any], on_result: Handler, workers: int
     pool = ThreadPoolExecutor(workers, thread_name_prefix="rattlesweep-tile")
 
     def refill() -> None:
-        for tile in queue:
+        while len(running) < window:
+            tile = next(queue, _END)
+            if tile is _END:
+                return
             running.add(pool.submit(compute, sweep, tile))
-            if len(running) >= window:
-                break
 
-    try:
-        refill()
-        while running:
-            finished, _ = wait(running, return_when=FIRST_COMPLETED)
-            for future in finished:
-                running.discard(future)
-                on_result(future.result())
+    with _Interrupts() as interrupts:
+        try:
             refill()
-    except KeyboardInterrupt:
-        for future in running:
-            future.cancel()
-        for future in running:
-            if not future.cancelled():
-                on_result(future.result())
-        raise
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+            # after the first Ctrl-C no tile is handed out and the tiles running finish
+            # and are written; after a second one nothing more is waited for
+            while running and interrupts.count < 2:
+                finished, _ = wait(running, timeout=_POLL, return_when=FIRST_COMPLETED)
+                for future in finished:
+                    running.discard(future)
+                    on_result(future.result())
+                if interrupts.count == 0:
+                    refill()
+        finally:
+            pool.shutdown(wait=not interrupts.count, cancel_futures=True)
+        if interrupts.count:
+            raise KeyboardInterrupt
 
 
 def _run_cluster(sweep: Sweep, todo: list[Any], on_result: Handler, client: Any,

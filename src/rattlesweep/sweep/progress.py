@@ -11,11 +11,15 @@ __all__ = ["Progress"]
 
 class Progress:
     """Report finished tiles to ``stream``: redrawn in place on a terminal, otherwise a line
-    every ``every`` seconds (and at the end)."""
+    every ``every`` seconds (and at the end).
+
+    ``compiling`` says that the first tiles compile the kernels (a first run: about a
+    minute): the bar says so, and the rate and ETA leave out the time to the first
+    finished tile, which would otherwise inflate the ETA many times over."""
 
     def __init__(self, total_tiles: int, total_points: int, done_tiles: int,
                  done_points: int, *, stream: TextIO | None = None, enabled: bool = True,
-                 every: float = 10.0) -> None:
+                 every: float = 10.0, compiling: bool = False) -> None:
         self.total_tiles, self.total_points = total_tiles, total_points
         self.done_tiles, self.done_points = done_tiles, done_points
         self.reused = done_tiles
@@ -25,16 +29,27 @@ class Progress:
         self.enabled = enabled
         self.every = every
         self.t0 = time.perf_counter()
+        self._rate_t0, self._rate_points = self.t0, 0  # what the rate is measured over
+        self._compiling = compiling and done_tiles < total_tiles
         self._last = -1e9
         self._tty = hasattr(self.stream, "isatty") and self.stream.isatty()
         if enabled and done_tiles:
             self._write(f"resuming: {done_tiles} of {total_tiles} tiles already done\n")
+        if enabled and self._compiling:
+            self._write("compiling the simulation kernels (first run only: about a minute "
+                        "on 2 cores)...\n")
+
+    def note(self, text: str) -> None:
+        """Report something the user must know (even with the bar disabled), on a line
+        of its own."""
+        self._write(text + "\n")
 
     @property
     def rate(self) -> float:
-        """Trajectories per second computed in this run."""
-        elapsed = time.perf_counter() - self.t0
-        return self.new_points / elapsed if elapsed > 0 else 0.0
+        """Trajectories per second computed in this run (after the first tile, when that
+        compiled the kernels)."""
+        elapsed = time.perf_counter() - self._rate_t0
+        return self._rate_points / elapsed if elapsed > 0 else 0.0
 
     def update(self, summary: Mapping[str, Any]) -> None:
         if summary.get("skipped"):
@@ -44,6 +59,11 @@ class Progress:
         self.new_points += summary["n"]
         self.new_steps += summary.get("steps", 0)
         now = time.perf_counter()
+        if self._compiling:  # the kernels are compiled now: measure the rate from here
+            self._compiling = False
+            self._rate_t0 = now
+        else:
+            self._rate_points += summary["n"]
         if self.enabled and (self._tty or now - self._last >= self.every
                              or self.done_tiles == self.total_tiles):
             self._last = now

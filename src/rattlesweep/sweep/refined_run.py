@@ -21,6 +21,7 @@ import numpy as np
 import xarray as xr
 
 from .. import batch
+from ..engine import kernels_compiled
 from ..io import NETCDF_LOCK
 from .directory import CONFIG_NAME, RESULT_NAME, TileDirectory, write_text_atomic
 from .execute import run_tiles
@@ -188,7 +189,8 @@ def _inputs(fine: Sweep) -> dict[str, np.ndarray]:
     out = {}
     if "dt" in extra_vars(fine):
         bodies, kwargs = fine.points_at(index)
-        out["dt"] = batch.launch_inputs(bodies, **kwargs).flat["dt"].reshape(fine.shape)
+        out["dt"] = batch.launch_inputs(bodies, announce=False, **kwargs
+                                        ).flat["dt"].reshape(fine.shape)
     for rp in fine.random_params:
         out[rp.name] = rp.result_draw(fine.seed, index).reshape(fine.shape)
     return out
@@ -226,7 +228,8 @@ def run_refined(sweep: Sweep, out: str | os.PathLike[str], *, client: Any = None
             for result in done:
                 apply(result)
             bar = Progress(len(items), len(index), len(done),
-                           sum(len(r.index) for r in done), enabled=progress)
+                           sum(len(r.index) for r in done), enabled=progress,
+                           compiling=client is None and not kernels_compiled(parallel=False))
 
             def write(result: LevelTileResult) -> None:
                 store.write(result)

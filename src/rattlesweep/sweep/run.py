@@ -10,8 +10,10 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Iterator, Mapping
 
+import numpy as np
 import xarray as xr
 
+from ..engine import kernels_compiled
 from .directory import CONFIG_NAME, RESULT_NAME, TILES_DIR, TileDirectory, read_config
 from .execute import run_tiles
 from .progress import Progress
@@ -84,6 +86,9 @@ def run_sweep(sweep: Sweep, out: str | os.PathLike, *, client: Client | None = N
     """
     if not isinstance(sweep, Sweep):
         raise ValueError(f"sweep must be a rattlesweep.Sweep, got {type(sweep).__name__}")
+    if not str(out).strip():
+        raise ValueError(f"out must name a directory or a store, got {str(out)!r} (give "
+                         "'.' for the current directory)")
     if not sweep.simulates:
         raise ValueError("fixed.t_end: the end time (s) is required to simulate a sweep "
                          "(fixed or as an axis)")
@@ -94,6 +99,8 @@ def run_sweep(sweep: Sweep, out: str | os.PathLike, *, client: Client | None = N
     if workers is not None and (client is not None or scheduler is not None):
         raise ValueError("workers sets the local scheduler's threads; a distributed "
                          "cluster's size is set where the cluster is started")
+    check_size(sweep)
+    announce(sweep)
     if sweep.refine is not None:
         from .refined_run import run_refined
 
@@ -111,7 +118,11 @@ def run_sweep(sweep: Sweep, out: str | os.PathLike, *, client: Client | None = N
         left = set(todo)
         done = [t for t in range(sweep.n_tiles) if t not in left]
         bar = Progress(sweep.n_tiles, sweep.size, len(done),
-                       sum(_points(sweep, t) for t in done), enabled=progress)
+                       sum(_points(sweep, t) for t in done), enabled=progress,
+                       compiling=(client is None and scheduler is None
+                                  and not kernels_compiled(parallel=False)))
+        for note in getattr(store, "notes", ()):
+            bar.note(note)
         if scheduler is not None:
             client = own_client = _client(scheduler)
 
@@ -130,6 +141,56 @@ def run_sweep(sweep: Sweep, out: str | os.PathLike, *, client: Client | None = N
         if own_client is not None:
             own_client.close()
         store.close()
+
+
+MERGED_BYTES = 3
+"""Bytes held per byte of a point's results while a netCDF sweep merges its tiles (the
+merged arrays, a tile read, the writer's buffers)."""
+REFINED_BYTES = 1000
+"""Bytes a refined sweep holds per point of its finest grid: every result, its inputs
+and the ``computed`` flag (about 250 bytes), the level plans and the written dataset."""
+TILE_BYTES = 200
+"""Bytes held per tile: its done flag, its entry in the list of tiles to compute."""
+
+
+def check_size(sweep: Sweep) -> None:
+    """Refuse, before anything is written or computed, a sweep whose result would not
+    fit in the memory available: a netCDF sweep merges the whole grid in memory, a
+    refined one holds its finest grid, a zarr one a flag per tile."""
+    from ..validation import check_memory
+    from .tiles import result_dtypes
+
+    if sweep.refine is not None:
+        fine_shape = sweep.finest().shape
+        points = int(np.prod(fine_shape, dtype=float))
+        check_memory("refine.levels", sweep.refine["levels"], points * REFINED_BYTES,
+                     f"the finest grid {fine_shape} ({points:,} points)",
+                     "refine fewer levels or fewer axes, or start from a coarser grid")
+        return
+    check_memory("axes", f"grid {sweep.shape}", sweep.n_tiles * TILE_BYTES,
+                 f"the list of its {sweep.n_tiles:,} tiles", "a larger tile_size")
+    if sweep.output == "netcdf":
+        per_point = sum(d.itemsize for d in result_dtypes(sweep).values())
+        check_memory("axes", f"grid {sweep.shape}", sweep.size * per_point * MERGED_BYTES,
+                     f"merging its {sweep.size:,} points into sweep.nc",
+                     "fewer points, or output = \"zarr\" (written tile by tile)")
+
+
+def announce(sweep: Sweep) -> None:
+    """Warn (:class:`~rattlesweep.engine.LongRunWarning`) before a sweep of more than
+    :data:`~rattlesweep.engine.LONG_RUN_STEPS` steps at most, with the count. A refined
+    sweep simulates an unknown part of its finest grid; its first level is counted."""
+    import warnings
+
+    from ..engine import LONG_RUN_STEPS, LongRunWarning
+
+    total = float(sweep.size) * sweep.max_steps
+    if total > LONG_RUN_STEPS:
+        warnings.warn(
+            f"this sweep takes up to {total:.3g} steps ({sweep.size:,} launches, the "
+            f"longest {sweep.max_steps:,} steps): at about 1e6 steps per second on a "
+            f"core, up to {total / 1e6 / 60:.3g} core-minutes", LongRunWarning,
+            stacklevel=3)
 
 
 def _client(scheduler: str) -> Client:

@@ -21,6 +21,7 @@ import numpy as np
 from ..core.workspace import METHODS
 from ..engine import check_band
 from ..body import PRESETS, Body
+from ..validation import check_memory, is_real
 from .grid import RandomParam
 from .params import BODY_PARAMS, DEFAULTS, PARAMS, check_values, resolve
 
@@ -50,7 +51,8 @@ _BODY_REQUIRED = {"a", "b", "c", "mass", "com", "inertia"}
 
 
 def _is_number(x: object) -> TypeGuard[int | float | np.integer | np.floating]:
-    return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool)
+    # the rule of the whole API (validation.is_real): 0-d real arrays are numbers too
+    return is_real(x)
 
 
 def _is_int(x: object) -> TypeGuard[int | np.integer]:
@@ -105,7 +107,7 @@ def body_from_table(d: Mapping[str, Any], where: str) -> Body:
         raise ValueError(f"{where}: body table lacks {sorted(missing)}")
     try:
         return Body(d["a"], d["b"], d["c"], d["mass"], d["com"], d["inertia"],
-                    bool(d.get("full_ellipsoid", False)),
+                    d.get("full_ellipsoid", False),
                     name=str(d.get("name", d.get("body_name", "custom"))))
     except ValueError as exc:
         raise ValueError(f"{where}: {exc}") from None
@@ -186,6 +188,7 @@ def _normalise_range(spec: Mapping[str, Any], where: str) -> dict[str, Any]:
     if scale == "log" and not (start > 0 and stop > 0):
         raise ValueError(f"{where}: a log range needs start > 0 and stop > 0, got "
                          f"start={start!r}, stop={stop!r}")
+    check_memory(f"{where}.num", num, 8 * num, f"{num:,} axis values")
     out = {"start": float(start), "stop": float(stop), "num": int(num)}
     if scale != "linear":
         out["scale"] = scale

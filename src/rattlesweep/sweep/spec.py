@@ -118,13 +118,14 @@ class Sweep:
     """
 
     __slots__ = ("_config", "_grid_axes", "_random_params", "_shape", "_tile_shape",
-                 "_finest")
+                 "_finest", "_max_steps")
     _config: dict[str, Any]
     _grid_axes: tuple[Axis, ...]
     _random_params: tuple[RandomParam, ...]
     _shape: tuple[int, ...]
     _tile_shape: tuple[int, ...]
     _finest: Sweep | None
+    _max_steps: int
 
     def __init__(self, axes: Mapping[str, Any], fixed: Mapping[str, Any] = _NONE,
                  random: Mapping[str, Any] = _NONE, repeats: int = 1, seed: int = 0,
@@ -153,6 +154,7 @@ class Sweep:
         self._shape = shape
         self._tile_shape = tile_block(shape, config["tile_size"])
         self._finest = None
+        self._max_steps = max_steps
 
     # --- the normalised configuration ---------------------------------------------------
     @property
@@ -226,6 +228,12 @@ class Sweep:
             config = {k: v for k, v in self.to_dict().items() if k != "refine"}
             self._finest = Sweep(**{**config, "axes": axes})
         return self._finest
+
+    @property
+    def max_steps(self) -> int:
+        """The most steps a launch of the sweep takes (found at the corners of its
+        ranges), 0 without ``t_end``."""
+        return self._max_steps
 
     # --- structure ----------------------------------------------------------------------
     @property

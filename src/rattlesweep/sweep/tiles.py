@@ -103,7 +103,8 @@ def compute_points(sweep: Sweep, index: np.ndarray) -> tuple[dict[str, np.ndarra
     run in parallel without nesting threads). Returns every per-point variable
     (:func:`result_names`) and the trajectory-steps taken. Touches no file."""
     bodies, kwargs = sweep.points_at(index)
-    prep = prepare(bodies, stop=sweep.stop, **kwargs)
+    # a sweep announces its size as a whole, not each tile
+    prep = prepare(bodies, stop=sweep.stop, announce=False, **kwargs)
     raw = engine.execute(prep, method=check_method(sweep.method), record_every=None,
                          band=sweep.reversal_band, parallel=False)
     obs = results.observables_dataset(MODEL, raw.observables, "point")

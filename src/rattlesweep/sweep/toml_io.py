@@ -37,12 +37,14 @@ def read_toml(path_or_text: str | Path) -> dict[str, Any]:
     if isinstance(path_or_text, Path) or "\n" not in text and text.endswith(".toml"):
         label = str(path_or_text)
         try:
-            text = Path(path_or_text).read_text(encoding="utf-8")
+            # utf-8-sig: a byte-order mark, as some Windows editors write, is dropped
+            text = Path(path_or_text).read_text(encoding="utf-8-sig")
         except OSError as exc:
             raise ValueError(f"cannot read {label}: {exc.strerror}") from None
         except UnicodeDecodeError as exc:
             raise ValueError(f"cannot parse {label} as TOML: it is not UTF-8 "
                              f"({exc.reason} at byte {exc.start})") from None
+    text = text.removeprefix("\ufeff")
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -11,6 +11,12 @@ other variables, so ``xarray.open_zarr`` on a store being written shows every po
 either complete or flagged. The group ``rattlesweep`` holds ``tile_done``, one byte per
 tile set after the tile's data: a resume reads from it which tiles are complete.
 
+Every chunk carries a CRC-32C checksum (zarr's ``crc32c`` codec, after ``zstd``) and every
+chunk of a finished tile is stored, even one holding only fill values, so a tile is
+verified (:func:`check_tiles`) by finding each of its chunks and decoding it: a chunk
+deleted, truncated or changed is found, and ``resume`` recomputes its tile, while
+``export`` and ``rattlesweep verify`` name it.
+
 The location is a local path or any fsspec URL (``s3://bucket/run.zarr``, with
 ``storage_options`` for credentials). Only local stores are locked against a second
 sweep (:mod:`.lock`; the lock file ``STORE.lock`` lies beside the store).
@@ -40,8 +46,8 @@ if TYPE_CHECKING:
     from zarr import Group
     from zarr.abc.store import Store
 
-__all__ = ["DONE_ARRAY", "ZarrStore", "export_netcdf", "is_zarr_store", "open_result",
-           "stored_sweep", "tiles_done"]
+__all__ = ["DONE_ARRAY", "ZarrStore", "check_tiles", "export_netcdf", "is_zarr_store",
+           "damage_report", "open_result", "stored_sweep", "tiles_done"]
 
 DONE_ARRAY = "rattlesweep/tile_done"
 _DONE_CHUNK = 4096
@@ -107,6 +113,79 @@ def _group(location: str, options: Mapping[str, Any] | None, mode: str = "r") ->
     return _zarr().open_group(_store(location, options), mode=mode, use_consolidated=False)
 
 
+def _codecs() -> dict[str, Any]:
+    """The chunk encoding of every array: zstd, then a CRC-32C checksum of the bytes."""
+    from zarr.codecs import Crc32cCodec, ZstdCodec
+
+    return {"compressors": (ZstdCodec(), Crc32cCodec())}
+
+
+def _checksummed(array: Any) -> bool:
+    """True for an array written with checksums and every chunk stored (what this
+    module writes now; stores of rattlesweep 0.x before it have neither)."""
+    return any(type(c).__name__ == "Crc32cCodec" for c in array.metadata.codecs)
+
+
+def _keys(group: Any, prefix: str) -> set[str]:
+    """The keys stored under ``prefix`` in the group's store."""
+    from zarr.core.sync import sync
+
+    async def listing() -> list[str]:
+        return [k async for k in group.store.list_prefix(prefix)]
+
+    return set(sync(listing()))
+
+
+def _first_line(exc: BaseException) -> str:
+    text = str(exc).strip().splitlines()
+    if text and "checksum" in text[0]:
+        return "it fails its CRC-32C checksum"
+    return f"{type(exc).__name__}: {text[0]}" if text else type(exc).__name__
+
+
+def check_tiles(location: str, sweep: Sweep, tiles: Any = None,
+                storage_options: Mapping[str, Any] | None = None) -> dict[int, str]:
+    """What is wrong with each of the ``tiles`` (default: all) of the store, by tile:
+    a chunk missing, a chunk that fails its checksum or cannot be decoded, or points
+    whose ``status`` still says not computed. Tiles not named are sound. Reads every
+    chunk of the tiles."""
+    group = _group(location, storage_options)
+    tiles = range(sweep.n_tiles) if tiles is None else [int(t) for t in tiles]
+    problems: dict[int, str] = {}
+    for name in result_dtypes(sweep):
+        try:
+            array: Any = group[name]
+        except KeyError:
+            return {t: f"array {name} missing" for t in tiles}
+        except Exception as exc:
+            raise ValueError(f"{location}: the metadata of array {name} cannot be read "
+                             f"({_first_line(exc)}); the store cannot be checked or "
+                             "resumed: restore it, or run the sweep into a new store"
+                             ) from None
+        # a store written before checksums left out the chunks holding only fill
+        # values; status is never all fill in a computed tile, so its chunks are there
+        complete = _checksummed(array) or name == "status"
+        stored = _keys(group, f"{name}/")
+        for tile in tiles:
+            if tile in problems:
+                continue
+            region = sweep.tile_region(tile)
+            coords = tuple(r.start // c for r, c in zip(region, sweep.tile_shape))
+            key = f"{name}/{array.metadata.encode_chunk_key(coords)}"
+            if key not in stored:
+                if complete:
+                    problems[tile] = f"chunk {key} missing"
+                continue
+            try:
+                values = array[region]
+            except Exception as exc:  # a failed checksum, zstd or a short read
+                problems[tile] = f"chunk {key} damaged ({_first_line(exc)})"
+                continue
+            if name == "status" and (np.asarray(values) == NOT_COMPUTED).any():
+                problems[tile] = f"chunk {key} holds points not computed"
+    return problems
+
+
 def _consolidate(location: str, options: Mapping[str, Any] | None) -> None:
     # consolidated metadata lets open_zarr read the layout in one request; zarr warns
     # that format 3 does not standardise it yet, which does not matter to xarray
@@ -124,6 +203,8 @@ def stored_sweep(location: str, storage_options: Mapping[str, Any] | None = None
         group = _group(location, storage_options)
     except (FileNotFoundError, KeyError, ValueError) as exc:
         raise ValueError(f"{location} is not a zarr store ({exc})") from None
+    except Exception as exc:  # the store's own errors: credentials, network, permissions
+        raise ValueError(f"cannot open {location}: {_first_line(exc)}") from None
     text = group.attrs.get("sweep_config")
     if not isinstance(text, str):
         raise ValueError(f"{location} is a zarr store without a sweep configuration "
@@ -146,7 +227,10 @@ def tiles_done(location: str, n_tiles: int,
         return None
     if done.shape != (n_tiles,):
         return None
-    return done[:].astype(bool)
+    try:
+        return done[:].astype(bool)
+    except Exception:  # a damaged chunk of the flags: every tile is checked instead
+        return np.ones(n_tiles, dtype=bool)
 
 
 class ZarrStore:
@@ -162,12 +246,16 @@ class ZarrStore:
         self.options = dict(storage_options) if storage_options else None
         self.lock = None
         if _is_local(self.location):
-            root = _local_path(self.location)
+            # beside the store's real path: a symlink to a store being written leads
+            # to the same lock
+            root = _local_path(self.location).resolve()
             self.lock = SweepLock(root.with_name(root.name + ".lock"))
         # the root group once open; Any, as zarr types its members as arrays or groups and
         # these are the arrays _layout made
         self.group: Any = None
         self.written = 0
+        self.arrays: dict[str, Any] = {}
+        self.notes: list[str] = []
 
     def open(self) -> list[int]:
         """Lay the store out, or check that it holds this sweep; take its lock; return the
@@ -199,14 +287,35 @@ class ZarrStore:
                 raise write_failure(f"the layout of {self.location}", exc, 0,
                                     f"rattlesweep resume {self.location}") from exc
             done = np.zeros(sweep.n_tiles, dtype=bool)
+        else:
+            done = self._verify(done)
         self.group = _group(self.location, self.options, "r+")
+        # every chunk is stored, even all fill values: a missing chunk is then a loss
+        self.arrays = {name: self.group[name].with_config({"write_empty_chunks": True})
+                       for name in result_dtypes(sweep)}
         self.written = int(done.sum())
         return [int(t) for t in np.flatnonzero(~done)]
 
+    def _verify(self, done: np.ndarray) -> np.ndarray:
+        """The tiles flagged done whose chunks are all there and sound; the others are
+        flagged not done (to be recomputed) and noted."""
+        bad = check_tiles(self.location, self.sweep, np.flatnonzero(done), self.options)
+        if bad:
+            group = _group(self.location, self.options, "r+")
+            flags: Any = group[DONE_ARRAY]
+            flags[:] = np.where(done, 1, 0).astype("uint8")
+            for tile in bad:
+                flags[tile] = 0
+                done[tile] = False
+            first = min(bad)
+            self.notes.append(f"{len(bad)} tiles of {self.location} are damaged or missing "
+                              f"(tile {first}: {bad[first]}); recomputing them")
+        return done
+
     def _exists(self) -> bool:
         """True for a zarr store at the location; False where there is nothing, and a
-        ValueError where something else is there (laying out the store would delete
-        it)."""
+        ValueError where something else is there, or a store whose root metadata cannot
+        be read (laying out the store would delete it)."""
         if _is_local(self.location):
             root = _local_path(self.location)
             if not is_zarr_store(root):
@@ -216,9 +325,29 @@ class ZarrStore:
                 return False
         try:
             _group(self.location, self.options)
-        except (FileNotFoundError, KeyError, ValueError):
-            return False
+        except FileNotFoundError:
+            if _is_local(self.location) or not self._holds_objects():
+                return False
+            raise ValueError(f"{self.location} holds objects but no zarr store; a zarr "
+                             "output needs a new location (or a store it wrote)") from None
+        except Exception as exc:
+            raise ValueError(f"{self.location} holds a zarr store whose root metadata "
+                             f"cannot be read ({_first_line(exc)}): not overwriting it. "
+                             "Restore it, or use a new location") from None
         return True
+
+    def _holds_objects(self) -> bool:
+        """True when anything is stored under the (remote) location."""
+        from zarr.core.sync import sync
+
+        store = _store(self.location, self.options)
+
+        async def first() -> bool:
+            async for _ in store.list():
+                return True
+            return False
+
+        return bool(sync(first()))
 
     def _layout(self) -> None:
         import dask.array
@@ -229,14 +358,15 @@ class ZarrStore:
         for name, dtype in result_dtypes(sweep).items():
             data[name] = (sweep.dims, dask.array.empty(sweep.shape, dtype=dtype, chunks=chunks),
                           variable_attrs(sweep, name))
-            encoding[name] = {"chunks": chunks, "fill_value": _fill(dtype, name)}
+            encoding[name] = {"chunks": chunks, "fill_value": _fill(dtype, name), **_codecs()}
         template = xr.Dataset(data, coords=grid_coords(sweep),
                               attrs=result_attrs(sweep, self.command))
         with _quiet():
             template.to_zarr(_store(self.location, self.options), mode="w", compute=False,
                              encoding=encoding, consolidated=False, zarr_format=3)
-        _group(self.location, self.options, "r+").create_array(DONE_ARRAY, shape=(sweep.n_tiles,), dtype="uint8",
-                           chunks=(min(sweep.n_tiles, _DONE_CHUNK),), fill_value=0)
+        _group(self.location, self.options, "r+").create_array(
+            DONE_ARRAY, shape=(sweep.n_tiles,), dtype="uint8",
+            chunks=(min(sweep.n_tiles, _DONE_CHUNK),), fill_value=0, **_codecs())
         _consolidate(self.location, self.options)
 
     def write(self, result: TileResult) -> None:
@@ -246,7 +376,7 @@ class ZarrStore:
         block = tuple(r.stop - r.start for r in region)
         try:
             for name in (*(n for n in result.data if n != "status"), "status"):
-                self.group[name][region] = result.data[name].reshape(block)
+                self.arrays[name][region] = result.data[name].reshape(block)
             self.group[DONE_ARRAY][result.tile] = 1
         except OSError as exc:
             raise write_failure(f"tile {result.tile} to {self.location}", exc, self.written,
@@ -274,7 +404,8 @@ def export_netcdf(location: str, out: str | os.PathLike,
                   storage_options: Mapping[str, Any] | None = None) -> Path:
     """Write a finished store as one netCDF file (what a netCDF sweep writes as
     ``sweep.nc``), atomically, reading one tile at a time. An unfinished store is
-    refused."""
+    refused, and so is one with a tile missing or damaged (naming it), as every chunk is
+    verified first."""
     import dask
 
     from ..io import write_netcdf
@@ -285,9 +416,20 @@ def export_netcdf(location: str, out: str | os.PathLike,
         missing = sweep.n_tiles if done is None else int((~done).sum())
         raise ValueError(f"{location} is unfinished ({missing} of {sweep.n_tiles} tiles "
                          f"not computed); complete it with `rattlesweep resume {location}`")
+    bad = check_tiles(location, sweep, None, storage_options)
+    if bad:
+        raise ValueError(f"{location}: {damage_report(bad, sweep.n_tiles)}; nothing was "
+                         f"exported. `rattlesweep resume {location}` recomputes them")
     ds = open_result(location, storage_options)
     for var in ds.variables.values():
         var.encoding = {}
     with dask.config.set(scheduler="synchronous"):
         return write_netcdf(ds, out)
 
+
+
+def damage_report(bad: Mapping[int, str], n_tiles: int, most: int = 5) -> str:
+    """``bad`` (tile -> problem) in a sentence naming the first ``most`` tiles."""
+    shown = "; ".join(f"tile {t}: {bad[t]}" for t in sorted(bad)[:most])
+    more = f"; and {len(bad) - most} more" if len(bad) > most else ""
+    return f"{len(bad)} of {n_tiles} tiles are missing or damaged ({shown}{more})"

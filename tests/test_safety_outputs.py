@@ -1,0 +1,174 @@
+"""An output never lies: every tile of a netCDF directory or a zarr store is verified by
+``resume``, ``export`` and ``rattlesweep verify``; damaged or missing tiles are recomputed
+on resume and named where nothing may be written."""
+
+import pytest
+import xarray as xr
+
+from rattlesweep.cli import main
+from rattlesweep.sweep import run_sweep
+from rattlesweep.sweep.run import RESULT_NAME, export
+from rattlesweep.sweep.verify import verify
+from sweep_helpers import as_zarr, file_stats, small_sweep, without_history
+
+zarr = pytest.importorskip("zarr")
+
+
+def _flip(path, at=5):
+    data = bytearray(path.read_bytes())
+    data[at] ^= 0x01
+    path.write_bytes(bytes(data))
+
+
+def test_zarr_chunks_deleted_or_changed_are_found_named_and_recomputed(tmp_path, capsys):
+    s = as_zarr(small_sweep(tile_size=3))
+    store = tmp_path / "run.zarr"
+    run_sweep(s, store, progress=False)
+    reference = tmp_path / "reference.nc"
+    export(store, reference)
+    assert verify(store).ok
+    assert main(["verify", str(store)]) == 0
+    assert f"{s.n_tiles} of {s.n_tiles} tiles verified" in capsys.readouterr().out
+
+    chunks = sorted(store.glob("outcome/c/*/*/*/*"))
+    assert len(chunks) == s.n_tiles  # every tile's chunk stored, fill values or not
+    chunks[1].unlink()
+    _flip(sorted(store.glob("final_spin/c/*/*/*/*"))[2])
+    found = verify(store)
+    assert not found.ok and set(found.damaged) == {1, 2}
+    assert "missing" in found.damaged[1] and "checksum" in found.damaged[2]
+
+    # read-only commands name the tiles and write nothing; no decompression traceback
+    assert main(["verify", str(store)]) == 1
+    out = capsys.readouterr().out
+    assert "tile 1: chunk outcome/" in out and "tile 2: chunk final_spin/" in out
+    assert main(["export", str(store), str(tmp_path / "x.nc")]) == 2
+    err = capsys.readouterr().err
+    assert "2 of 16 tiles are missing or damaged" in err and "Traceback" not in err
+    assert not (tmp_path / "x.nc").exists()
+
+    # resume recomputes exactly those two tiles
+    before = file_stats(store, "*/c/*/*/*/*")
+    assert main(["resume", str(store), "--quiet"]) == 0
+    err = capsys.readouterr().err
+    assert "2 tiles of" in err and "recomputing them" in err
+    after = file_stats(store, "*/c/*/*/*/*")
+    changed = {k for k in after if after[k] != before.get(k)}
+    assert changed and all(k.rsplit("/c/", 1)[1] in ("0/0/1/0", "0/1/0/0") for k in changed)
+    assert verify(store).ok
+    export(store, tmp_path / "again.nc")
+    with xr.open_dataset(reference) as a, xr.open_dataset(tmp_path / "again.nc") as b:
+        xr.testing.assert_identical(without_history(a.load()), without_history(b.load()))
+
+
+def test_zarr_damaged_done_flags_check_every_tile(tmp_path):
+    s = as_zarr(small_sweep(tile_size=3))
+    store = tmp_path / "run.zarr"
+    run_sweep(s, store, progress=False)
+    _flip(next(store.glob("rattlesweep/tile_done/c/*")), at=3)
+    sorted(store.glob("status/c/*/*/*/*"))[4].unlink()
+    run_sweep(s, store, progress=False)
+    assert verify(store).ok
+
+
+def test_netcdf_directory_verified_tile_by_tile_and_merged_file(tmp_path, capsys):
+    s = small_sweep(tile_size=3)
+    out = tmp_path / "run"
+    run_sweep(s, out, progress=False)
+    assert verify(out).ok
+    tile = out / "tiles" / "tile-000003.nc"
+    tile.write_bytes(tile.read_bytes()[:200])
+    (out / "tiles" / "tile-000004.nc").unlink()
+    _flip(out / RESULT_NAME, at=len((out / RESULT_NAME).read_bytes()) // 2)
+    found = verify(out)
+    assert set(found.damaged) == {3} and found.missing == (4,)
+    assert main(["verify", str(out)]) == 1
+    assert "damaged: tile 3: tile-000003.nc" in capsys.readouterr().out
+    assert main(["resume", str(out), "--quiet"]) == 0
+    assert verify(out).ok
+
+
+# --- a sweep never destroys what it cannot show it wrote -------------------------------
+
+def _tree(root):
+    return {str(p.relative_to(root)): p.read_bytes() for p in root.rglob("*") if p.is_file()}
+
+
+def test_zarr_store_with_damaged_root_metadata_is_refused_not_wiped(tmp_path):
+    store = tmp_path / "a.zarr"
+    run_sweep(as_zarr(small_sweep(tile_size=3)), store, progress=False)
+    (store / "zarr.json").write_text("{broken")
+    before = _tree(store)
+    with pytest.raises(ValueError, match=r"a\.zarr holds a zarr store whose root metadata "
+                                         r"cannot be read.*not overwriting it"):
+        run_sweep(as_zarr(small_sweep(tile_size=4)), store, progress=False)
+    assert _tree(store) == before
+
+
+def test_netcdf_directory_without_config_keeps_results_it_cannot_claim(tmp_path):
+    out = tmp_path / "run"
+    s = small_sweep(tile_size=3)
+    run_sweep(s, out, progress=False)
+    (out / "sweep.toml").unlink()
+    (out / RESULT_NAME).rename(tmp_path / RESULT_NAME)
+    tiles = _tree(out / "tiles")
+    # tiles left without their configuration: not this sweep's to delete or overwrite
+    with pytest.raises(ValueError, match=r"tiles holds 16 files .* no sweep\.toml"):
+        run_sweep(small_sweep(tile_size=4), out, progress=False)
+    assert _tree(out / "tiles") == tiles
+    for path in (out / "tiles").iterdir():
+        path.unlink()
+    (tmp_path / RESULT_NAME).rename(out / RESULT_NAME)
+    merged = (out / RESULT_NAME).read_bytes()
+    with pytest.raises(ValueError, match=r"holds sweep\.nc but no sweep\.toml.*not "
+                                         r"overwriting it"):
+        run_sweep(small_sweep(tile_size=4), out, progress=False)
+    assert (out / RESULT_NAME).read_bytes() == merged
+    assert not (out / "sweep.toml").exists()
+    # the same configuration's result is this sweep's: it runs and rewrites it
+    run_sweep(s, out, progress=False)
+    assert (out / "sweep.toml").exists()
+
+
+def test_netcdf_sweep_refuses_a_zarr_store_and_a_file(tmp_path, capsys):
+    store = tmp_path / "a.zarr"
+    run_sweep(as_zarr(small_sweep(tile_size=3)), store, progress=False)
+    before = _tree(store)
+    with pytest.raises(ValueError, match=r"a\.zarr is a zarr store: a netCDF sweep"):
+        run_sweep(small_sweep(tile_size=3), store, progress=False)
+    assert _tree(store) == before
+    config = tmp_path / "s.toml"
+    config.write_text(small_sweep(tile_size=3).to_toml())
+    (tmp_path / "file").write_text("x")
+    assert main(["sweep", str(config), "--out", str(tmp_path / "file"), "--quiet"]) == 2
+    assert "file exists and is not a directory" in capsys.readouterr().err
+
+
+def test_orphan_merge_tmp_is_removed_on_resume(tmp_path):
+    out = tmp_path / "run"
+    s = small_sweep(tile_size=3)
+    run_sweep(s, out, progress=False)
+    orphan = out / ".sweep.nc.x1y2z3.tmp"  # what a kill during the merge leaves
+    orphan.write_bytes(b"partial")
+    run_sweep(s, out, progress=False)
+    assert not orphan.exists()
+
+
+@pytest.mark.parametrize("output", ["netcdf", "zarr"])
+def test_a_symlink_to_an_output_in_use_meets_its_lock(tmp_path, output):
+    from rattlesweep.sweep.lock import SweepLocked
+    from rattlesweep.sweep.run import open_output
+
+    s = small_sweep(output=output, tile_size=3)
+    real = tmp_path / ("real.zarr" if output == "zarr" else "real")
+    link = tmp_path / ("link.zarr" if output == "zarr" else "link")
+    holder = open_output(s, real)
+    holder.open()
+    link.symlink_to(real, target_is_directory=True)
+    try:
+        with pytest.raises(SweepLocked, match=r"real(\.zarr)? is in use by another sweep"):
+            run_sweep(s, link, progress=False)
+    finally:
+        holder.close()
+    run_sweep(s, link, progress=False)
+    assert verify(real).ok
