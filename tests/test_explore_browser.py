@@ -17,6 +17,7 @@ import pytest
 
 import rattlesweep as rs
 from rattlesweep.explore import start, warm
+from rattlesweep.sweep.params import result_name
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 sync_api = pytest.importorskip("playwright.sync_api",
@@ -181,4 +182,5 @@ def test_copy_as_python_and_the_sweep_toml(page, tmp_path):
     path = tmp_path / "map.toml"
     info.value.save_as(path)
     sweep = rs.Sweep.from_toml(path)
-    assert sweep.dims == (page.input_value("#map-x-param"), page.input_value("#map-y-param"))
+    # the sweep's dimensions are named as results name them (spin: launch_spin)
+    assert sweep.dims == tuple(result_name(page.input_value(f"#map-{k}-param")) for k in "xy")

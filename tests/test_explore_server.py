@@ -90,7 +90,7 @@ def test_refused_values_get_the_library_message_by_their_control(server, control
 def test_the_rim_on_the_floor_is_the_library_message_at_the_roll_control(server):
     status, data = run(server, roll_deg=95.0)
     message = library_message(lambda: rs.simulate(rs.Body.preset("toy"),
-                                                  roll=math.radians(95.0), t_end=1.0))
+                                                  roll_deg=95.0, t_end=1.0))
     assert (status, data["control"], data["error"]) == (400, "roll_deg", message)
 
 

@@ -68,4 +68,4 @@ def fail_where(name: str, arr: np.ndarray, bad: np.ndarray, rule: str) -> None:
     if np.any(bad):
         idx = tuple(int(i) for i in np.argwhere(bad)[0])
         where = f" at index {idx}" if arr.ndim else ""
-        raise ValueError(f"{name} {rule}; got {arr[idx]!r}{where}")
+        raise ValueError(f"{name} {rule}; got {float(arr[idx])!r}{where}")
