@@ -183,6 +183,21 @@ function frameView(data) {
   state.arrowMax = 0.6 * L;
 }
 const SPIN_HALF = 10;  // rad/s
+
+// the largest |x|, |y| in normalised device coordinates (-1 .. 1: in view) of the spin
+// arrow's tip and the body's ends, at the frame shown; read by the browser tests
+state.extentInView = () => {
+  const r = state.run, i = state.frame;
+  if (!r) return null;
+  const tip = arrow.position.clone().add(new THREE.Vector3(0, 0, r.spin[i] >= 0 ? state.arrowLength : -state.arrowLength));
+  scene.updateMatrixWorld();
+  const pts = [tip, arrow.position.clone()];
+  for (const [x, y, z] of [[r.body.a, 0, 0], [-r.body.a, 0, 0], [0, r.body.b, 0], [0, -r.body.b, 0], [0, 0, -r.body.c]]) {
+    pts.push(bodyMesh.localToWorld(new THREE.Vector3(x, y, z)));
+  }
+  scene.updateMatrixWorld(); camera.updateMatrixWorld();
+  return Math.max(...pts.map((v) => { const n = v.clone().project(camera); return Math.max(Math.abs(n.x), Math.abs(n.y)); }));
+};
 const arrowLength = (w) => state.arrowMax * Math.abs(w) / (Math.abs(w) + SPIN_HALF);
 
 // the camera orbits the body (drag) and zooms (wheel), following it over the floor
@@ -475,7 +490,7 @@ async function pollMap(seq) {
 }
 
 // a few round values between lo and hi (1, 2 or 5 times a power of ten apart)
-function ticks(lo, hi, most = 6) {
+function ticks(lo, hi, most = 7) {
   if (!(hi > lo)) return [lo];
   const raw = (hi - lo) / (most - 1), p = 10 ** Math.floor(Math.log10(raw));
   const step = [1, 2, 5, 10].map((k) => k * p).find((k) => k >= raw);
