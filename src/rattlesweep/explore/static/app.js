@@ -489,6 +489,12 @@ async function pollMap(seq) {
   }
 }
 
+// a tick's value as short as it is: 10, 0.5, 2e-7
+const tickText = (v) => {
+  const a = Math.abs(v);
+  return a !== 0 && (a < 1e-3 || a >= 1e5) ? v.toExponential().replace('e+', 'e') : String(Number(v.toPrecision(6)));
+};
+
 // a few round values between lo and hi (1, 2 or 5 times a power of ten apart)
 function ticks(lo, hi, most = 7) {
   if (!(hi > lo)) return [lo];
@@ -558,7 +564,7 @@ function drawMap() {
   for (const v of ticks(Math.min(xv[0], xv[nx - 1]), Math.max(xv[0], xv[nx - 1]))) {
     const x = at(xv, nx, x0, X1, v);
     ctx.beginPath(); ctx.moveTo(x, Y1); ctx.lineTo(x, Y1 + 4); ctx.stroke();
-    ctx.fillText(fmt(v), x, Y1 + 14);
+    ctx.fillText(tickText(v), x, Y1 + 14);
     state.mapTicks.x.push(v);
   }
   ctx.fillText(label(m.x.param), (x0 + X1) / 2, Y1 + 28);
@@ -566,7 +572,7 @@ function drawMap() {
   for (const v of ticks(Math.min(yv[0], yv[ny - 1]), Math.max(yv[0], yv[ny - 1]))) {
     const y = at(yv, ny, Y1, y0, v);
     ctx.beginPath(); ctx.moveTo(x0 - 4, y); ctx.lineTo(x0, y); ctx.stroke();
-    ctx.fillText(fmt(v), x0 - 6, y + 4);
+    ctx.fillText(tickText(v), x0 - 6, y + 4);
     state.mapTicks.y.push(v);
   }
   ctx.textAlign = 'center';
