@@ -389,6 +389,9 @@ function drawPlotBase(c) {
     pen = true;
   }
   ctx.stroke();
+  if (r.n === 1 && finite(ys[0])) {  // a run stopped at t = 0: its one sample as a dot
+    ctx.fillStyle = '#1f5fa8'; ctx.beginPath(); ctx.arc(X(r.t[0]), Y(ys[0]), 3, 0, 2 * Math.PI); ctx.fill();
+  }
   ctx.fillStyle = '#333'; ctx.font = '11px sans-serif';
   ctx.fillText(c.dataset.label, f.x0 + 4, f.y0 + 11);
   const digits = Math.min(8, 3 + Math.max(0, Math.round(Math.log10(
