@@ -444,6 +444,7 @@ async function startMap() {
   clearTimeout(mapPoll);
   const seq = ++mapSeq;
   $('err-map').textContent = '';
+  $('map-bar').style.width = '0%';  // a new map starts from nothing done
   for (const el of document.querySelectorAll('#map .bad')) el.classList.remove('bad');
   let status, data;
   try {
