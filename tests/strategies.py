@@ -135,8 +135,9 @@ def valid_launch(draw, body: rs.Body, max_steps: int = 300) -> dict:
     dt = draw(st.one_of(st.none(), finite(0.05, 1.0).map(lambda f: f * dt0)))
     steps = draw(st.integers(1, max_steps))
     t_end = steps * (dt0 if dt is None else dt) * draw(finite(0.5, 1.0))
-    if dt is not None:
-        t_end = max(t_end, dt)  # a given dt longer than t_end is refused
+    # at least one step (a given dt longer than t_end is refused, and the checks rerun
+    # launches at given fractions of their default step)
+    t_end = max(t_end, dt0 if dt is None else dt)
     mu = draw(st.sampled_from([math.inf, 0.0, 0.1, 0.3, 1.0]) | finite(0.0, 2.0))
     kw: dict = {"mu": mu, "t_end": t_end, "g": g}
     if draw(st.booleans()):

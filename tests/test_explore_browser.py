@@ -17,6 +17,7 @@ import pytest
 
 import rattlesweep as rs
 from rattlesweep.explore import start, warm
+from rattlesweep.sweep.params import result_name
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 sync_api = pytest.importorskip("playwright.sync_api",
@@ -181,4 +182,184 @@ def test_copy_as_python_and_the_sweep_toml(page, tmp_path):
     path = tmp_path / "map.toml"
     info.value.save_as(path)
     sweep = rs.Sweep.from_toml(path)
-    assert sweep.dims == (page.input_value("#map-x-param"), page.input_value("#map-y-param"))
+    # the sweep's dimensions are named as results name them (spin: launch_spin)
+    assert sweep.dims == tuple(result_name(page.input_value(f"#map-{k}-param")) for k in "xy")
+
+
+def wait_run(page, runs, timeout=30_000):
+    page.wait_for_function(f"window.explorer.runs > {runs} || "
+                           f"window.explorer.lastError !== null", timeout=timeout)
+
+
+def set_control(page, sel, value):
+    """Type a value into a control and wait until the page has the answer (a run or a
+    refusal)."""
+    runs, requests = page.evaluate("[window.explorer.runs, window.explorer.requests]")
+    page.fill(sel, value)
+    page.wait_for_function(f"window.explorer.requests > {requests} && "
+                           "document.getElementById('status').textContent !== 'running…'",
+                           timeout=30_000)
+    return runs
+
+
+def test_a_run_that_ends_at_t0_shows_its_warning_and_the_page_keeps_playing(page, shots):
+    page.fill("#mu", "0.3")
+    if page.inner_text("#play") == "play":
+        page.click("#play")
+    runs = set_control(page, "#spin", "1e6")  # lifts off at once
+    assert page.evaluate("window.explorer.runs") == runs + 1
+    run = page.evaluate("window.explorer.run")
+    assert run["n"] == 1 and run["summary"]["status"] == "lifted_off"
+    assert "lifted_off" in page.inner_text("#summary")
+    assert "stopped at t = 0 s" in page.inner_text("#summary")
+    page.wait_for_timeout(200)
+    page.screenshot(path=str(shots / "explore-lifted-off.png"))
+    # a good run afterwards plays
+    set_control(page, "#spin", "-5")
+    assert page.evaluate("window.explorer.run.n") > 100
+    frame = page.evaluate("window.explorer.frame")
+    page.wait_for_function(f"window.explorer.frame !== {frame}", timeout=10_000)
+    assert page.errors == []
+
+
+@pytest.mark.parametrize("value, message", [
+    ("inf", "spin must be a finite number (rad/s), got inf"),
+    ("nan", "spin must be a finite number (rad/s), got nan"),
+    ("1e300", "spin must be at most 1e+08 rad/s in size, got 1e+300"),
+])
+def test_a_spin_the_page_cannot_show_is_refused_by_its_control(page, value, message):
+    set_control(page, "#spin", value)
+    assert page.inner_text("#err-spin") == message
+    assert "bad" in page.get_attribute("#spin", "class")
+    assert page.inner_text("#status") != "running…"
+    set_control(page, "#spin", "-5")
+    assert page.inner_text("#err-spin") == ""
+    assert page.errors == []
+
+
+def test_a_broken_answer_leaves_the_page_usable(page):
+    good = page.evaluate("window.explorer.runs")
+    page.route("**/api/run", lambda route: route.fulfill(
+        status=200, content_type="application/json",
+        body='{"t": [0, 1], "spin": [null, null], "summary": {}, "body": {"a": 1}}'))
+    set_control(page, "#spin", "-4")
+    assert "could not be drawn" in page.inner_text("#err-general")
+    page.route("**/api/run", lambda route: route.fulfill(status=502, body="Bad Gateway"),
+               times=1)
+    page.unroute("**/api/run")
+    page.route("**/api/run", lambda route: route.fulfill(status=502, body="Bad Gateway"))
+    set_control(page, "#spin", "-4.5")
+    assert "502" in page.inner_text("#err-general")
+    page.unroute("**/api/run")
+    set_control(page, "#spin", "-5")
+    assert page.evaluate("window.explorer.runs") > good
+    assert page.inner_text("#err-general") == ""
+    frame = page.evaluate("window.explorer.frame")
+    page.wait_for_function(f"window.explorer.frame !== {frame}", timeout=10_000)
+    assert page.errors == []
+
+
+def test_caps_are_said_by_their_own_control(page):
+    set_control(page, "#t_end", "1000")
+    assert "max_t_end" in page.inner_text("#err-t_end")
+    assert "bad" in page.get_attribute("#t_end", "class")
+    set_control(page, "#t_end", "5")
+    set_control(page, "#masses", "\n".join(["0.001, 0, 0, -0.001"] * 5))
+    assert "max_point_masses" in page.inner_text("#err-masses")
+    assert page.inner_text("#err-t_end") == ""
+    assert "bad" in page.get_attribute("#masses", "class")
+    set_control(page, "#masses", "")
+    assert page.inner_text("#err-masses") == ""
+
+
+def test_a_new_map_axis_gets_its_own_range_and_labels_are_human(page):
+    page.select_option("#map-x-param", "mu")
+    start, stop = float(page.input_value("#map-x-start")), float(page.input_value("#map-x-stop"))
+    assert 0 <= start < stop <= 2
+    page.select_option("#map-x-param", "a")
+    a = float(page.input_value("#a"))
+    assert float(page.input_value("#map-x-start")) == pytest.approx(0.5 * a, rel=0.01)
+    assert float(page.input_value("#map-x-stop")) == pytest.approx(1.5 * a, rel=0.01)
+    page.select_option("#map-x-param", "spin")
+    assert (page.input_value("#map-x-start"), page.input_value("#map-x-stop")) == ("-30", "30")
+    options = page.eval_on_selector_all("#map-y-param option", "os => os.map(o => o.text)")
+    assert "misalignment δ (deg)" in options and "spin (rad/s)" in options
+    assert "μ kinetic" in options and not any("_" in o for o in options)
+    presets = page.eval_on_selector_all("#preset option", "os => os.map(o => o.text)")
+    assert not any("_" in p for p in presets)
+    # the map header's rows do not wrap: "points" stays beside its box
+    top = page.locator("#map-x-param").bounding_box()["y"]
+    assert abs(page.locator("#map-x-num").bounding_box()["y"] - top) < 12
+
+
+def test_a_preset_shows_its_body_and_the_view_frames_it(page, shots):
+    page.select_option("#preset", "golden")
+    page.wait_for_function("window.explorer.run.body.a > 1", timeout=30_000)
+    golden = rs.Body.preset("golden")
+    assert float(page.input_value("#a")) == pytest.approx(golden.a, rel=1e-5)
+    assert (page.input_value("#b"), page.input_value("#c"), page.input_value("#mass")) == (
+        "1", "1", "0.2")
+    assert page.eval_on_selector("#a", "e => e.readOnly")
+    page.wait_for_timeout(100)
+    assert page.evaluate("window.explorer.extentInView()") < 0.95
+    page.screenshot(path=str(shots / "explore-golden.png"))
+    page.select_option("#preset", "custom")
+    page.wait_for_function("window.explorer.run.body.a < 1", timeout=30_000)
+    assert page.input_value("#a") == "0.0475" and not page.eval_on_selector(
+        "#a", "e => e.readOnly")
+    assert page.input_value("#mass") == "0.0109159"  # rounded for display
+    assert page.evaluate("window.explorer.run.python").count("mass=0.010915856") == 1
+
+
+def test_the_spin_arrow_grows_with_the_spin_and_stays_in_view(page, shots):
+    page.click("#play") if page.inner_text("#play") == "pause" else None
+    lengths = []
+    for spin in ("-1", "-5", "-20"):
+        set_control(page, "#spin", spin)
+        page.eval_on_selector("#scrub", "s => { s.value = 0; s.dispatchEvent(new Event('input')); }")
+        lengths.append(page.evaluate("window.explorer.arrowLength"))
+        assert page.evaluate("window.explorer.extentInView()") < 0.95
+        page.screenshot(path=str(shots / f"explore-arrow{spin}.png"))
+    assert lengths[0] < lengths[1] < lengths[2]
+    assert lengths[2] > 2 * lengths[0]
+    set_control(page, "#spin", "-5")
+
+
+def test_plots_do_not_zoom_onto_rounding(page):
+    set_control(page, "#mu", "inf")
+    frame = page.eval_on_selector("#plot-energy", "c => c._frame")
+    energy = page.evaluate("window.explorer.run.energy")
+    assert frame["hi"] - frame["lo"] >= 0.01 * max(abs(e) for e in energy if e is not None)
+    slip = page.eval_on_selector("#plot-slip", "c => c._frame")
+    assert slip["lo"] == 0  # slip speed starts at 0: a rolling run's 1e-9 m/s reads as 0
+    assert "no slip" in page.inner_text("#summary")
+    set_control(page, "#mu", "0.3")
+
+
+def test_copied_feedback_and_python_in_degrees(page):
+    page.click("#copy-python")
+    page.wait_for_function("document.getElementById('copied').textContent === 'copied ✓'")
+    code = page.evaluate("window.explorer.run.python")
+    assert "roll_deg=0.5" in code and "roll=" not in code
+
+
+def test_the_map_has_ticks_a_full_bar_and_no_stray_boundary(page):
+    page.select_option("#map-x-param", "spin")
+    page.select_option("#map-y-param", "delta_deg")
+    for sel, value in (("#map-x-num", "9"), ("#map-y-num", "5"), ("#map-levels", "1")):
+        page.fill(sel, value)
+    set_control(page, "#t_end", "2")
+    set_control(page, "#mu", "inf")
+    page.click("#map-go")
+    page.wait_for_function("window.explorer.map && window.explorer.map.done && "
+                           "window.explorer.map.x.values.length === 17", timeout=60_000)
+    page.wait_for_timeout(300)
+    ticks = page.evaluate("window.explorer.mapTicks")
+    assert len(ticks["x"]) >= 4 and len(ticks["y"]) >= 3
+    bar = page.eval_on_selector("#map-bar", "b => b.style.width")
+    assert float(bar.rstrip("%")) == 100.0
+    # spin 0 is neutral (growth zero to rounding): no boundary cells there
+    m = page.evaluate("window.explorer.map")
+    zero = m["x"]["values"].index(0.0)
+    assert all(row[zero] is None for row in m["unstable"])
+    assert page.errors == []

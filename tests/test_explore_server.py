@@ -21,7 +21,8 @@ import xarray as xr
 import rattlesweep as rs
 from rattlesweep.explore import Caps, start, warm
 from rattlesweep.explore.scheduler import Scheduler, Superseded
-from rattlesweep.explore.settings import defaults
+from rattlesweep.explore.maps import _classes
+from rattlesweep.explore.settings import defaults, map_sweep
 
 
 @pytest.fixture(scope="module")
@@ -90,7 +91,7 @@ def test_refused_values_get_the_library_message_by_their_control(server, control
 def test_the_rim_on_the_floor_is_the_library_message_at_the_roll_control(server):
     status, data = run(server, roll_deg=95.0)
     message = library_message(lambda: rs.simulate(rs.Body.preset("toy"),
-                                                  roll=math.radians(95.0), t_end=1.0))
+                                                  roll_deg=95.0, t_end=1.0))
     assert (status, data["control"], data["error"]) == (400, "roll_deg", message)
 
 
@@ -236,7 +237,7 @@ def test_the_command_line_serves_and_warns_off_localhost(tmp_path):
         proc.terminate()
         proc.wait(30)
     text = "".join(lines)
-    assert "warming the kernels" in text
+    assert "warming the kernels" in text and "first run" in text
     assert "anyone who can reach this address" in text
 
 
@@ -323,3 +324,111 @@ def test_a_repeated_launch_is_answered_from_the_cache(server):
     assert server.app.cache_hits == hits + 1
     status, body = call(server, "api/run.nc?session=c2")  # the session has its run
     assert status == 200 and body[:4] == b"\x89HDF"
+
+
+def test_library_messages_read_as_plain_numbers_without_an_index(server):
+    for control, value in (("damping", -1.0), ("mu", -1.0), ("mu_spin", -0.5)):
+        status, data = run(server, **{control: value})
+        assert status == 400 and data["control"] == control
+        assert "np.float64" not in data["error"]
+        assert f"got {value!r}" in data["error"]
+    status, data = run(server, roll_deg=160.0)
+    assert status == 400 and data["control"] == "roll_deg"
+    assert data["error"].startswith("roll/pitch/orientation: initial tilt 160 deg puts")
+    assert "index" not in data["error"]
+
+
+@pytest.mark.parametrize("control, value, message", [
+    ("spin", "inf", "spin must be a finite number (rad/s), got inf"),
+    ("spin", "-inf", "spin must be a finite number (rad/s), got -inf"),
+    ("spin", 1e300, "spin must be at most 1e+08 rad/s in size, got 1e+300"),
+    ("t_end", "nan", "t_end must be a finite number (s), got nan"),
+    ("a", "inf", "a must be a finite number (m), got inf"),
+])
+def test_values_the_page_cannot_show_are_refused_by_their_control(server, control, value,
+                                                                 message):
+    status, data = run(server, **{control: value})
+    assert (status, data["control"], data["error"]) == (400, control, message)
+
+
+def test_rolling_is_still_allowed(server):
+    assert run(server, mu="inf", mu_static="inf", t_end=0.5)[0] == 200
+
+
+def test_a_run_that_ends_at_t0_sends_its_one_sample(server):
+    status, data = run(server, spin=1e6)
+    assert status == 200 and data["summary"]["status"] == "lifted_off"
+    assert len(data["t"]) == 1 and data["spin"] == [1e6]
+    assert len(data["position"]) == 3 and None not in data["position"]
+    assert any("lifted_off" in w for w in data["warnings"])
+
+
+def test_caps_name_their_control(server):
+    status, data = run(server, t_end=1000.0)
+    assert (status, data["control"]) == (413, "t_end")
+    status, data = run(server, masses=[[0.001, 0.0, 0.0, -0.001]] * 5)
+    assert (status, data["control"]) == (413, "masses")
+
+
+def test_the_config_describes_presets_and_map_axes(server):
+    config = json.loads(call(server, "api/config")[1])
+    golden = config["presets"]["golden"]
+    body = rs.Body.preset("golden")
+    assert (golden["a"], golden["b"], golden["c"], golden["mass"]) == (
+        body.a, body.b, body.c, body.mass)
+    assert "_" not in golden["label"]
+    axes = config["map_axes"]
+    assert axes["delta_deg"]["label"] == config["labels"]["delta_deg"] == "misalignment δ"
+    assert axes["spin"]["units"] == "rad/s"
+    for name, axis in axes.items():  # each default range is one the library accepts
+        if "start" in axis:
+            settings = {**defaults(), "mu": "inf", "t_end": 1.0}
+            other = "delta_deg" if name != "delta_deg" else "spin"
+            sweep = map_sweep(settings, {
+                "x": {"param": name, "start": axis["start"], "stop": axis["stop"], "num": 2},
+                "y": {"param": other, "start": 1, "stop": 2, "num": 2}}, Caps())
+            assert sweep.size == 4
+
+
+def test_neutral_stability_cells_have_no_class():
+    growth = np.array([[-0.5, 1e-15, 0.7], [0.0, -2e-16, 3.0]])
+    assert _classes(growth).tolist() == [[0, None, 1], [None, None, 1]]
+
+
+def test_copy_as_python_names_angles_in_degrees(server):
+    status, data = run(server, roll_deg=0.5, pitch_deg=1.25)
+    assert "roll_deg=0.5, pitch_deg=1.25" in data["python"]
+
+
+def test_a_busy_port_is_one_line_and_exit_status_2():
+    import socket
+
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        t0 = time.monotonic()
+        proc = subprocess.run([sys.executable, "-m", "rattlesweep.cli", "explore",
+                               "--no-browser", "--port", str(port)],
+                              capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2
+    assert proc.stderr.strip() == (f"rattlesweep explore: port {port} is in use: choose "
+                                   "another with --port, or --port 0 for any free port")
+    assert "warming" not in proc.stdout  # checked before the kernels are warmed
+    assert time.monotonic() - t0 < 30
+
+
+def test_the_command_line_help_describes_the_explorer():
+    proc = subprocess.run([sys.executable, "-m", "rattlesweep.cli", "explore", "--help"],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0
+    assert "reversal map" in proc.stdout and "first run" in proc.stdout
+
+
+def test_show_in_a_plain_script_says_where_and_how_to_keep_it_up():
+    proc = subprocess.run(
+        [sys.executable, "-c", "from rattlesweep import explore; explore.show()"],
+        capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0
+    assert "serving at http://127.0.0.1:" in proc.stdout
+    assert "rattlesweep explore" in proc.stdout and "explore.serve()" in proc.stdout

@@ -307,9 +307,11 @@ def batches(draw, max_size: int = 8):
             del kw["mu_static"]
         if "dt" in keys and "dt" not in kw:
             kw["dt"] = 0.5 * b.default_dt(kw["g"])
-            kw["t_end"] = min(kw["t_end"], 100 * kw["dt"])
-        elif "dt" not in keys:
-            kw.pop("dt", None)
+            # at least one step: a given dt longer than t_end is refused
+            kw["t_end"] = max(min(kw["t_end"], 100 * kw["dt"]), kw["dt"])
+        elif "dt" not in keys and "dt" in kw:
+            del kw["dt"]  # the default step then: at least one of it
+            kw["t_end"] = max(kw["t_end"], b.default_dt(kw["g"]))
         for k in ("damping", "mu_spin", "mu_roll"):
             if k in keys:
                 kw.setdefault(k, 0.0)

@@ -454,9 +454,13 @@ def _cmd_design(args: argparse.Namespace, argv: list[str] | None) -> int:
 
 
 def _cmd_explore(args: argparse.Namespace, argv: list[str] | None) -> int:
-    from .explore import serve
+    from .explore import PortInUse, serve
 
-    serve(args.host, args.port, open_browser=not args.no_browser)
+    try:
+        serve(args.host, args.port, open_browser=not args.no_browser)
+    except PortInUse as exc:
+        print(f"rattlesweep explore: {exc.strerror}", file=sys.stderr)
+        return 2
     return 0
 
 
@@ -704,7 +708,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_animate)
 
     p = sub.add_parser("explore", help="the rattleback live in the browser: a local web "
-                       "page with controls, a 3-D view, plots and a reversal map")
+                       "page with controls, a 3-D view, plots and a reversal map",
+                       description="Serve the explorer, a local web page with the body, "
+                       "launch and friction as controls, a 3-D view of the run with linked "
+                       "plots of spin, tilt, energy and slip speed, and a reversal map whose "
+                       "points load their launch. Warms the kernels first (on the first run "
+                       "after installing this compiles them: about a minute or two), then "
+                       "prints the address and opens the browser. Ctrl-C stops it.")
     p.add_argument("--port", type=int, default=8050, help="port (default 8050; 0: any free)")
     p.add_argument("--host", default="127.0.0.1",
                    help="address to listen on (default 127.0.0.1: this machine only)")

@@ -257,7 +257,7 @@ def steps_for(t_end: np.ndarray, dt: np.ndarray,
     bad = ~(steps <= MAX_STEPS)  # NaN too: a default step that overflowed
     if np.any(bad):
         i = int(np.argmax(bad))
-        where = f" at index ({i},)" if steps.ndim else ""
+        where = f" at index ({i},)" if steps.size > 1 else ""
         shown = [] if default_from is None else [
             f"{k} = {float(v.flat[i])!r}" for k, v in default_from.items()]
         if default_from is not None and bodies is not None:

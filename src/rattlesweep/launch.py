@@ -128,8 +128,10 @@ def tilt_limit_error(tilt_cos: np.ndarray, full: np.ndarray) -> None:
     if np.any(bad):
         idx = np.argwhere(bad)[0]
         tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(tilt_cos[tuple(idx)])))))
+        # a single launch needs no index
+        where = f" at index {tuple(int(i) for i in idx)}" if tilt_cos.size > 1 else ""
         raise ValueError(
-            f"roll/pitch/orientation: initial tilt {tilt:.3g} deg at index "
-            f"{tuple(int(i) for i in idx)} puts the rim of the semi-ellipsoid on the floor; "
+            f"roll/pitch/orientation: initial tilt {tilt:.3g} deg{where} "
+            f"puts the rim of the semi-ellipsoid on the floor; "
             "the tilt from upright must be below 90 deg"
         )

@@ -120,7 +120,10 @@ def fail_where(name: str, arr: np.ndarray, bad: np.ndarray, rule: str) -> None:
     if np.any(bad):
         idx = tuple(int(i) for i in np.argwhere(bad)[0])
         where = f" at index {idx}" if arr.ndim else ""
-        raise ValueError(f"{name} {rule}; got {arr[idx]!r}{where}")
+        value = arr[idx]
+        # a plain number, as the user wrote it (-1.0, not numpy's np.float64(-1.0))
+        shown = repr(float(value)) if np.ndim(value) == 0 else repr(np.asarray(value).tolist())
+        raise ValueError(f"{name} {rule}; got {shown}{where}")
 
 
 def available_memory() -> int | None:

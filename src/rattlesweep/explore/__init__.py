@@ -9,7 +9,9 @@ notebook.
 
 from __future__ import annotations
 
+import errno
 import math
+import sys
 import time
 import webbrowser
 from typing import Any
@@ -17,7 +19,22 @@ from typing import Any
 from .caps import Caps
 from .server import LOCAL_HOSTS, Server, start
 
-__all__ = ["Caps", "LOCAL_HOSTS", "Server", "serve", "show", "start", "warm"]
+__all__ = ["Caps", "LOCAL_HOSTS", "PortInUse", "Server", "serve", "show", "start", "warm"]
+
+
+class PortInUse(OSError):
+    """The port asked for is taken; the message says what to do."""
+
+
+def _bind(host: str, port: int, **kwargs: Any) -> Server:
+    """A :class:`Server` on ``host:port``; :class:`PortInUse` when the port is taken."""
+    try:
+        return Server(host, port, **kwargs)
+    except OSError as exc:
+        if exc.errno == errno.EADDRINUSE:
+            raise PortInUse(errno.EADDRINUSE, f"port {port} is in use: choose another with "
+                            "--port, or --port 0 for any free port") from None
+        raise
 
 _NOTEBOOK_SERVER: Server | None = None
 
@@ -56,11 +73,21 @@ def serve(host: str = "127.0.0.1", port: int = 8050, *, open_browser: bool = Tru
         Limits on the work of one request (default: :class:`Caps`).
     workers : int, optional
         Worker threads running the simulations (default: one per usable core).
+
+    Raises
+    ------
+    PortInUse
+        The port is taken (checked before the kernels are warmed).
     """
-    print("rattlesweep explore: warming the kernels (the first time this compiles them: "
-          "a minute or two)...", flush=True)
-    print(f"kernels ready ({warm():.1f} s)", flush=True)
-    server = Server(host, port, caps=caps, workers=workers)
+    server = _bind(host, port, caps=caps, workers=workers)
+    print("rattlesweep explore: warming the kernels (on the first run after installing "
+          "this compiles them, which takes about a minute or two; later starts take "
+          "seconds)...", flush=True)
+    try:
+        print(f"kernels ready ({warm():.1f} s)", flush=True)
+    except BaseException:
+        server.server_close()
+        raise
     if host not in LOCAL_HOSTS:
         print(f"warning: listening on {host}: anyone who can reach this address can use "
               "the explorer (and the CPU time it spends)", flush=True)
@@ -93,7 +120,10 @@ def show(height: int = 900, *, port: int = 0, caps: Caps | None = None) -> Any:
     """Show the explorer inline in a notebook.
 
     Starts a server on 127.0.0.1 on a background thread (once per kernel) and returns an
-    object that the notebook displays as the page in an iframe.
+    object that the notebook displays as the page in an iframe. Outside IPython (a plain
+    script) nothing would display it, so it also prints the address and how to keep the
+    page up: the server lives on a background thread that ends with the script; from a
+    shell use ``rattlesweep explore``, or call :func:`serve` to block.
 
     Parameters
     ----------
@@ -108,4 +138,14 @@ def show(height: int = 900, *, port: int = 0, caps: Caps | None = None) -> Any:
     if _NOTEBOOK_SERVER is None:
         warm()
         _NOTEBOOK_SERVER = start("127.0.0.1", port, caps=caps)
+    if not _in_ipython():
+        print(f"rattlesweep explore: serving at {_NOTEBOOK_SERVER.url} while this Python "
+              "runs (outside a notebook nothing shows the page inline: use `rattlesweep "
+              "explore` from a shell, or call explore.serve() to block)", flush=True)
     return _Frame(_NOTEBOOK_SERVER.url, int(height) if math.isfinite(height) else 900)
+
+
+def _in_ipython() -> bool:
+    """Whether an IPython shell (a notebook's kernel included) is running."""
+    ipython = sys.modules.get("IPython")
+    return ipython is not None and getattr(ipython, "get_ipython", lambda: None)() is not None

@@ -10,7 +10,12 @@ __all__ = ["Caps", "CapExceeded"]
 
 
 class CapExceeded(ValueError):
-    """A request asks for more work than a cap allows; the message names the cap."""
+    """A request asks for more work than a cap allows; the message names the cap and
+    ``control`` the page's control that asks for it (None: several)."""
+
+    def __init__(self, message: str, control: str | None = None) -> None:
+        super().__init__(message)
+        self.control = control
 
 
 @dataclass(frozen=True)
@@ -46,11 +51,12 @@ class Caps:
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
 
-    def check(self, name: str, value: float, cap: str, unit: str = "") -> None:
+    def check(self, name: str, value: float, cap: str, unit: str = "",
+              control: str | None = None) -> None:
         """Raise :class:`CapExceeded` when ``value`` of input ``name`` exceeds the cap
-        ``cap`` (an attribute name)."""
+        ``cap`` (an attribute name); ``control`` is the page's control it belongs to."""
         limit = getattr(self, cap)
         if value > limit:
             units = f" {unit}" if unit else ""
             raise CapExceeded(f"{name} = {value:g}{units} exceeds the explorer's cap "
-                              f"{cap} = {limit:g}{units}")
+                              f"{cap} = {limit:g}{units}", control)

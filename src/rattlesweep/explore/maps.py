@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from ..sweep.outcomes import OUTCOME_NAMES
+from ..sweep.params import result_name
 from ..sweep.refine import Levels, plan_level
 from ..sweep.tiles import NOT_COMPUTED, compute_points, result_dtypes
 
@@ -30,7 +31,10 @@ class MapJob:
         self.fine = sweep.finest()
         refine = sweep.refine or {"levels": 0, "axes": list(sweep.dims)}
         self.levels = Levels(self.fine.shape,
-                             tuple(list(self.fine.dims).index(k) for k in refine["axes"]),
+                             # the refined axes by their inputs' names (spin), the
+                             # dimensions by the results' (launch_spin)
+                             tuple(list(self.fine.dims).index(result_name(k))
+                                   for k in refine["axes"]),
                              refine["levels"])
         dtypes = result_dtypes(self.fine)
         self.values = {k: np.full(self.fine.shape, NOT_COMPUTED if dtypes[k].kind in "iu"
@@ -109,9 +113,9 @@ class MapJob:
                 "toml": self.sweep.to_toml()}
 
 
-def _stability(sweep: Any) -> tuple[list[list[int]] | None, str]:
-    """Where steady upright spin is linearly unstable (1) or not (0) over the finest
-    grid, rows y, for the rolling case; else None and why not."""
+def _stability(sweep: Any) -> tuple[list[list[int | None]] | None, str]:
+    """Where steady upright spin is linearly unstable (1), stable (0) or neutral (None)
+    over the finest grid, rows y, for the rolling case; else None and why not."""
     from ..stability import stability_dataset
 
     mu = sweep.fixed_si().get("mu", math.inf)
@@ -122,6 +126,17 @@ def _stability(sweep: Any) -> tuple[list[list[int]] | None, str]:
         ds = stability_dataset(sweep)
     except ValueError as exc:
         return None, f"linear stability boundary: not available ({exc})"
-    unstable = (ds.growth_rate.transpose(*sweep.dims).values > 0).astype(int)
-    return unstable.T.tolist(), ("dashed line: linear stability boundary of steady "
-                                 "upright spin (rolling contact)")
+    return _classes(ds.growth_rate.transpose(*sweep.dims).values).T.tolist(), (
+        "dashed line: linear stability boundary of steady upright spin (rolling contact)")
+
+
+def _classes(growth: np.ndarray) -> np.ndarray:
+    """1 where the growth rate (1/s) is clearly positive, 0 where clearly negative, None
+    where it is zero to rounding (no spin, no misalignment: neutral, about 1e-15 of the
+    map's largest rate either side), so that no boundary is drawn around such cells."""
+    scale = float(np.nanmax(np.abs(growth))) if np.isfinite(growth).any() else 0.0
+    tol = 1e-9 * scale
+    out = np.full(growth.shape, None, dtype=object)
+    out[growth > tol] = 1
+    out[growth < -tol] = 0
+    return out

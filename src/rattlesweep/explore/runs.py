@@ -75,6 +75,13 @@ def to_json(obj: Any) -> str:
 
 def payload(spec: RunSpec, ds: xr.Dataset, messages: list[str]) -> dict[str, Any]:
     """What the page needs of a run; series over ``t`` (s)."""
+    # only the samples that hold motion: a run stopped early (capsized, lifted off at
+    # t = 0) records NaN after its stop, which the page cannot pose the body in; the
+    # netCDF download keeps every sample
+    position = ds.position.transpose("time", "axis").values
+    held = np.flatnonzero(np.isfinite(ds.spin.values) & np.isfinite(position).all(axis=-1))
+    keep = int(held[-1]) + 1 if held.size else 1
+    ds = ds.isel(time=slice(0, keep))
     t = ds.time.values
     contact = contact_dataset(ds)
     status = ds.status.attrs["flag_meanings"].split()[int(ds.status)]
@@ -86,15 +93,14 @@ def payload(spec: RunSpec, ds: xr.Dataset, messages: list[str]) -> dict[str, Any
         "contact": numbers(contact.contact_floor.transpose("time", "horizontal")),
         "spin": numbers(ds.spin), "tilt_deg": numbers(np.degrees(ds.tilt.values)),
         "energy": numbers(ds.energy), "slip_speed": numbers(ds.slip_speed),
-        # samples after a run stopped early (capsized) hold no motion
-        "slips": slip_intervals(t, (np.nan_to_num(ds.slipping.values) > 0)
-                                & (t <= float(ds.t_final))),
+        "slips": slip_intervals(t, np.nan_to_num(ds.slipping.values) > 0),
         "summary": {
             "first_reversal_time": float(ds.first_reversal_time),
             "n_reversals": int(ds.n_reversals), "final_spin": float(ds.final_spin),
             "status": status, "slip_fraction": float(ds.slip_fraction),
             "steps": int(ds.steps), "dt": float(ds.attrs["dt"]),
         },
+        "rolling": math.isinf(spec.kwargs["mu"]),
         "body": {"a": body.a, "b": body.b, "c": body.c, "com": body.com.tolist(),
                  "full_ellipsoid": body.full_ellipsoid},
         "python": python_code(spec),

@@ -33,7 +33,8 @@ from .caps import CapExceeded, Caps
 from .maps import MapJob
 from .runs import payload, run, to_json
 from .scheduler import Scheduler, Superseded
-from .settings import MAP_AXES, SettingError, defaults, map_sweep, presets, run_spec
+from .settings import (LABELS, UNITS, SettingError, defaults, map_axes, map_sweep,
+                       preset_bodies, run_spec)
 
 __all__ = ["Explorer", "LOCAL_HOSTS", "Server", "start"]
 
@@ -76,8 +77,9 @@ class Explorer:
             return s
 
     def config(self) -> dict[str, Any]:
-        return {"caps": self.caps.to_dict(), "defaults": defaults(), "presets": presets(),
-                "map_axes": MAP_AXES, "version": __version__}
+        return {"caps": self.caps.to_dict(), "defaults": defaults(),
+                "presets": preset_bodies(), "labels": LABELS, "units": UNITS,
+                "map_axes": map_axes(), "version": __version__}
 
     def run(self, key: str, settings: dict[str, Any]) -> dict[str, Any]:
         """Check and run the settings for session ``key`` (waits for the scheduler)."""
@@ -168,7 +170,8 @@ class _Handler(BaseHTTPRequestHandler):
 
     def _error(self, exc: Exception) -> None:
         if isinstance(exc, CapExceeded):
-            self._json(HTTPStatus.REQUEST_ENTITY_TOO_LARGE, {"error": str(exc), "cap": True})
+            self._json(HTTPStatus.REQUEST_ENTITY_TOO_LARGE,
+                       {"error": str(exc), "cap": True, "control": exc.control})
         elif isinstance(exc, SettingError):
             self._json(HTTPStatus.BAD_REQUEST, {"error": str(exc), "control": exc.control})
         elif isinstance(exc, Superseded):
@@ -280,7 +283,9 @@ class Server(ThreadingHTTPServer):
         self.url = f"http://{shown}:{self.server_address[1]}/"
 
     def server_close(self) -> None:
-        self.app.close()
+        app = getattr(self, "app", None)  # absent when binding the port failed
+        if app is not None:
+            app.close()
         super().server_close()
 
 

@@ -19,17 +19,70 @@ from ..batch import launch_inputs
 from ..body import PRESETS, Body
 from .caps import Caps
 
-__all__ = ["CONTROLS", "MAP_AXES", "RunSpec", "SettingError", "defaults", "map_sweep",
-           "run_spec"]
+__all__ = ["CONTROLS", "LABELS", "MAP_AXES", "MAX_SPIN", "RunSpec", "SettingError", "UNITS",
+           "defaults", "map_axes", "map_sweep", "preset_bodies", "run_spec"]
 
 CONTROLS = ("preset", "a", "b", "c", "mass", "delta_deg", "masses", "spin", "roll_deg",
             "pitch_deg", "mu", "mu_static", "mu_spin", "mu_roll", "damping", "t_end")
 """The page's controls, in the order their messages are matched."""
 
-MAP_AXES = {"spin": "rad/s", "delta_deg": "deg", "mu": "1", "roll_deg": "deg",
-            "pitch_deg": "deg", "mu_spin": "m", "mu_roll": "m", "damping": "N m s",
-            "a": "m", "b": "m", "c": "m", "mass": "kg"}
-"""Inputs a map may vary (sweep parameter names) and their units; each is also a control."""
+UNITS = {"a": "m", "b": "m", "c": "m", "mass": "kg", "delta_deg": "deg", "spin": "rad/s",
+         "roll_deg": "deg", "pitch_deg": "deg", "mu": "1", "mu_static": "1", "mu_spin": "m",
+         "mu_roll": "m", "damping": "N m s", "t_end": "s"}
+"""Units of each numeric control, as the page writes them."""
+
+LABELS = {"a": "a (semi-axis x)", "b": "b (semi-axis y)", "c": "c (semi-axis z)",
+          "mass": "mass", "delta_deg": "misalignment δ", "spin": "spin", "roll_deg": "roll",
+          "pitch_deg": "pitch", "mu": "μ kinetic", "mu_static": "μ static",
+          "mu_spin": "μ spin", "mu_roll": "μ roll", "damping": "damping",
+          "t_end": "run length"}
+"""The page's label of each numeric control (the map's axes use the same)."""
+
+MAP_AXES = ("spin", "delta_deg", "mu", "roll_deg", "pitch_deg", "mu_spin", "mu_roll",
+            "damping", "a", "b", "c", "mass")
+"""Inputs a map may vary (sweep parameter names); each is also a control."""
+
+MAX_SPIN = 1e8
+"""Largest launch spin (rad/s, in size) the page accepts: far beyond any rattleback (such a
+launch lifts off at once), yet below where its energy overflows what the page can draw."""
+
+# a map axis's default range, for inputs without a natural one relative to the body
+_RANGES = {"spin": (-30.0, 30.0), "delta_deg": (-8.0, 8.0), "mu": (0.05, 1.0),
+           "roll_deg": (0.5, 10.0), "pitch_deg": (0.5, 10.0), "mu_spin": (0.0, 0.002),
+           "mu_roll": (0.0, 0.002), "damping": (0.0, 2e-7)}
+
+_PRESET_NAMES = {"kane_levinson": "Kane & Levinson (1982)", "golden": "golden (Kuypers)",
+                 "toy": "toy (plastic, 95 mm)"}
+
+
+def map_axes() -> dict[str, dict[str, Any]]:
+    """Each map axis: its label and units (the control's), the library's description
+    (:data:`rattlesweep.sweep.params.PARAMS`) and a default range (``start``, ``stop``;
+    ``relative``: a factor range about the control's current value, for body sizes)."""
+    from ..sweep.params import PARAMS
+
+    out: dict[str, dict[str, Any]] = {}
+    for k in MAP_AXES:
+        param = PARAMS[k[:-4] if k.endswith("_deg") else k]
+        entry: dict[str, Any] = {"label": LABELS[k], "units": UNITS[k],
+                                 "description": param.long_name}
+        if k in _RANGES:
+            entry["start"], entry["stop"] = _RANGES[k]
+        else:  # a, b, c, mass: half to one and a half times the current body's
+            entry["relative"] = [0.5, 1.5]
+        out[k] = entry
+    return out
+
+
+def preset_bodies() -> dict[str, dict[str, Any]]:
+    """Each preset: a readable name and its size and mass (m, kg) for the page's boxes."""
+    out = {}
+    for name in sorted(PRESETS):
+        b = Body.preset(name)
+        out[name] = {"label": _PRESET_NAMES.get(name, name.replace("_", " ")),
+                     "a": b.a, "b": b.b, "c": b.c, "mass": b.mass}
+    return out
+
 
 _BODY_KEYS = ("a", "b", "c", "mass", "delta_deg")
 
@@ -64,15 +117,23 @@ def control_of(message: str) -> str | None:
     return aliases.get(head)
 
 
-def _number(name: str, value: Any) -> float:
+def _number(name: str, value: Any, control: str | None = None, finite: bool = False
+            ) -> float:
     """A control's value as a float; text that is no number is refused as the library
-    refuses it."""
+    refuses it, and so is a non-finite value where ``finite`` (the library gives such a
+    launch a status, not an error, so the page refuses it here)."""
+    control = control or name
     if isinstance(value, bool):
-        raise SettingError(f"{name} must be a number, got {value!r}", name)
+        raise SettingError(f"{name} must be a number, got {value!r}", control)
     try:
-        return float(value)
-    except (TypeError, ValueError):
-        raise SettingError(f"{name} must be a number, got {value!r}", name) from None
+        v = float(value)
+    except (TypeError, ValueError, OverflowError):
+        raise SettingError(f"{name} must be a number, got {value!r}", control) from None
+    if finite and not math.isfinite(v):
+        unit = UNITS.get(name, "")
+        shown = f" ({unit})" if unit and unit != "1" else ""
+        raise SettingError(f"{name} must be a finite number{shown}, got {v!r}", control)
+    return v
 
 
 @dataclass(frozen=True)
@@ -91,13 +152,13 @@ def _body(s: Mapping[str, Any], caps: Caps) -> tuple[Body, dict[str, Any]]:
     if not isinstance(masses, list):
         raise SettingError(f"masses must be a list of [mass, x, y, z], got {masses!r}",
                            "masses")
-    caps.check("number of point masses", len(masses), "max_point_masses")
+    caps.check("number of point masses", len(masses), "max_point_masses", control="masses")
     try:
         if preset != "custom":
             body = Body.preset(preset)
             args: dict[str, Any] = {"preset": preset}
         else:
-            values = {k: _number(k, s.get(k)) for k in _BODY_KEYS}
+            values = {k: _number(k, s.get(k), finite=True) for k in _BODY_KEYS}
             args = {k: values[k] for k in _BODY_KEYS}
             body = Body.semi_ellipsoid(values["a"], values["b"], values["c"], values["mass"],
                                        math.radians(values["delta_deg"]))
@@ -106,8 +167,9 @@ def _body(s: Mapping[str, Any], caps: Caps) -> tuple[Body, dict[str, Any]]:
             if not isinstance(row, (list, tuple)) or len(row) != 4:
                 raise SettingError(f"masses[{i}] must be [mass (kg), x, y, z (m)], got "
                                    f"{row!r}", "masses")
-            m = _number(f"masses[{i}] mass", row[0])
-            pos = [_number(f"masses[{i}] position", v) for v in row[1:]]
+            m = _number(f"masses[{i}] mass", row[0], "masses", finite=True)
+            pos = [_number(f"masses[{i}] position", v, "masses", finite=True)
+                   for v in row[1:]]
             items.append((m, pos))
         if items:
             body = body.with_point_masses(items)
@@ -121,16 +183,20 @@ def _body(s: Mapping[str, Any], caps: Caps) -> tuple[Body, dict[str, Any]]:
 
 def _launch(s: Mapping[str, Any]) -> dict[str, Any]:
     mu_static = s.get("mu_static")
+    spin = _number("spin", s.get("spin"), finite=True)
+    if abs(spin) > MAX_SPIN:
+        raise SettingError(f"spin must be at most {MAX_SPIN:g} rad/s in size, got {spin!r}",
+                           "spin")
     kw: dict[str, Any] = {
-        "spin": _number("spin", s.get("spin")),
-        "roll": math.radians(_number("roll_deg", s.get("roll_deg", 0.0))),
-        "pitch": math.radians(_number("pitch_deg", s.get("pitch_deg", 0.0))),
-        "mu": _number("mu", s.get("mu", math.inf)),
+        "spin": spin,
+        "roll": math.radians(_number("roll_deg", s.get("roll_deg", 0.0), finite=True)),
+        "pitch": math.radians(_number("pitch_deg", s.get("pitch_deg", 0.0), finite=True)),
+        "mu": _number("mu", s.get("mu", math.inf)),  # inf: rolling without slipping
         "mu_static": None if mu_static in (None, "") else _number("mu_static", mu_static),
-        "mu_spin": _number("mu_spin", s.get("mu_spin", 0.0)),
-        "mu_roll": _number("mu_roll", s.get("mu_roll", 0.0)),
-        "damping": _number("damping", s.get("damping", 0.0)),
-        "t_end": _number("t_end", s.get("t_end")),
+        "mu_spin": _number("mu_spin", s.get("mu_spin", 0.0), finite=True),
+        "mu_roll": _number("mu_roll", s.get("mu_roll", 0.0), finite=True),
+        "damping": _number("damping", s.get("damping", 0.0), finite=True),
+        "t_end": _number("t_end", s.get("t_end"), finite=True),
     }
     return kw
 
@@ -144,9 +210,9 @@ def run_spec(settings: Mapping[str, Any], caps: Caps) -> RunSpec:
         inputs = launch_inputs(body, **kw)
     except ValueError as exc:
         raise SettingError(str(exc), control_of(str(exc))) from None
-    caps.check("t_end", kw["t_end"], "max_t_end", "s")
+    caps.check("t_end", kw["t_end"], "max_t_end", "s", control="t_end")
     steps = int(inputs.nsteps.max())
-    caps.check("time steps of this run", steps, "max_steps")
+    caps.check("time steps of this run", steps, "max_steps", control="t_end")
     return RunSpec(body, args, kw, steps)
 
 
@@ -154,6 +220,14 @@ def _fmt(x: float) -> str:
     if math.isinf(x):
         return "math.inf" if x > 0 else "-math.inf"
     return repr(float(x))
+
+
+def _degrees(rad: float) -> float:
+    """Degrees of an angle the page gave in degrees: the typed number back (0.5, not
+    0.49999999999999994)."""
+    deg = math.degrees(rad)
+    short = float(f"{deg:.12g}")
+    return short if math.radians(short) == rad else deg
 
 
 def python_code(spec: RunSpec) -> str:
@@ -172,7 +246,8 @@ def python_code(spec: RunSpec) -> str:
         lines.append(f"body = body.with_point_masses([{items}])  # (kg, (x, y, z) m)")
     kw = spec.kwargs
     parts = [f"spin={_fmt(kw['spin'])}",
-             f"roll={_fmt(kw['roll'])}", f"pitch={_fmt(kw['pitch'])}", f"mu={_fmt(kw['mu'])}"]
+             f"roll_deg={_fmt(_degrees(kw['roll']))}",
+             f"pitch_deg={_fmt(_degrees(kw['pitch']))}", f"mu={_fmt(kw['mu'])}"]
     if kw["mu_static"] is not None:
         parts.append(f"mu_static={_fmt(kw['mu_static'])}")
     for k in ("mu_spin", "mu_roll", "damping"):
@@ -191,9 +266,9 @@ def map_sweep(settings: Mapping[str, Any], axes: Mapping[str, Any], caps: Caps) 
     from ..sweep import Sweep
 
     spec = run_spec(settings, caps)  # the settings themselves must make a valid run
-    caps.check("map t_end", spec.kwargs["t_end"], "max_map_t_end", "s")
-    levels = int(_number("levels", axes.get("levels", 0)))
-    caps.check("map levels", levels, "max_map_levels")
+    caps.check("map t_end", spec.kwargs["t_end"], "max_map_t_end", "s", control="t_end")
+    levels = int(_number("levels", axes.get("levels", 0), "map_levels", finite=True))
+    caps.check("map levels", levels, "max_map_levels", control="map_levels")
     grid: dict[str, Any] = {}
     for key in ("x", "y"):
         ax = axes.get(key) or {}
@@ -201,10 +276,11 @@ def map_sweep(settings: Mapping[str, Any], axes: Mapping[str, Any], caps: Caps) 
         if param not in MAP_AXES:
             raise SettingError(f"map {key} axis must be one of {sorted(MAP_AXES)}, got "
                                f"{param!r}", f"map_{key}")
-        num = int(_number(f"map {key} num", ax.get("num")))
-        caps.check(f"map {key} num", num, "max_map_num")
-        grid[param] = {"start": _number(f"map {key} start", ax.get("start")),
-                       "stop": _number(f"map {key} stop", ax.get("stop")), "num": num}
+        num = int(_number(f"map {key} num", ax.get("num"), f"map_{key}", finite=True))
+        caps.check(f"map {key} num", num, "max_map_num", control=f"map_{key}")
+        grid[param] = {"start": _number(f"map {key} start", ax.get("start"), f"map_{key}"),
+                       "stop": _number(f"map {key} stop", ax.get("stop"), f"map_{key}"),
+                       "num": num}
     if len(grid) != 2:
         raise SettingError("the map's two axes must be different inputs", "map_y")
     fixed: dict[str, Any] = {}

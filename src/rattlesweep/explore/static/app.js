@@ -22,21 +22,38 @@ function settings() {
       s.masses = el.value.split('\n').map((l) => l.trim()).filter((l) => l)
         .map((l) => l.split(/[\s,;]+/));
     } else {
-      s[k] = el.value.trim();
+      s[k] = boxValue(el);
     }
   }
   return s;
+}
+
+// a box shows a value rounded to 6 significant digits; while it shows that, the request
+// carries the full value (a map point, a preset's mass)
+function short(v) {
+  const x = Number(v);
+  return (typeof v === 'number' || (v !== '' && Number.isFinite(x))) && Number.isFinite(x)
+    ? String(Number(x.toPrecision(6))) : String(v);
+}
+function setBox(el, v) {
+  el.value = short(v);
+  el.dataset.full = String(v);
+  el.dataset.shown = el.value;
+}
+function boxValue(el) {
+  const typed = el.value.trim();
+  return (el.dataset.full !== undefined && typed === el.dataset.shown) ? el.dataset.full : typed;
 }
 
 function showErrors(error, control) {
   for (const el of document.querySelectorAll('.err')) {
     if (el.id !== 'err-map') el.textContent = '';
   }
-  for (const el of document.querySelectorAll('input.bad, textarea.bad')) el.classList.remove('bad');
+  for (const el of document.querySelectorAll('#controls .bad')) el.classList.remove('bad');
   if (!error) return;
-  const box = $('err-' + control) || $('err-general');
+  const box = (control && $('err-' + control)) || $('err-general');
   box.textContent = error;
-  if ($(control)) $(control).classList.add('bad');
+  if (control && $(control)) $(control).classList.add('bad');
 }
 
 async function post(path, body) {
@@ -52,35 +69,67 @@ function scheduleRun() {
   runTimer = setTimeout(doRun, 60);
 }
 
+// any failure (server unreachable, an error page, a payload that cannot be drawn) is said
+// in the status line and by the control; the page, and the last good run, stay usable
 async function doRun() {
   const seq = ++runSeq;
   const t0 = performance.now();
   state.requests += 1;
   $('status').textContent = 'running…';
-  let status, r;
+  let status, data;
   try {
-    [status, r] = await post('/api/run', { settings: settings() });
+    const [st, r] = await post('/api/run', { settings: settings() });
+    status = st;
+    if (seq !== runSeq || status === 409) return;  // a newer change is on its way
+    const text = await r.text();
+    try { data = JSON.parse(text); } catch (e) { data = { error: `the server answered ${status}: ${text.slice(0, 200)}` }; }
   } catch (e) {
-    $('status').textContent = 'server unreachable';
+    if (seq === runSeq) failed(`server unreachable (${e.message})`, null, 'server unreachable');
     return;
   }
-  if (seq !== runSeq || status === 409) return;  // a newer change is on its way
-  const data = await r.json();
+  if (seq !== runSeq) return;
   if (status !== 200) {
-    state.lastError = data.error;
-    showErrors(data.error, data.control || 'general');
-    $('status').textContent = 'refused: see the message by the control';
+    const error = (data && data.error) || `the server answered ${status}`;
+    failed(error, data && data.control, data && data.control
+      ? 'refused: see the message by the control' : 'refused: see the message under the controls');
+    return;
+  }
+  const previous = state.run;
+  try {
+    loadRun(data);
+  } catch (e) {
+    state.run = previous;
+    if (previous) { buildBody(previous.body); frameView(previous); for (const c of plots) drawPlotBase(c); showFrame(0); }
+    failed(`this run could not be drawn: ${e.message}`, null, 'the run could not be drawn');
     return;
   }
   state.lastError = null;
   showErrors(null);
   state.latencies.push(performance.now() - t0);
-  loadRun(data);
   $('status').textContent = `run ${state.runs} in ${(performance.now() - t0).toFixed(0)} ms`;
 }
 
+function failed(error, control, status) {
+  state.lastError = error;
+  state.failures = (state.failures || 0) + 1;
+  showErrors(error, control);
+  $('status').textContent = status;
+}
+
+const finite = (v) => typeof v === 'number' && Number.isFinite(v);
+const fixed = (v, d) => (finite(v) ? v.toFixed(d) : '—');
+
 function loadRun(data) {
-  const n = data.t.length;
+  if (!data || !Array.isArray(data.t) || !data.t.length || !data.summary || !data.body) {
+    throw new Error('the answer holds no run');
+  }
+  // the samples that can be drawn: a pose and a spin (a run stopped at t = 0 has one)
+  let n = 0;
+  while (n < data.t.length && finite(data.t[n]) && finite(data.spin[n])
+         && [0, 1, 2].every((k) => finite(data.position[3 * n + k]))
+         && [0, 1, 2, 3].every((k) => finite(data.quaternion[4 * n + k]))) n++;
+  if (n === 0) throw new Error('no sample of the run holds a pose');
+  for (const k of ['a', 'b', 'c']) if (!(finite(data.body[k]) && data.body[k] > 0)) throw new Error(`the body's ${k} is not drawable`);
   const p = data.position;
   data.n = n;
   state.run = data;
@@ -92,35 +141,73 @@ function loadRun(data) {
   $('python').textContent = data.python;
   $('download-nc').href = `/api/run.nc?session=${session}&n=${state.runs}`;
   const s = data.summary;
-  const rev = s.first_reversal_time === null ? 'no reversal'
+  const rev = !finite(s.first_reversal_time) ? 'no reversal'
     : `first reversal at ${s.first_reversal_time.toFixed(3)} s`;
+  const slip = data.rolling ? 'rolling (μ = ∞): no slip'
+    : `slipping ${finite(s.slip_fraction) ? (100 * s.slip_fraction).toFixed(0) : '—'} %`;
+  const warnings = data.warnings || [];
   $('summary').textContent = `${rev}; reversals ${s.n_reversals}; final spin `
-    + `${s.final_spin.toFixed(3)} rad/s; slipping ${(100 * s.slip_fraction).toFixed(0)} %; `
-    + `status ${s.status}` + (data.warnings.length ? ' ⚠ ' + data.warnings.join('; ') : '');
+    + `${fixed(s.final_spin, 3)} rad/s; ${slip}; `
+    + `status ${s.status}` + (warnings.length ? ' ⚠ ' + warnings.join('; ') : '');
+  $('summary').classList.toggle('warn', warnings.length > 0);
+  $('python').textContent = data.python || '';
   buildBody(data.body);
   const pts = [];
-  for (let i = 0; i < n; i++) pts.push(data.contact[2 * i], data.contact[2 * i + 1], 0.0002);
+  for (let i = 0; i < n; i++) {
+    const x = data.contact[2 * i], y = data.contact[2 * i + 1];
+    pts.push(finite(x) ? x : p[3 * i], finite(y) ? y : p[3 * i + 1], 0.0002 * viewScale(data.body) / 0.05);
+  }
   track.geometry.dispose();
   track.geometry = new THREE.BufferGeometry();
   track.geometry.setAttribute('position', new THREE.Float32BufferAttribute(pts, 3));
-  const L = Math.max(data.body.a, data.body.b);
-  grid.scale.set(8 * L, 8 * L, 8 * L);
-  grid.position.x = G0(p).x; grid.position.y = G0(p).y;
-  if (!cam.dist || Math.abs(Math.log(L / cam.L)) > 0.7) cam.dist = 3.6 * L;  // a new scale
-  cam.L = L;
-  state.spinScale = 0.8 * L / Math.max(1e-9, ...data.spin.map((v) => Math.abs(v || 0)));
+  frameView(data);
   for (const c of plots) drawPlotBase(c);
   showFrame(0);
 }
-const G0 = (p) => ({ x: p[0], y: p[1], z: p[2] });
+
+// the size the view is framed for (m): the body's largest extent, its height counted
+// twice so that the spin arrow above it stays in view
+const viewScale = (b) => Math.max(b.a, b.b, 1.6 * b.c);
+
+function frameView(data) {
+  const L = viewScale(data.body), p = data.position;
+  grid.scale.set(10 * L, 10 * L, 10 * L);
+  grid.position.x = p[0]; grid.position.y = p[1];
+  floor.scale.set(20 * L, 20 * L, 1);
+  floor.position.set(p[0], p[1], 0);
+  if (!cam.dist || Math.abs(Math.log(L / cam.L)) > 0.7) cam.dist = 4.5 * L;  // a new scale
+  cam.L = L;
+  camera.near = L / 200; camera.far = L * 400; camera.updateProjectionMatrix();
+  // the arrow grows with |spin| and saturates at ARROW_MAX of the view's scale:
+  // half of that at SPIN_HALF rad/s, so that 1, 5 and 20 rad/s read differently
+  state.arrowMax = 0.6 * L;
+}
+const SPIN_HALF = 10;  // rad/s
+
+// the largest |x|, |y| in normalised device coordinates (-1 .. 1: in view) of the spin
+// arrow's tip and the body's ends, at the frame shown; read by the browser tests
+state.extentInView = () => {
+  const r = state.run, i = state.frame;
+  if (!r) return null;
+  const tip = arrow.position.clone().add(new THREE.Vector3(0, 0, r.spin[i] >= 0 ? state.arrowLength : -state.arrowLength));
+  scene.updateMatrixWorld();
+  const pts = [tip, arrow.position.clone()];
+  for (const [x, y, z] of [[r.body.a, 0, 0], [-r.body.a, 0, 0], [0, r.body.b, 0], [0, -r.body.b, 0], [0, 0, -r.body.c]]) {
+    pts.push(bodyMesh.localToWorld(new THREE.Vector3(x, y, z)));
+  }
+  scene.updateMatrixWorld(); camera.updateMatrixWorld();
+  return Math.max(...pts.map((v) => { const n = v.clone().project(camera); return Math.max(Math.abs(n.x), Math.abs(n.y)); }));
+};
+const arrowLength = (w) => state.arrowMax * Math.abs(w) / (Math.abs(w) + SPIN_HALF);
 
 // the camera orbits the body (drag) and zooms (wheel), following it over the floor
 const cam = { az: -0.9, el: 0.42, dist: 0, L: 0.05 };
-function placeCamera(x, y) {
+function placeCamera(x, y, z) {
+  if (!(finite(x) && finite(y) && finite(z))) return;
   camera.position.set(x + cam.dist * Math.cos(cam.el) * Math.cos(cam.az),
                       y + cam.dist * Math.cos(cam.el) * Math.sin(cam.az),
-                      cam.dist * Math.sin(cam.el));
-  camera.lookAt(x, y, 0);
+                      z + cam.dist * Math.sin(cam.el));
+  camera.lookAt(x, y, z);
 }
 
 // ---------------------------------------------------------------- the 3-D view
@@ -134,7 +221,7 @@ scene.add(new THREE.HemisphereLight(0xffffff, 0x667788, 1.6));
 const sun = new THREE.DirectionalLight(0xffffff, 1.6);
 sun.position.set(1, -1, 2);
 scene.add(sun);
-const floor = new THREE.Mesh(new THREE.PlaneGeometry(10, 10),
+const floor = new THREE.Mesh(new THREE.PlaneGeometry(1, 1),
   new THREE.MeshStandardMaterial({ color: 0xc8ccd0, roughness: 1 }));
 scene.add(floor);
 const grid = new THREE.GridHelper(1, 20, 0x8899aa, 0xaab4be);
@@ -178,14 +265,15 @@ function buildBody(b) {
 function showFrame(i) {
   const r = state.run;
   if (!r) return;
-  i = Math.max(0, Math.min(r.n - 1, i));
+  i = Math.max(0, Math.min(r.n - 1, Number.isFinite(i) ? i : 0));
   state.frame = i;
   const q = r.quaternion, p = r.position;
   bodyGroup.position.set(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
-  placeCamera(p[3 * i], p[3 * i + 1]);
+  placeCamera(p[3 * i], p[3 * i + 1], 0.5 * r.body.c);
   bodyGroup.quaternion.set(q[4 * i + 1], q[4 * i + 2], q[4 * i + 3], q[4 * i]);
   const w = r.spin[i] || 0;
-  const len = Math.max(1e-6, Math.abs(w) * state.spinScale);
+  const len = Math.max(1e-6 * cam.L, arrowLength(w));
+  state.arrowLength = len;
   // above the body: up for counter-clockwise spin, down onto it for clockwise
   arrow.position.set(p[3 * i], p[3 * i + 1], p[3 * i + 2] + r.body.c * 0.8 + (w >= 0 ? 0 : len));
   arrow.setDirection(new THREE.Vector3(0, 0, w >= 0 ? 1 : -1));
@@ -193,7 +281,7 @@ function showFrame(i) {
   arrow.setColor(w >= 0 ? 0x2266cc : 0xcc2222);
   track.geometry.setDrawRange(0, i + 1);
   $('scrub').value = i;
-  $('clock').textContent = `${r.t[i].toFixed(2)} s`;
+  $('clock').textContent = `${fixed(r.t[i], 2)} s`;
   for (const c of plots) drawCursor(c);
   renderer.render(scene, camera);
 }
@@ -227,20 +315,25 @@ function resize() {
 
 let lastWall = null;
 function tick(now) {
+  requestAnimationFrame(tick);  // first: a failing frame must not stop the playback
   const r = state.run;
-  if (r && state.playing && lastWall !== null) {
-    const T = r.t[r.n - 1];
-    state.tPlay += (now - lastWall) / 1000 * Number($('speed').value);
-    if (state.tPlay > T) state.tPlay = 0;
-    showFrame(frameAt(state.tPlay));
+  try {
+    if (r && state.playing && lastWall !== null) {
+      const T = r.t[r.n - 1];
+      state.tPlay += (now - lastWall) / 1000 * Number($('speed').value);
+      if (!(state.tPlay <= T)) state.tPlay = 0;
+      showFrame(frameAt(state.tPlay));
+    }
+    state.ticks = (state.ticks || 0) + 1;
+  } catch (e) {
+    $('status').textContent = `drawing failed: ${e.message}`;
   }
   lastWall = now;
-  requestAnimationFrame(tick);
 }
 
 function frameAt(t) {
   const ts = state.run.t;
-  let lo = 0, hi = ts.length - 1;
+  let lo = 0, hi = state.run.n - 1;
   while (lo < hi) { const mid = (lo + hi) >> 1; if (ts[mid] < t) lo = mid + 1; else hi = mid; }
   return lo;
 }
@@ -248,16 +341,28 @@ function frameAt(t) {
 // ---------------------------------------------------------------- plots
 const plots = [...document.querySelectorAll('canvas.plot')];
 const MIN_SPAN = { spin: 0.1, tilt_deg: 0.5, energy: 0, slip_speed: 1e-3 };
+// a plot spans at least MIN_REL of its largest |value|: a nearly constant series (energy
+// without friction losses: changes of 1e-4 of it are the integrator's rounding) is drawn
+// flat, not zoomed onto noise that reads as "energy not conserved"
+const MIN_REL = 0.01;
+function plotRange(series, values) {
+  const v = values.filter(finite);
+  if (!v.length) return [0, 1];
+  let lo = v.reduce((a, b) => Math.min(a, b)), hi = v.reduce((a, b) => Math.max(a, b));
+  const span = Math.max(MIN_SPAN[series] || 0, MIN_REL * Math.max(Math.abs(lo), Math.abs(hi)), 1e-300);
+  if (!(hi - lo >= span)) {
+    // a series that is never negative (slip speed) keeps 0 at the bottom
+    if (lo >= 0 && lo - span / 2 < 0) { lo = 0; hi = span; }
+    else { const mid = (hi + lo) / 2; lo = mid - span / 2; hi = mid + span / 2; }
+  }
+  const pad = 0.05 * (hi - lo);
+  return [lo >= 0 && lo - pad < 0 ? 0 : lo - pad, hi + pad];
+}
 function plotFrame(c) {
   const r = state.run, t = r.t;
-  const v = r[c.dataset.series].filter((x) => x !== null);
-  let lo = Math.min(...v), hi = Math.max(...v);
-  // a nearly constant series (energy without friction losses) is drawn flat, not as noise
-  const span = Math.max(MIN_SPAN[c.dataset.series] || 0, 1e-4 * Math.max(Math.abs(lo), Math.abs(hi)));
-  if (!(hi - lo >= span)) { const mid = (hi + lo) / 2; lo = mid - span / 2; hi = mid + span / 2; }
-  const pad = 0.05 * (hi - lo);
-  return { x0: 70, x1: c.width - 8, y0: 8, y1: c.height - 18, lo: lo - pad, hi: hi + pad,
-           T: t[t.length - 1] || 1 };
+  const [lo, hi] = plotRange(c.dataset.series, r[c.dataset.series].slice(0, r.n));
+  const T = t[r.n - 1];
+  return { x0: 70, x1: c.width - 8, y0: 8, y1: c.height - 18, lo, hi, T: T > 0 ? T : 1 };
 }
 
 function drawPlotBase(c) {
@@ -279,11 +384,14 @@ function drawPlotBase(c) {
   ctx.strokeStyle = '#1f5fa8'; ctx.lineWidth = 1.5; ctx.beginPath();
   let pen = false;
   for (let i = 0; i < r.n; i++) {
-    if (ys[i] === null) { pen = false; continue; }
+    if (!finite(ys[i])) { pen = false; continue; }
     if (pen) ctx.lineTo(X(r.t[i]), Y(ys[i])); else ctx.moveTo(X(r.t[i]), Y(ys[i]));
     pen = true;
   }
   ctx.stroke();
+  if (r.n === 1 && finite(ys[0])) {  // a run stopped at t = 0: its one sample as a dot
+    ctx.fillStyle = '#1f5fa8'; ctx.beginPath(); ctx.arc(X(r.t[0]), Y(ys[0]), 3, 0, 2 * Math.PI); ctx.fill();
+  }
   ctx.fillStyle = '#333'; ctx.font = '11px sans-serif';
   ctx.fillText(c.dataset.label, f.x0 + 4, f.y0 + 11);
   const digits = Math.min(8, 3 + Math.max(0, Math.round(Math.log10(
@@ -308,6 +416,7 @@ function drawCursor(c) {
 }
 
 function fmt(v, digits = 3) {
+  if (!finite(v)) return String(v);
   const a = Math.abs(v);
   return (a !== 0 && (a < 1e-2 || a >= 1e4)) ? v.toExponential(digits - 2) : v.toPrecision(digits);
 }
@@ -330,36 +439,81 @@ function mapRequest() {
 }
 
 let mapPoll = null;
+let mapSeq = 0;
 async function startMap() {
   clearTimeout(mapPoll);
+  const seq = ++mapSeq;
   $('err-map').textContent = '';
-  const [status, r] = await post('/api/map', mapRequest());
-  const data = await r.json();
-  if (status !== 200) { $('err-map').textContent = data.error; return; }
+  $('map-bar').style.width = '0%';  // a new map starts from nothing done
+  for (const el of document.querySelectorAll('#map .bad')) el.classList.remove('bad');
+  let status, data;
+  try {
+    const [st, r] = await post('/api/map', mapRequest());
+    status = st;
+    const text = await r.text();
+    try { data = JSON.parse(text); } catch (e) { data = { error: `the server answered ${status}: ${text.slice(0, 200)}` }; }
+  } catch (e) { $('err-map').textContent = `server unreachable (${e.message})`; return; }
+  if (status !== 200) {
+    $('err-map').textContent = data.error || `the server answered ${status}`;
+    const el = { map_x: 'map-x-param', map_y: 'map-y-param', map_levels: 'map-levels' }[data.control];
+    if (el) $(el).classList.add('bad');
+    return;
+  }
   state.mapStarted = performance.now();
-  showMap(data);
+  showMap(data, seq);
 }
 
-function showMap(m) {
+const label = (param) => {
+  const a = state.config && state.config.map_axes[param];
+  return a ? a.label + (a.units && a.units !== '1' ? ` (${a.units})` : '') : param;
+};
+
+function showMap(m, seq) {
+  if (seq !== mapSeq || !m || !m.x || !m.outcome) return;
   state.map = m;
-  $('map-bar').style.width = `${(100 * m.progress).toFixed(1)}%`;
+  // the bar: the levels done, plus the share of the current level's launches
+  $('map-bar').style.width = `${(100 * (m.done ? 1 : m.progress)).toFixed(1)}%`;
   const what = m.done ? `done: ${m.simulated} launches simulated in ${m.seconds.toFixed(1)} s`
     : `level ${m.level} of ${m.levels}: ${m.level_done} / ${m.level_points} launches`;
   $('map-info').textContent = `${m.x.values.length} × ${m.y.values.length} points; ${what}. `
     + 'Click a point to load its launch.';
   $('map-note').textContent = m.boundary_note;
   drawMap();
-  if (!m.done) mapPoll = setTimeout(pollMap, 250);
+  if (!m.done) mapPoll = setTimeout(() => pollMap(seq), 250);
 }
 
-async function pollMap() {
-  const r = await fetch(`/api/map?session=${session}`);
-  if (r.status === 200) showMap(await r.json());
+async function pollMap(seq) {
+  if (seq !== mapSeq) return;
+  try {
+    const r = await fetch(`/api/map?session=${session}`);
+    if (r.status === 200) { showMap(await r.json(), seq); return; }
+    $('err-map').textContent = `the map stopped: the server answered ${r.status}`;
+  } catch (e) {
+    mapPoll = setTimeout(() => pollMap(seq), 1000);  // the server may be busy: ask again
+  }
+}
+
+// a tick's value as short as it is: 10, 0.5, 2e-7
+const tickText = (v) => {
+  const a = Math.abs(v);
+  return a !== 0 && (a < 1e-3 || a >= 1e5) ? v.toExponential().replace('e+', 'e') : String(Number(v.toPrecision(6)));
+};
+
+// a few round values between lo and hi (1, 2 or 5 times a power of ten apart)
+function ticks(lo, hi, most = 7) {
+  if (!(hi > lo)) return [lo];
+  const raw = (hi - lo) / (most - 1), p = 10 ** Math.floor(Math.log10(raw));
+  const step = [1, 2, 5, 10].map((k) => k * p).find((k) => k >= raw);
+  const out = [];
+  for (let v = Math.ceil(lo / step - 1e-9) * step; v <= hi + 1e-9 * step; v += step) {
+    out.push(Math.abs(v) < 1e-12 * step ? 0 : Number(v.toPrecision(12)));
+  }
+  return out;
 }
 
 function mapFrame() {
   const c = $('map-canvas');
-  return { c, x0: 52, x1: c.width - 8, y0: 8, y1: c.height - 34 };
+  return { c, x0: 62, x1: c.width - 8, y0: 8, y1: c.height - 34 };
 }
 
 function drawMap() {
@@ -384,10 +538,12 @@ function drawMap() {
     const u = m.unstable;
     for (let j = 0; j < ny; j++) {
       for (let i = 0; i < nx; i++) {
-        if (i + 1 < nx && u[j][i] !== u[j][i + 1]) {
+        // null: neutral to rounding (no spin, no misalignment): no edge beside it
+        if (u[j][i] === null) continue;
+        if (i + 1 < nx && u[j][i + 1] !== null && u[j][i] !== u[j][i + 1]) {
           ctx.moveTo(x0 + (i + 1) * w, Y1 - j * h); ctx.lineTo(x0 + (i + 1) * w, Y1 - (j + 1) * h);
         }
-        if (j + 1 < ny && u[j][i] !== u[j + 1][i]) {
+        if (j + 1 < ny && u[j + 1][i] !== null && u[j][i] !== u[j + 1][i]) {
           ctx.moveTo(x0 + i * w, Y1 - (j + 1) * h); ctx.lineTo(x0 + (i + 1) * w, Y1 - (j + 1) * h);
         }
       }
@@ -402,13 +558,31 @@ function drawMap() {
   ctx.strokeStyle = '#666'; ctx.lineWidth = 1; ctx.strokeRect(x0, y0, X1 - x0, Y1 - y0);
   ctx.fillStyle = '#333'; ctx.font = '11px sans-serif';
   const xv = m.x.values, yv = m.y.values;
-  ctx.fillText(fmt(xv[0]), x0, Y1 + 12);
-  ctx.fillText(fmt(xv[nx - 1]), X1 - 30, Y1 + 12);
-  ctx.fillText(`${m.x.param} (${m.x.units})`, (x0 + X1) / 2 - 30, Y1 + 26);
-  ctx.fillText(fmt(yv[ny - 1]), 2, y0 + 10);
-  ctx.fillText(fmt(yv[0]), 2, Y1);
-  ctx.save(); ctx.translate(12, (y0 + Y1) / 2 + 30); ctx.rotate(-Math.PI / 2);
-  ctx.fillText(`${m.y.param} (${m.y.units})`, 0, 0); ctx.restore();
+  // cell i spans [i, i + 1] of the width: value xv[i] sits at its centre
+  const at = (vals, n, a, b, v) => {
+    const f = n > 1 ? (v - vals[0]) / (vals[n - 1] - vals[0]) * (n - 1) : 0;
+    return a + (b - a) * (f + 0.5) / n;
+  };
+  ctx.textAlign = 'center';
+  state.mapTicks = { x: [], y: [] };
+  for (const v of ticks(Math.min(xv[0], xv[nx - 1]), Math.max(xv[0], xv[nx - 1]))) {
+    const x = at(xv, nx, x0, X1, v);
+    ctx.beginPath(); ctx.moveTo(x, Y1); ctx.lineTo(x, Y1 + 4); ctx.stroke();
+    ctx.fillText(tickText(v), x, Y1 + 14);
+    state.mapTicks.x.push(v);
+  }
+  ctx.fillText(label(m.x.param), (x0 + X1) / 2, Y1 + 28);
+  ctx.textAlign = 'right';
+  for (const v of ticks(Math.min(yv[0], yv[ny - 1]), Math.max(yv[0], yv[ny - 1]))) {
+    const y = at(yv, ny, Y1, y0, v);
+    ctx.beginPath(); ctx.moveTo(x0 - 4, y); ctx.lineTo(x0, y); ctx.stroke();
+    ctx.fillText(tickText(v), x0 - 6, y + 4);
+    state.mapTicks.y.push(v);
+  }
+  ctx.textAlign = 'center';
+  ctx.save(); ctx.translate(11, (y0 + Y1) / 2); ctx.rotate(-Math.PI / 2);
+  ctx.fillText(label(m.y.param), 0, 0); ctx.restore();
+  ctx.textAlign = 'left';
   $('map-legend').innerHTML = m.outcome_names.map((n, k) =>
     `<span><i style="background:${OUTCOME_COLOURS[k]}"></i>${n.replace(/_/g, ' ')}</span>`).join('');
 }
@@ -427,7 +601,7 @@ $('map-canvas').addEventListener('mousemove', (ev) => {
   const m = state.map, cell = mapCell(ev);
   if (!cell) { $('map-canvas').title = ''; return; }
   const [i, j] = cell, o = m.outcome[j][i];
-  $('map-canvas').title = `${m.x.param} = ${fmt(m.x.values[i], 4)}, ${m.y.param} = `
+  $('map-canvas').title = `${label(m.x.param)} = ${fmt(m.x.values[i], 4)}, ${label(m.y.param)} = `
     + `${fmt(m.y.values[j], 4)}: ${o < 0 ? 'not computed yet' : m.outcome_names[o].replace(/_/g, ' ')}`;
 });
 
@@ -436,8 +610,8 @@ $('map-canvas').addEventListener('click', (ev) => {
   if (!cell) return;
   const [i, j] = cell;
   state.marker = [i, j];
-  $(m.x.param).value = String(m.x.values[i]);
-  $(m.y.param).value = String(m.y.values[j]);
+  setBox($(m.x.param), m.x.values[i]);
+  setBox($(m.y.param), m.y.values[j]);
   syncSlider();
   state.loadedFromMap = { x: m.x.values[i], y: m.y.values[j], outcome: m.outcome[j][i] };
   drawMap();
@@ -445,14 +619,62 @@ $('map-canvas').addEventListener('click', (ev) => {
 });
 
 async function downloadToml() {
-  const [status, r] = await post('/api/toml', mapRequest());
-  if (status !== 200) { $('err-map').textContent = (await r.json()).error; return; }
+  let status, r;
+  try { [status, r] = await post('/api/toml', mapRequest()); } catch (e) {
+    $('err-map').textContent = `server unreachable (${e.message})`; return;
+  }
+  if (status !== 200) {
+    const text = await r.text();
+    let error; try { error = JSON.parse(text).error; } catch (e) { error = text.slice(0, 200); }
+    $('err-map').textContent = error || `the server answered ${status}`; return;
+  }
   const blob = new Blob([await r.text()], { type: 'application/toml' });
   const a = document.createElement('a');
   a.href = URL.createObjectURL(blob); a.download = 'map.toml'; a.click();
 }
 
 // ---------------------------------------------------------------- wiring
+// a new map axis gets its own default range: from the server's description of the
+// input, or about the current body's value for a size or a mass
+function setAxisRange(k) {
+  const param = $(`map-${k}-param`).value, a = state.config.map_axes[param];
+  if (!a) return;
+  let lo = a.start, hi = a.stop;
+  if (a.relative) {
+    const v = Number(boxValue($(param)));
+    const base = Number.isFinite(v) && v > 0 ? v : 1;
+    [lo, hi] = a.relative.map((f) => Number((f * base).toPrecision(3)));
+  }
+  $(`map-${k}-start`).value = lo; $(`map-${k}-stop`).value = hi;
+}
+
+// a preset shows its own size and mass in the (greyed, read-only) body boxes; the
+// semi-ellipsoid's values come back when it is chosen again
+const BODY_BOXES = ['a', 'b', 'c', 'mass', 'delta_deg'];
+function showPresetBody() {
+  const name = $('preset').value, custom = name === 'custom';
+  if (!custom && !state.customBody) {
+    state.customBody = Object.fromEntries(BODY_BOXES.map((k) => [k, [$(k).value, $(k).dataset.full, $(k).dataset.shown]]));
+  }
+  if (custom && state.customBody) {
+    for (const k of BODY_BOXES) {
+      const [v, full, shown] = state.customBody[k];
+      $(k).value = v;
+      if (full === undefined) { delete $(k).dataset.full; delete $(k).dataset.shown; }
+      else { $(k).dataset.full = full; $(k).dataset.shown = shown; }
+    }
+    state.customBody = null;
+  } else if (!custom) {
+    const b = state.config.presets[name];
+    for (const k of ['a', 'b', 'c', 'mass']) setBox($(k), b[k]);
+    $('delta_deg').value = '';
+    $('delta_deg').placeholder = 'preset';
+  }
+  for (const k of BODY_BOXES) $(k).readOnly = !custom;
+  $('custom-body').style.opacity = custom ? 1 : 0.6;
+  $('custom-body').title = custom ? '' : 'the preset body: choose "semi-ellipsoid" to edit';
+}
+
 function syncSlider() {
   const v = Number($('spin').value);
   if (Number.isFinite(v)) $('spin-slider').value = v;
@@ -463,19 +685,22 @@ async function init() {
   state.config = config;
   const preset = $('preset');
   preset.innerHTML = '<option value="custom">semi-ellipsoid (below)</option>'
-    + config.presets.map((p) => `<option value="${p}">preset: ${p}</option>`).join('');
+    + Object.entries(config.presets).map(([p, b]) => `<option value="${p}">preset: ${b.label}</option>`).join('');
   const d = config.defaults;
   for (const k of CONTROLS) {
     if (k === 'masses') $(k).value = d.masses.map((r) => r.join(', ')).join('\n');
-    else $(k).value = d[k];
+    else if (k === 'preset') $(k).value = d[k];
+    else setBox($(k), d[k]);
   }
   syncSlider();
-  const axes = Object.entries(config.map_axes).map(([k, u]) => `<option value="${k}">${k} (${u})</option>`).join('');
+  const axes = Object.entries(config.map_axes).map(([k, a]) =>
+    `<option value="${k}" title="${a.description}">${label(k)}</option>`).join('');
   $('map-x-param').innerHTML = axes; $('map-y-param').innerHTML = axes;
   $('map-x-param').value = 'spin'; $('map-y-param').value = 'delta_deg';
-  $('map-x-start').value = -30; $('map-x-stop').value = 30; $('map-x-num').value = 13;
-  $('map-y-start').value = -8; $('map-y-stop').value = 8; $('map-y-num').value = 9;
+  setAxisRange('x'); setAxisRange('y');
+  $('map-x-num').value = 13; $('map-y-num').value = 9;
   $('map-levels').value = 1;
+  for (const k of ['x', 'y']) $(`map-${k}-param`).addEventListener('change', () => setAxisRange(k));
   const c = config.caps;
   $('caps').innerHTML = [
     `run length ≤ ${c.max_t_end} s and ≤ ${c.max_steps} time steps`,
@@ -488,9 +713,7 @@ async function init() {
     $(k).addEventListener('input', () => { if (k === 'spin') syncSlider(); scheduleRun(); });
   }
   $('custom-body').style.opacity = 1;
-  $('preset').addEventListener('change', () => {
-    $('custom-body').style.opacity = $('preset').value === 'custom' ? 1 : 0.45;
-  });
+  $('preset').addEventListener('change', showPresetBody);
   $('spin-slider').addEventListener('input', () => { $('spin').value = $('spin-slider').value; scheduleRun(); });
   $('play').addEventListener('click', () => {
     state.playing = !state.playing;
@@ -506,12 +729,17 @@ async function init() {
   $('download-toml').addEventListener('click', downloadToml);
   $('copy-python').addEventListener('click', async () => {
     const text = $('python').textContent;
-    try { await navigator.clipboard.writeText(text); $('status').textContent = 'Python copied'; }
+    let said;
+    try { await navigator.clipboard.writeText(text); said = 'Python copied'; }
     catch (e) {
       const range = document.createRange(); range.selectNodeContents($('python'));
       const sel = window.getSelection(); sel.removeAllRanges(); sel.addRange(range);
-      $('status').textContent = document.execCommand('copy') ? 'Python copied' : 'select the code and copy it';
+      said = document.execCommand('copy') ? 'Python copied' : 'select the code and copy it';
     }
+    $('status').textContent = said;
+    $('copied').textContent = said === 'Python copied' ? 'copied ✓' : said;
+    clearTimeout(state.copiedTimer);
+    state.copiedTimer = setTimeout(() => { $('copied').textContent = ''; }, 2500);
   });
   window.addEventListener('resize', resize);
   resize();
