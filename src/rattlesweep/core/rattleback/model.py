@@ -21,14 +21,14 @@ from .geometry import (
 from .layout import (
     A2, B2, C2, COM_X, COM_Y, COM_Z, FULL, N_STATE, O_MAX_TILT, OFF_A, OFF_B, OFF_T, OFF_Y,
     OMEGA_X, OMEGA_Y, OMEGA_Z, POS_X, POS_Y, Q0, Q1, Q2, Q3, R_CONTACT, R_ENERGY,
-    R_FRICTION, R_HEADING, R_IMPULSE, R_NORMAL, R_OMEGA, R_POSITION, R_QUATERNION, R_SLIP_VELOCITY,
-    R_SLIPPING, R_SPIN, R_TILT, R_VELOCITY, VEL_X, VEL_Y,
+    R_FRICTION, R_HEADING, R_IMPULSE, R_NORMAL, R_OMEGA, R_POSITION, R_QUATERNION,
+    R_SLIP_VELOCITY, R_SLIPPING, R_SPIN, R_TILT, R_VELOCITY, VEL_X, VEL_Y,
 )
 
 __all__ = [
     "LOCATES_SWITCHES", "check_step", "couple_rates", "energy", "euler_step", "finish",
-    "heading", "park",
-    "record", "roll_start", "spin_and_watch", "start_lane", "stick_couples", "stick_impulse",
+    "heading", "park", "record", "roll_start", "spin_and_watch", "start_lane",
+    "stick_couples", "stick_impulse",
 ]
 
 LOCATES_SWITCHES = True
@@ -243,7 +243,8 @@ def record(W, j, out):
     hx, hy = heading(W, j)
     ex = W[at(OFF_K, K_HEAD_EXT_X, j)]
     ey = W[at(OFF_K, K_HEAD_EXT_Y, j)]
-    out[R_HEADING] = (math.atan2(ey + 0.0, ex) + 2.0 * math.pi * W[at(OFF_K, K_HEAD_TURNS, j)]
+    turns = W[at(OFF_K, K_HEAD_TURNS, j)]
+    out[R_HEADING] = (math.atan2(ey + 0.0, ex) + 2.0 * math.pi * turns
                       + math.atan2(ex * hy - ey * hx, ex * hx + ey * hy))
     n0, n1, n2 = up_vector(W, OFF_Y, j)
     # atan2 keeps full precision at tiny tilts, where 1 - cos(tilt) underflows float64
