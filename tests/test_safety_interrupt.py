@@ -104,3 +104,48 @@ def test_ctrl_c_always_stops_a_sweep_of_many_small_tiles(tmp_path):
                     reason="slow: set RATTLESWEEP_SLOW=1 to run")
 def test_ctrl_c_at_many_instants(tmp_path):
     _check_interrupts(tmp_path, [i * 0.004 for i in range(40)])
+
+
+LONG_TILES_TOML = """\
+name = "tiles of launches that run for hours"
+tile_size = 2
+[axes]
+spin = { start = -20, stop = 20, num = 8 }
+[fixed]
+t_end = 1.5
+damping = 1e3
+"""
+"""Damping 1e3 makes the default step about 4e-10 s: 3.6e9 steps a launch."""
+
+
+def test_a_second_ctrl_c_ends_a_sweep_whose_tiles_run_for_hours(tmp_path):
+    """The first Ctrl-C waits for the tiles running (hours here); the second ends the
+    process at once, status 130, its lock released, nothing half written."""
+    config = tmp_path / "long.toml"
+    config.write_text(LONG_TILES_TOML)
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "rattlesweep.cli", "sweep", str(config),
+                             "--out", str(out), "--workers", "2"],
+                            stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    deadline = time.monotonic() + 120
+    while (time.monotonic() < deadline and proc.poll() is None
+           and not (out / "tiles").is_dir()):
+        time.sleep(0.01)
+    time.sleep(1.0)  # the tiles are computing now
+    proc.send_signal(signal.SIGINT)
+    time.sleep(0.5)
+    assert proc.poll() is None  # the first one waits for the running tiles
+    t0 = time.monotonic()
+    proc.send_signal(signal.SIGINT)
+    try:
+        _, err = proc.communicate(timeout=EXIT_WITHIN)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.communicate()
+        pytest.fail(f"a second Ctrl-C: still running after {EXIT_WITHIN} s")
+    assert proc.returncode == 130, err
+    assert time.monotonic() - t0 < EXIT_WITHIN
+    assert "rattlesweep resume" in err
+    assert not (out / ".rattlesweep.lock").exists()
+    assert not list((out / "tiles").glob("tile-*.nc"))

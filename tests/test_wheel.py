@@ -113,7 +113,7 @@ def test_build_makes_a_wheel_and_an_sdist(dist):
     missing = _source_modules() - names
     assert not missing, f"modules missing from the wheel: {sorted(missing)}"
     assert "rattlesweep/py.typed" in names
-    assert re.search(r"^\[console_scripts\]\s*^rattlesweep = rattlesweep\.cli:main$",
+    assert re.search(r"^\[console_scripts\]\s*^rattlesweep = rattlesweep\.cli:run$",
                      entry_points, re.MULTILINE), entry_points
     assert f"\nVersion: {version}\n" in metadata
     assert "\nLicense-Expression: MIT\n" in metadata

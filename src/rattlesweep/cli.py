@@ -8,6 +8,7 @@ import math
 import os
 import shlex
 import sys
+import threading
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -747,5 +748,22 @@ def main(argv: list[str] | None = None) -> int:
         return 2
 
 
+def run() -> None:
+    """The command's entry point: :func:`main`, then exit with its status.
+
+    A sweep stopped by a second Ctrl-C does not wait for the tiles still computing (a
+    kernel call cannot be interrupted, and a tile of long launches may take hours); their
+    threads would keep the process alive to the end of each tile, for results nothing
+    writes any more. So the process then exits at once: every file it wrote is complete,
+    as each is written atomically, and the sweep's lock is released already."""
+    status = main()
+    if status == 130 and any(t.name.startswith("rattlesweep-tile") and t.is_alive()
+                             for t in threading.enumerate()):
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(status)
+    sys.exit(status)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    run()
