@@ -61,3 +61,15 @@ def test_the_check_uses_the_memory_available(monkeypatch):
              lambda: rs.run_batch(TOY, spin=np.ones(1000), t_end=0.01))
     monkeypatch.setattr(validation, "available_memory", lambda: 10**9)
     assert rs.run_batch(TOY, spin=np.ones(1000), t_end=0.01).sizes["trajectory"] == 1000
+
+
+def test_an_axis_is_refused_for_what_building_the_grid_holds(monkeypatch):
+    """A billion values of one axis on a machine with 20 GiB available: building the grid
+    holds about two copies of its 8 GB (16.7 GB measured), so it is refused before that,
+    not after (the values alone would fit)."""
+    import rattlesweep.validation as validation
+
+    monkeypatch.setattr(validation, "available_memory", lambda: 20 * 2**30)
+    _refused(r"axes\.spin\.num = 1000000000: 1,000,000,000 axis values " + HUGE,
+             lambda: Sweep(axes={"spin": {"start": 1, "stop": 2, "num": 10**9}},
+                           fixed={"t_end": 1.0}, output="zarr"))

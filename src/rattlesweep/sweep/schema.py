@@ -167,6 +167,11 @@ def _normalise_values(spec: Mapping[str, Any], where: str) -> dict[str, Any]:
     return {"values": values}
 
 
+AXIS_VALUE_BYTES = 24
+"""Bytes held per value of a range axis while a sweep's grid is built: about two copies
+of 8 bytes at the peak (1e8 values: 1.65 GB), and one more as a margin."""
+
+
 def _normalise_range(spec: Mapping[str, Any], where: str) -> dict[str, Any]:
     keys = set(spec)
     if keys - _RANGE_KEYS or not {"start", "stop", "num"} <= keys:
@@ -188,7 +193,7 @@ def _normalise_range(spec: Mapping[str, Any], where: str) -> dict[str, Any]:
     if scale == "log" and not (start > 0 and stop > 0):
         raise ValueError(f"{where}: a log range needs start > 0 and stop > 0, got "
                          f"start={start!r}, stop={stop!r}")
-    check_memory(f"{where}.num", num, 8 * num, f"{num:,} axis values")
+    check_memory(f"{where}.num", num, AXIS_VALUE_BYTES * num, f"{num:,} axis values")
     out = {"start": float(start), "stop": float(stop), "num": int(num)}
     if scale != "linear":
         out["scale"] = scale
