@@ -64,14 +64,15 @@ def _verify_zarr(location: str, sweep: Any, options: Mapping[str, Any] | None
                  ) -> Verification:
     import numpy as np
 
-    from .zarr_store import check_tiles, tiles_done
+    from .zarr_store import check_coords, check_tiles, tiles_done
 
     done = tiles_done(location, sweep.n_tiles, options)
     if done is None:
         done = np.zeros(sweep.n_tiles, dtype=bool)
     bad = check_tiles(location, sweep, np.flatnonzero(done), options)
     missing = tuple(int(t) for t in np.flatnonzero(~done))
-    return Verification(location, sweep.n_tiles, missing, bad)
+    return Verification(location, sweep.n_tiles, missing, bad,
+                        tuple(check_coords(location, sweep, options)))
 
 
 def _verify_directory(out: Path, sweep: Any) -> Verification:
@@ -103,6 +104,7 @@ def _check_merged(path: Path, sweep: Any, required: bool) -> tuple[str, ...]:
     import netCDF4
 
     from ..io import NETCDF_LOCK
+    from .merge import grid_coords
 
     if not path.exists():
         return (f"{path.name} is missing: resume writes it",) if required else ()
@@ -112,7 +114,22 @@ def _check_merged(path: Path, sweep: Any, required: bool) -> tuple[str, ...]:
                 return (f"{path.name} holds another configuration's results",)
             for var in nc.variables.values():
                 var[:]
+            wrong = [name for name, (_, want, _) in grid_coords(sweep).items()
+                     if name in nc.variables and not _same(nc.variables[name][...], want)]
     except Exception as exc:  # any failure to read it in full
         first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
         return (f"{path.name} cannot be read in full ({first}); resume writes it again",)
+    if wrong:
+        return (f"{path.name}: coordinate {', '.join(wrong)} differs from the sweep's "
+                "configuration; resume writes it again",)
     return ()
+
+
+def _same(have: Any, want: Any) -> bool:
+    import numpy as np
+
+    have, want = np.asarray(have), np.asarray(want)
+    if want.dtype.kind in "OUS":
+        return have.shape == want.shape and np.array_equal(have.astype(str), want.astype(str))
+    return have.shape == want.shape and np.array_equal(
+        have.astype(float), want.astype(float), equal_nan=True)

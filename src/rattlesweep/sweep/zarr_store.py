@@ -46,7 +46,7 @@ if TYPE_CHECKING:
     from zarr import Group
     from zarr.abc.store import Store
 
-__all__ = ["DONE_ARRAY", "ZarrStore", "check_tiles", "export_netcdf", "is_zarr_store",
+__all__ = ["DONE_ARRAY", "ZarrStore", "check_coords", "check_tiles", "export_netcdf", "is_zarr_store",
            "damage_report", "open_result", "stored_sweep", "tiles_done"]
 
 DONE_ARRAY = "rattlesweep/tile_done"
@@ -186,6 +186,45 @@ def check_tiles(location: str, sweep: Sweep, tiles: Any = None,
     return problems
 
 
+def check_coords(location: str, sweep: Sweep,
+                 storage_options: Mapping[str, Any] | None = None) -> list[str]:
+    """What is wrong with the store's coordinates (the axes' values, the fixed values):
+    each is read in full and compared with what the sweep's configuration gives, so that
+    a damaged coordinate chunk, checksummed or not, is found rather than exported."""
+    from .merge import grid_coords
+
+    group = _group(location, storage_options)
+    problems = []
+    for name, (_, want, _) in grid_coords(sweep).items():
+        try:
+            array: Any = group[name]
+            have = np.asarray(array[...])
+        except KeyError:
+            problems.append(f"coordinate {name} missing")
+            continue
+        except Exception as exc:  # a failed checksum, zstd or a short read
+            problems.append(f"coordinate {name} damaged ({_first_line(exc)})")
+            continue
+        want = np.asarray(want)
+        same = (have.shape == want.shape and (
+            np.array_equal(have, want) if want.dtype.kind in "OUS"
+            else np.array_equal(have.astype(float), want.astype(float), equal_nan=True)))
+        if not same:
+            problems.append(f"coordinate {name} differs from the sweep's configuration")
+    return problems
+
+
+def write_coords(location: str, sweep: Sweep,
+                 storage_options: Mapping[str, Any] | None = None) -> None:
+    """Write the store's coordinates again from the sweep's configuration."""
+    from .merge import grid_coords
+
+    group = _group(location, storage_options, "r+")
+    for name, (_, values, _) in grid_coords(sweep).items():
+        array: Any = group[name]
+        array[...] = values
+
+
 def _consolidate(location: str, options: Mapping[str, Any] | None) -> None:
     # consolidated metadata lets open_zarr read the layout in one request; zarr warns
     # that format 3 does not standardise it yet, which does not matter to xarray
@@ -289,6 +328,11 @@ class ZarrStore:
             done = np.zeros(sweep.n_tiles, dtype=bool)
         else:
             done = self._verify(done)
+            coords = check_coords(self.location, sweep, self.options)
+            if coords:
+                write_coords(self.location, sweep, self.options)
+                self.notes.append(f"{self.location}: {'; '.join(coords)}; written again "
+                                  "from the configuration")
         self.group = _group(self.location, self.options, "r+")
         # every chunk is stored, even all fill values: a missing chunk is then a loss
         self.arrays = {name: self.group[name].with_config({"write_empty_chunks": True})
@@ -420,6 +464,10 @@ def export_netcdf(location: str, out: str | os.PathLike,
     if bad:
         raise ValueError(f"{location}: {damage_report(bad, sweep.n_tiles)}; nothing was "
                          f"exported. `rattlesweep resume {location}` recomputes them")
+    coords = check_coords(location, sweep, storage_options)
+    if coords:
+        raise ValueError(f"{location}: {'; '.join(coords)}; nothing was exported. "
+                         f"`rattlesweep resume {location}` writes them again")
     ds = open_result(location, storage_options)
     for var in ds.variables.values():
         var.encoding = {}
