@@ -149,3 +149,31 @@ def test_a_second_ctrl_c_ends_a_sweep_whose_tiles_run_for_hours(tmp_path):
     assert "rattlesweep resume" in err
     assert not (out / ".rattlesweep.lock").exists()
     assert not list((out / "tiles").glob("tile-*.nc"))
+
+
+def test_ctrl_c_starts_no_more_tiles(tmp_path):
+    """After Ctrl-C only the tiles already computing (one per worker) or finished are
+    written; the tiles queued behind them are dropped (a hostile trial saw 2 tiles start
+    after the signal)."""
+    config = tmp_path / "slow.toml"
+    config.write_text('name = "slow tiles"\ntile_size = 2\n[axes]\n'
+                      'spin = { start = -20, stop = 20, num = 24 }\n'
+                      '[fixed]\nt_end = 1.0\ndt = 2e-7\n')
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "rattlesweep.cli", "sweep", str(config),
+                             "--out", str(out), "--workers", "2"],
+                            stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    tiles = out / "tiles"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None and not list(
+            tiles.glob("tile-*.nc")):
+        time.sleep(0.002)
+    at_signal = len(list(tiles.glob("tile-*.nc")))
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    after = len(list(tiles.glob("tile-*.nc"))) - at_signal
+    # the tiles computing at the signal (one per worker) and one finished but not yet
+    # written; none of the tiles queued behind them
+    assert 1 <= at_signal and after <= 3, (at_signal, after)

@@ -101,6 +101,10 @@ def _run_threads(sweep: Sweep, todo: list[Any], on_result: Handler, workers: int
                     on_result(future.result())
                 if interrupts.count == 0:
                     refill()
+                else:  # tiles queued but not started are dropped: only running ones end
+                    for future in list(running):
+                        if future.cancel():
+                            running.discard(future)
         finally:
             pool.shutdown(wait=not interrupts.count, cancel_futures=True)
         if interrupts.count:
