@@ -200,3 +200,22 @@ def test_zarr_coordinates_damaged_are_found_refused_and_rewritten(tmp_path, caps
     with xr.open_dataset(tmp_path / "reference.nc") as a, \
             xr.open_dataset(tmp_path / "again.nc") as b:
         xr.testing.assert_identical(without_history(a), without_history(b))
+
+
+def test_a_wrong_coordinate_in_a_merged_sweep_nc_is_found_and_resume_rewrites_it(tmp_path):
+    """A value of an axis changed inside sweep.nc (a flipped byte read as -4.000343 for
+    -4.0 passed verify in a hostile trial): verify names the coordinate, resume writes the
+    file again."""
+    import netCDF4
+
+    s = small_sweep()
+    out = tmp_path / "run"
+    reference = run_sweep(s, out, progress=False).load()
+    with netCDF4.Dataset(out / RESULT_NAME, "a") as nc:
+        nc.variables["delta_deg"][0] = -4.000343
+    found = verify(out)
+    assert not found.ok and any("coordinate delta_deg" in p for p in found.problems)
+    assert main(["resume", str(out), "--quiet"]) == 0
+    assert verify(out).ok
+    with xr.open_dataset(out / RESULT_NAME) as again:
+        xr.testing.assert_identical(without_history(reference), without_history(again))
