@@ -1,6 +1,9 @@
 """Sweeps and comparisons shared by the sweep tests."""
 
 import math
+import signal
+import subprocess
+import sys
 
 import xarray as xr
 
@@ -60,3 +63,13 @@ def file_stats(root, pattern):
     file rewritten gets a new inode (atomic writes) or a new time."""
     return {str(p.relative_to(root)): (p.stat().st_ino, p.stat().st_mtime_ns)
             for p in root.rglob(pattern) if p.is_file()}
+
+
+def start_sweep(config, out, workers):
+    """``rattlesweep sweep CONFIG --out OUT`` in a new process, its stderr piped, started
+    as from a terminal: a parent that ignores SIGINT (a background job of a
+    non-interactive shell, as CI may be) would pass SIG_IGN on, and Python keeps it."""
+    return subprocess.Popen([sys.executable, "-m", "rattlesweep.cli", "sweep", str(config),
+                             "--out", str(out), "--workers", str(workers)],
+                            stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))

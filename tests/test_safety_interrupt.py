@@ -4,7 +4,6 @@ tiles written before are intact, and a resume completes the same result."""
 import os
 import signal
 import subprocess
-import sys
 import time
 
 import pytest
@@ -13,7 +12,7 @@ import xarray as xr
 from rattlesweep.sweep import Sweep, run_sweep
 from rattlesweep.sweep.directory import tile_path, tile_state
 from rattlesweep.sweep.run import RESULT_NAME
-from sweep_helpers import without_history
+from sweep_helpers import start_sweep, without_history
 
 MANY_TILES_TOML = """\
 name = "many small tiles"
@@ -38,11 +37,7 @@ def _interrupt(config, out, delay):
     """Start ``rattlesweep sweep``, send SIGINT ``delay`` s after its first tile file
     appears (or at once when ``delay`` is None: while it checks the output), and return
     its status, the seconds it took to stop and its stderr."""
-    # as from a terminal: a parent that ignores SIGINT would pass SIG_IGN on
-    proc = subprocess.Popen([sys.executable, "-m", "rattlesweep.cli", "sweep", str(config),
-                             "--out", str(out), "--workers", "2"],
-                            stderr=subprocess.PIPE, text=True,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    proc = start_sweep(config, out, 2)
     tiles = out / "tiles"
     deadline = time.monotonic() + 120
     before = set(tiles.glob("tile-*.nc"))
@@ -124,10 +119,7 @@ def test_a_second_ctrl_c_ends_a_sweep_whose_tiles_run_for_hours(tmp_path):
     config = tmp_path / "long.toml"
     config.write_text(LONG_TILES_TOML)
     out = tmp_path / "out"
-    proc = subprocess.Popen([sys.executable, "-m", "rattlesweep.cli", "sweep", str(config),
-                             "--out", str(out), "--workers", "2"],
-                            stderr=subprocess.PIPE, text=True,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    proc = start_sweep(config, out, 2)
     deadline = time.monotonic() + 120
     while (time.monotonic() < deadline and proc.poll() is None
            and not (out / "tiles").is_dir()):
@@ -160,10 +152,7 @@ def test_ctrl_c_starts_no_more_tiles(tmp_path):
                       'spin = { start = -20, stop = 20, num = 24 }\n'
                       '[fixed]\nt_end = 1.0\ndt = 2e-7\n')
     out = tmp_path / "out"
-    proc = subprocess.Popen([sys.executable, "-m", "rattlesweep.cli", "sweep", str(config),
-                             "--out", str(out), "--workers", "2"],
-                            stderr=subprocess.PIPE, text=True,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    proc = start_sweep(config, out, 2)
     tiles = out / "tiles"
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and proc.poll() is None and not list(

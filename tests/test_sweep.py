@@ -18,7 +18,7 @@ from rattlesweep.cli import main
 from rattlesweep.sweep import OUTCOME_NAMES, Sweep, classify, resume, run_sweep
 from rattlesweep.sweep.grid import uniform01
 from rattlesweep.sweep.run import RESULT_NAME
-from sweep_helpers import (KILL_TOML, assert_same_file, file_stats, small_sweep,
+from sweep_helpers import (KILL_TOML, assert_same_file, file_stats, small_sweep, start_sweep,
                            without_history)
 
 TOY = rs.Body.preset("toy")
@@ -289,12 +289,7 @@ def test_ctrl_c_stops_cleanly_and_resume_finishes(tmp_path):
     config = tmp_path / "kill.toml"
     config.write_text(KILL_TOML)
     out = tmp_path / "out"
-    # as from a terminal: a parent that ignores SIGINT (a background job of a
-    # non-interactive shell, as CI may be) would pass SIG_IGN on, and Python keeps it
-    proc = subprocess.Popen([sys.executable, "-m", "rattlesweep.cli", "sweep", str(config),
-                             "--out", str(out), "--workers", "1"],
-                            stderr=subprocess.PIPE, text=True,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    proc = start_sweep(config, out, 1)
     tiles = out / "tiles"
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and not list(tiles.glob("tile-*.nc")):
