@@ -408,12 +408,12 @@ def test_progress_is_shown(not_robust, monkeypatch):
     for line in ("searching 24 placements x 72 launches...", "refining (level 1 of 2)",
                  "reversal map: 41 spins x 9 friction values...", "writing files into"):
         assert line in stderr
-    from rattlesweep.design import progress
+    from rattlesweep.engine import kernels_compiled
 
-    assert progress.kernels_cached()  # the kernels ran, so numba cached them
+    assert kernels_compiled()  # the kernels ran, so numba cached them
     import rattlesweep.design.api as api
 
-    monkeypatch.setattr(api, "kernels_cached", lambda: False)
+    monkeypatch.setattr(api, "kernels_compiled", lambda: False)
     said = []
     design(*SHELL, progress=said.append, **CHEAP)
     assert said[0].startswith("compiling the simulation kernels (first run only")

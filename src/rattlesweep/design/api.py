@@ -13,11 +13,12 @@ import numpy as np
 import xarray as xr
 
 from ..body import Body
+from ..engine import kernels_compiled
 from .coins import DEFAULT_COIN, Coin, coin_preset
 from .constraints import check_coin_fits, check_margin, check_shell, max_coin_mass
 from .mass import Part, body_of, moments_of
 from .printing import MATERIALS, Material, PrintSettings, material_preset, require
-from .progress import Progress, kernels_cached, quiet
+from .progress import Progress, quiet
 from .search import Launches, SearchResult, bad_sign, search
 
 __all__ = ["Design", "design", "make_coin"]
@@ -324,7 +325,7 @@ def design(
         from .files import check_out
 
         check_out(out_dir, overwrite)
-    if not kernels_cached():
+    if not kernels_compiled():
         say("compiling the simulation kernels (first run only: one to three minutes)...")
     result = search(part, launches, prefer, grid=grid, refine=refine, progress=say)
     body = body_of(result.part, name="printed rattleback")
