@@ -233,10 +233,12 @@ def test_kernels_compiled_says_whether_a_first_call_compiles(tmp_path):
 
     from rattlesweep.engine import kernels_compiled
 
-    rs.simulate(rs.Body.preset("toy"), spin=5.0, t_end=0.01)
-    assert kernels_compiled(parallel=False)
+    from rattlesweep.core.workspace import ROLLING
+
+    rs.simulate(rs.Body.preset("toy"), spin=5.0, t_end=0.01)  # rolling: mu = inf
+    assert kernels_compiled(parallel=False, level=ROLLING)
     probe = ("from rattlesweep.engine import kernels_compiled; "
-             "print(kernels_compiled(False), kernels_compiled(True))")
+             "print(kernels_compiled(False, level=0), kernels_compiled(True))")
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
                          env={**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}, check=True)
     assert out.stdout.split() == ["False", "False"]

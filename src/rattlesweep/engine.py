@@ -26,7 +26,10 @@ from numba import types
 from .core import stepper
 from .core.jit import on_disk
 from .core.rows import Rows
-from .core.workspace import BLOCK, METHODS, OBSERVABLES, STOP_RULES
+from .core.models import RATTLEBACK
+from .core.workspace import (
+    BLOCK, METHODS, MU_ROLL, MU_S, MU_SPIN, OBSERVABLES, SLIDING, STOP_RULES, friction_level,
+)
 from .validation import (as_float_array, check_boolean, check_memory, fail_where,
                          is_real)
 
@@ -40,7 +43,7 @@ __all__ = [
     "blocked", "broadcast_inputs", "check_band", "check_common", "check_method",
     "check_record_every", "check_record_size", "check_single_step", "check_stop",
     "contact_slip_velocity",
-    "default_dts", "execute", "kernels_compiled", "numba_threads", "pack",
+    "batch_level", "default_dts", "execute", "kernels_compiled", "numba_threads", "pack",
     "physical_memory", "prepared",
     "run_kernel", "steps_for", "unblock", "warn_coarse_dt",
 ]
@@ -321,19 +324,21 @@ _COMPILED: dict[tuple[Any, ...], Any] = {}
 
 # ``kernel`` is a numba dispatcher, typed Any: through the jit.py decorators (partials of
 # numba.njit) numba's stubs give a kernel the type of the decorator instead
-def run_kernel(kernel: Any, model: int, *args: Any) -> None:
-    """Call a stepper kernel for a model. The kernels take the model as a literal
-    (``numba.literally``); called from Python with a plain int, numba would type the call
+def run_kernel(kernel: Any, literals: int | tuple[int, ...], *args: Any) -> None:
+    """Call a stepper kernel with its literal leading arguments (the model number, and
+    for the integrators the friction level). The kernels take them as literals
+    (``numba.literally``); called from Python with plain ints, numba would type the call
     afresh every time (milliseconds), so the compiled specialisation is looked up once
-    per argument types (compiled for the literal model at once, which also spares numba
-    a first attempt with a plain int) and called directly (microseconds)."""
-    key = (kernel, model, *(numba.typeof(a) for a in args))
+    per argument types (compiled for the literals at once, which also spares numba a
+    first attempt with plain ints) and called directly (microseconds)."""
+    leading = literals if isinstance(literals, tuple) else (literals,)
+    key = (kernel, leading, *(numba.typeof(a) for a in args))
     entry = _COMPILED.get(key)
     if entry is None:
-        signature = (types.literal(model), *key[2:])
+        signature = (*(types.literal(value) for value in leading), *key[2:])
         kernel.compile(signature)  # or loads it from the cache
         entry = _COMPILED[key] = kernel.get_overload(signature)
-    entry(model, *args)
+    entry(*leading, *args)
 
 
 def contact_slip_velocity(model: Model, P: np.ndarray, Y: np.ndarray) -> np.ndarray:
@@ -446,11 +451,22 @@ def check_record_size(prep: Prepared, n_rec: int, record_every: int) -> None:
             f"less often (a larger record_every), or a shorter t_end")
 
 
-def kernels_compiled(parallel: bool = True) -> bool:
+def kernels_compiled(parallel: bool = True, model: int = RATTLEBACK,
+                     level: int = SLIDING) -> bool:
     """True when the machine code of the kernel entry that :func:`execute` calls
-    (``parallel`` or serial) is in numba's on-disk cache: a first call in this process
-    then loads it in about a second; otherwise it compiles, for about a minute."""
-    return on_disk(stepper.integrate_parallel if parallel else stepper.integrate_serial)
+    (``parallel`` or serial) for the model number ``model`` at the friction level
+    ``level`` (:func:`friction_level`; the default: Coulomb friction without couples) is
+    in numba's on-disk cache: a first call in this process then loads it in about a
+    second; otherwise it compiles the kernels first."""
+    return on_disk(stepper.integrate_parallel if parallel else stepper.integrate_serial,
+                   model, level)
+
+
+def batch_level(prep: Prepared) -> int:
+    """The friction level the launches of ``prep`` need
+    (:func:`.core.workspace.friction_level`)."""
+    P = unblock(prep.P, prep.n)
+    return friction_level(P[MU_S], P[MU_SPIN], P[MU_ROLL])
 
 
 _PARALLEL = threading.Lock()
@@ -475,8 +491,8 @@ def execute(prep: Prepared, *, method: int, record_every: int | None, band: floa
     Y = prep.Y.copy()
     entry = stepper.integrate_parallel if parallel else stepper.integrate_serial
     with _PARALLEL if parallel else contextlib.nullcontext(), numba_threads(threads):
-        run_kernel(entry, prep.model.number, prep.P, Y, prep.nsteps, method,
-                   record_every or 1, band, O, REC)
+        run_kernel(entry, (prep.model.number, batch_level(prep)), prep.P, Y, prep.nsteps,
+                   method, record_every or 1, band, O, REC)
     rec = None
     if n_rec:
         rec = REC.transpose(0, 3, 1, 2).reshape(n_blocks * BLOCK, n_rec, layout.N_REC)[:prep.n]

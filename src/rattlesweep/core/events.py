@@ -47,12 +47,12 @@ from numba.extending import overload
 
 from . import models
 from .jit import OVERLOAD_OPTIONS, inline_kernel, kernel
-from .stages import set_step_fractions
+from .stages import set_mid_stage, set_step_fractions
 from .switching import cone_margin, couple_margin, note_slip, start_slip, switch_couples
 from .workspace import (
-    BLOCK, COUPLES, DT, EPS_U, H_HALF_DT, K_MARK_SWITCH, K_SLIP_STEPS, NOT_MARKED, OFF_H,
+    BLOCK, DT, EPS_U, H_HALF_DT, K_MARK_SWITCH, K_SLIP_STEPS, NOT_MARKED, OFF_H,
     OFF_K, OFF_P, OFF_S, OFF_X, ROLL_SWITCHES, S_JX, S_JY, S_MODE, S_ROLL, S_ROLL_SENSE,
-    S_SPIN, S_SPIN_SENSE, SPIN_SWITCHES, STAGE_2, STAGE_3, STAGE_4, STAGE_START, SWITCHES,
+    S_SPIN, S_SPIN_SENSE, SPIN_SWITCHES, STAGE_4, STAGE_MID, STAGE_START, SWITCHES,
     X_N, X_ROLL_EVENT, X_SPIN_EVENT, X_TSTOP, X_UX, X_UY, at,
 )
 
@@ -89,21 +89,25 @@ the ends of an interval and their derivatives, and the held step's result."""
 
 
 @kernel
-def evaluate_lane(W, model, j):
-    """Evaluate lane j alone at its state Y in its current mode: derivative in A, contact
-    outputs in X."""
+def evaluate_lane(W, model, level, j):
+    """Evaluate lane j alone at its state Y in its current mode, at the friction level
+    ``level`` (a literal): derivative in A, contact outputs in X."""
     numba.literally(model)
-    models.evaluate(W, model, COUPLES, STAGE_START, True, j)
+    numba.literally(level)
+    models.evaluate(W, model, level, STAGE_START, True, j)
 
 
 @kernel
-def rk4_lane(W, model, j):
+def rk4_lane(W, model, level, j):
     """The three inner RK4 stages of lane j alone, after :func:`evaluate_lane`: Y becomes
     the state one (lane) step later, B the state before."""
     numba.literally(model)
-    models.evaluate(W, model, COUPLES, STAGE_2, True, j)
-    models.evaluate(W, model, COUPLES, STAGE_3, True, j)
-    models.evaluate(W, model, COUPLES, STAGE_4, True, j)
+    numba.literally(level)
+    set_mid_stage(W, False, True, j)
+    models.evaluate(W, model, level, STAGE_MID, True, j)
+    set_mid_stage(W, True, True, j)
+    models.evaluate(W, model, level, STAGE_MID, True, j)
+    models.evaluate(W, model, level, STAGE_4, True, j)
 
 
 @kernel
@@ -161,13 +165,14 @@ def begin_lane_step(W, model, j, h):
 
 
 @kernel
-def lane_step(W, model, j, h):
+def lane_step(W, model, level, j, h):
     """One RK4 step of length h (s) of lane j alone, in its mode, from its evaluated
     state; leaves the new state evaluated (with the step fractions of h)."""
     numba.literally(model)
+    numba.literally(level)
     begin_lane_step(W, model, j, h)
-    rk4_lane(W, model, j)
-    evaluate_lane(W, model, j)
+    rk4_lane(W, model, level, j)
+    evaluate_lane(W, model, level, j)
 
 
 @kernel
@@ -197,15 +202,16 @@ def switch_event(W, j):
 
 
 @kernel
-def event_root(W, model, j, buf, h, g0, g1):
+def event_root(W, model, level, j, buf, h, g0, g1):
     """The fraction θ* of the interval (length h, s) in ``buf`` at which lane j's
     :func:`event_margin`, g0 at its start and g1 < 0 at its end, crosses zero, taken
     just past the crossing (by ``2 THETA_TOL`` where the last iterate fell short); leaves
     the lane at y(θ*), evaluated. θ* = 0 when the margin is not positive at the start."""
     numba.literally(model)
+    numba.literally(level)
     if not g0 > 0.0:
         interpolate(W, model, j, buf, 0.0, h)
-        evaluate_lane(W, model, j)
+        evaluate_lane(W, model, level, j)
         return 0.0
     lo, g_lo, hi, g_hi = 0.0, g0, 1.0, g1
     theta = 1.0
@@ -214,7 +220,7 @@ def event_root(W, model, j, buf, h, g0, g1):
         previous = theta
         theta = (lo * g_hi - hi * g_lo) / (g_hi - g_lo)
         interpolate(W, model, j, buf, theta, h)
-        evaluate_lane(W, model, j)
+        evaluate_lane(W, model, level, j)
         g = event_margin(W, j)
         if g >= 0.0:
             lo, g_lo = theta, g
@@ -231,12 +237,12 @@ def event_root(W, model, j, buf, h, g0, g1):
     if side == 1:  # switch just past the crossing, where the new mode is the consistent one
         theta = min(hi, theta + 2.0 * THETA_TOL)
         interpolate(W, model, j, buf, theta, h)
-        evaluate_lane(W, model, j)
+        evaluate_lane(W, model, level, j)
     return theta
 
 
 @kernel
-def forward_to_stop(W, model, j, buf, t_stop, step, dt):
+def forward_to_stop(W, model, level, j, buf, t_stop, step, dt):
     """Step slipping lane j, evaluated, forward by ``step`` (s) towards its stop, which
     its evaluation predicts t_stop (s) ahead (:func:`stop_step`). Past the stop (the
     slip velocity turned against its value before), the step is taken again, shortened
@@ -245,6 +251,7 @@ def forward_to_stop(W, model, j, buf, t_stop, step, dt):
     predicted to stop within ``STOP_TOL`` of the lane's step dt (s) has stopped, without
     a step."""
     numba.literally(model)
+    numba.literally(level)
     if t_stop <= STOP_TOL * dt:  # stopped: the plastic impulse removes what is left
         return True, 0.0
     off_y, _, off_a, _, _, _ = models.state_regions(model)
@@ -252,7 +259,7 @@ def forward_to_stop(W, model, j, buf, t_stop, step, dt):
     copy_state(W, model, j, buf, F0, off_a)
     ux = W[at(OFF_X, X_UX, j)]
     uy = W[at(OFF_X, X_UY, j)]
-    lane_step(W, model, j, step)
+    lane_step(W, model, level, j, step)
     g_before = ux * ux + uy * uy
     g_after = W[at(OFF_X, X_UX, j)] * ux + W[at(OFF_X, X_UY, j)] * uy
     if g_after >= 0.0:
@@ -260,7 +267,7 @@ def forward_to_stop(W, model, j, buf, t_stop, step, dt):
     step = step * g_before / (g_before - g_after)
     load_state(W, model, j, buf, Y0, off_y)
     load_state(W, model, j, buf, F0, off_a)
-    lane_step(W, model, j, step)
+    lane_step(W, model, level, j, step)
     return True, step
 
 
@@ -330,19 +337,20 @@ def switch_marked(W, model):
 
 
 @kernel
-def locate_lane(W, model, j, buf, dt):
+def locate_lane(W, model, level, j, buf, dt):
     """Redo lane j's last step (length dt, s) with its switches located (see the module
     docstring). On entry: the state before the step in B, the held step's state in Y,
     its first stage for the next step in A and contact outputs in X; on exit the same
     for the located step."""
     numba.literally(model)
+    numba.literally(level)
     off_y, _, off_a, off_b, _, _ = models.state_regions(model)
     modes = (W[at(OFF_S, S_MODE, j)], W[at(OFF_S, S_SPIN, j)], W[at(OFF_S, S_SPIN_SENSE, j)],
              W[at(OFF_S, S_ROLL, j)], W[at(OFF_S, S_ROLL_SENSE, j)])
     copy_state(W, model, j, buf, HELD, off_y)
     copy_state(W, model, j, buf, Y0, off_b)
     load_state(W, model, j, buf, Y0, off_y)  # back to the step start
-    evaluate_lane(W, model, j)
+    evaluate_lane(W, model, level, j)
 
     t = 0.0  # time into the step, s
     slip_time = 0.0  # time spent slipping, s
@@ -363,18 +371,18 @@ def locate_lane(W, model, j, buf, dt):
         t_stop = W[at(OFF_X, X_TSTOP, j)]
         if switches < MAX_SWITCHES and slipping and t_stop < rest:
             stops, step = forward_to_stop(
-                W, model, j, buf, t_stop, stop_step(t, t_stop, t_seen, t_stop_seen, rest), dt)
+                W, model, level, j, buf, t_stop, stop_step(t, t_stop, t_seen, t_stop_seen, rest), dt)
             stops = stops or creeps(W, j, t_stop)
             t_seen = t
             t_stop_seen = t_stop
         else:
-            lane_step(W, model, j, rest)
+            lane_step(W, model, level, j, rest)
             step = rest
         g1 = event_margin(W, j)
         if switches < MAX_SWITCHES and g1 < 0.0:  # a stick → slip or a couple switched first
             copy_state(W, model, j, buf, Y1, off_y)
             copy_state(W, model, j, buf, F1, off_a)
-            theta = event_root(W, model, j, buf, step, g0, g1)
+            theta = event_root(W, model, level, j, buf, step, g0, g1)
             t += theta * step
             slip_time += theta * step if slipping else 0.0
             roll = W[at(OFF_S, S_ROLL, j)]
@@ -382,7 +390,7 @@ def locate_lane(W, model, j, buf, dt):
             switch_event(W, j)
             if W[at(OFF_S, S_ROLL, j)] != roll or W[at(OFF_S, S_SPIN, j)] != spin:
                 models.stick_couples(W, model, j)
-            evaluate_lane(W, model, j)
+            evaluate_lane(W, model, level, j)
             switches += 1
             t_seen = -1.0
             continue
@@ -391,14 +399,14 @@ def locate_lane(W, model, j, buf, dt):
         if stops:
             t_seen = -1.0
             stick_lane(W, model, j)
-            evaluate_lane(W, model, j)
+            evaluate_lane(W, model, level, j)
             switches += 1
             if cone_margin(W, j) < 0.0:  # slips on at once, in the new direction
                 start_slip(W, j)
-                evaluate_lane(W, model, j)
+                evaluate_lane(W, model, level, j)
     if t < dt and dt - t > THETA_TOL * dt:  # out of pieces: the rest in the present modes
         slip_time += (dt - t) * W[at(OFF_S, S_MODE, j)]
-        lane_step(W, model, j, dt - t)
+        lane_step(W, model, level, j, dt - t)
 
     bad_value, capsized = models.check_step(W, model, j)  # renormalises the quaternion
     if bad_value or capsized:  # keep the held step
@@ -409,7 +417,7 @@ def locate_lane(W, model, j, buf, dt):
         W[at(OFF_S, S_ROLL, j)] = modes[3]
         W[at(OFF_S, S_ROLL_SENSE, j)] = modes[4]
         slip_time = modes[0] * dt
-        evaluate_lane(W, model, j)
+        evaluate_lane(W, model, level, j)
     # ready for the next step: its first stage is the evaluation at the end of this one
     begin_lane_step(W, model, j, dt)
     if W[at(OFF_S, S_MODE, j)] > 0.5:
@@ -419,27 +427,28 @@ def locate_lane(W, model, j, buf, dt):
 
 
 @kernel
-def locate_marked(W, model, buf):
+def locate_marked(W, model, level, buf):
     """Redo the last step of every lane marked by :func:`.switching.flag_switches`, with
     its switches located."""
     numba.literally(model)
+    numba.literally(level)
     for j in range(BLOCK):
         if W[at(OFF_K, K_MARK_SWITCH, j)] != NOT_MARKED:
-            locate_lane(W, model, j, buf, W[at(OFF_P, DT, j)])
+            locate_lane(W, model, level, j, buf, W[at(OFF_P, DT, j)])
 
 
-def locate_where_located(W, model, buf):
+def locate_where_located(W, model, level, buf):
     """:func:`locate_marked` for a model that locates its switches
     (:func:`.models.locates_switches`); for another, nothing, and nothing of this
     module is compiled into its stepper."""
 
 
 @overload(locate_where_located, prefer_literal=True, jit_options=OVERLOAD_OPTIONS)
-def _locate_where_located(W, model, buf):
+def _locate_where_located(W, model, level, buf):
     if isinstance(model, types.IntegerLiteral) and models.locates_switches(
             model.literal_value):
-        return lambda W, model, buf: locate_marked(W, model, buf)
-    return lambda W, model, buf: None
+        return lambda W, model, level, buf: locate_marked(W, model, level, buf)
+    return lambda W, model, level, buf: None
 
 
 def located(model):

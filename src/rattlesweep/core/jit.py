@@ -132,12 +132,15 @@ def drop_stale_cache(root: Path = Path(__file__).parent) -> bool:
     return True
 
 
-def on_disk(dispatcher: Any) -> bool:
+def on_disk(dispatcher: Any, *literals: int) -> bool:
     """True when numba's on-disk cache holds machine code of the cached kernel
-    ``dispatcher`` (for some signature), so that its first call in a process loads it
-    rather than compiling it, which takes about a minute for the stepper: callers use it
-    to say so before a first call."""
-    return Path(dispatcher._cache._cache_file._index_path).is_file()
+    ``dispatcher`` for a signature whose leading arguments are the literal integers
+    ``literals`` (any signature when none are given), written from the current sources,
+    so that its first call in a process loads it rather than compiling it: callers use
+    it to say so before a first call that would compile."""
+    index = dispatcher._cache._cache_file._load_index()  # {} when absent or stale
+    wanted = tuple(numba.types.literal(value) for value in literals)
+    return any(tuple(key[0][:len(wanted)]) == wanted for key in index)
 
 
 drop_stale_cache()

@@ -91,7 +91,7 @@ def _evaluate(W, model, slip_possible, stage, one_lane, lane):
 
 def euler_step(W, model):
     """Semi-implicit Euler from region Y with the derivative in A, in place; the old
-    state left in A."""
+    state left in B."""
 
 
 @_hook(euler_step)

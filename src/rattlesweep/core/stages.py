@@ -7,8 +7,9 @@ T the stage state, A the accumulator, h the time step):
 
 * ``STAGE_START`` and ``STAGE_FIRST``: A = d and T = Y + (h/2) d (the semi-implicit Euler
   step also starts from A = d);
-* ``STAGE_2``: A += 2d and T = Y + (h/2) d;
-* ``STAGE_3``: A += 2d and T = Y + h d;
+* ``STAGE_MID``, the second and third stages: A += 2d and T = Y + c d, with c = h/2 in
+  the second and h in the third (:func:`set_mid_stage` sets it): one compiled variant for
+  both;
 * ``STAGE_4``: Y = Y + (h/6)(A + d), the new state, in place, and B = the old Y, kept
   for a lane whose step fails or whose contact mode changed inside the step.
 
@@ -18,13 +19,15 @@ The two first stages differ only in which contact outputs the model writes (see
 
 from __future__ import annotations
 
+import numba
+
 from .jit import kernel
 from .workspace import (
-    DT, H_HALF_DT, H_SIXTH_DT, OFF_H, OFF_P, STAGE_2, STAGE_3, STAGE_FIRST,
-    STAGE_START, at,
+    DT, H_HALF_DT, H_SIXTH_DT, H_STAGE_DT, OFF_H, OFF_P, STAGE_FIRST, STAGE_MID,
+    STAGE_START, at, lane_range,
 )
 
-__all__ = ["first_stage", "put_derivative", "set_step_fractions"]
+__all__ = ["first_stage", "put_derivative", "set_mid_stage", "set_step_fractions"]
 
 
 @kernel
@@ -52,14 +55,10 @@ def put_derivative(W, j, row, stage, dk, stage_state, off_y, off_t, off_a, off_b
         W[a] = dk
         if stage_state:
             W[t] = W[y] + W[at(OFF_H, H_HALF_DT, j)] * dk
-    elif stage == STAGE_2:
+    elif stage == STAGE_MID:
         W[a] += 2.0 * dk
         if stage_state:
-            W[t] = W[y] + W[at(OFF_H, H_HALF_DT, j)] * dk
-    elif stage == STAGE_3:
-        W[a] += 2.0 * dk
-        if stage_state:
-            W[t] = W[y] + W[at(OFF_P, DT, j)] * dk
+            W[t] = W[y] + W[at(OFF_H, H_STAGE_DT, j)] * dk
     else:
         y_old = W[y]
         W[y] = y_old + W[at(OFF_H, H_SIXTH_DT, j)] * (W[a] + dk)
@@ -73,3 +72,15 @@ def set_step_fractions(W, j):
     W[at(OFF_H, H_HALF_DT, j)] = 0.5 * h
     W[at(OFF_H, H_SIXTH_DT, j)] = h / 6.0
 
+
+
+@kernel
+def set_mid_stage(W, third, one_lane, lane):
+    """Make the next ``STAGE_MID`` the third stage of RK4 (``third``, stage state at a
+    whole step) or the second (half a step), for every lane or (``one_lane``, a literal)
+    lane ``lane`` alone."""
+    numba.literally(one_lane)
+    first, stop = lane_range(one_lane, lane)
+    for j in range(first, stop):
+        W[at(OFF_H, H_STAGE_DT, j)] = (W[at(OFF_P, DT, j)] if third
+                                       else W[at(OFF_H, H_HALF_DT, j)])

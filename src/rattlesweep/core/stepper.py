@@ -36,14 +36,17 @@ import math
 
 import numba
 import numpy as np
-from numba import prange
+from numba import prange, types
+from numba.core.errors import TypingError
+from numba.extending import overload
 
 from . import models
-from .jit import allocating_kernel, inline_kernel, kernel, parallel_kernel
+from .jit import OVERLOAD_OPTIONS, allocating_kernel, inline_kernel, kernel, parallel_kernel
 from .events import LOCATE_ROWS, locate_where_located, located, switch_marked
-from .stages import set_step_fractions
+from .stages import set_mid_stage, set_step_fractions
 from .switching import (
-    LOCATED_STOP_HORIZON, STOP_HORIZON, any_slipping, flag_switches, note_slip, pass_step,
+    LOCATED_STOP_HORIZON, STOP_HORIZON, any_slipping, flag_switches, keep_directions,
+    note_slip, pass_step,
 )
 from .workspace import (
     at, BEYOND, BLOCK, CAPSIZED, COS2_HEADING_BAND, COUPLES, CROSSED, DT, ENDS_AS_IS,
@@ -53,50 +56,107 @@ from .workspace import (
     K_WIN0, K_WIN_CNT, K_WIN_SUM, LIFTED_OFF, MU_ROLL, MU_S, MU_SPIN, NON_FINITE,
     NOT_MARKED, OFF_H, OFF_K, OFF_P, OFF_S, OFF_X, OK, O_E0, O_E_END, O_FINAL_SPIN,
     O_FIRST_REV, O_MEAN_FINAL_SPIN, O_N_REV, O_SLIP_FRAC, O_SPIN0, O_STATUS, O_STEPS,
-    O_T_END, RK4, STAGE_2, STAGE_3, STAGE_4, STAGE_FIRST, STAGE_START, STOP_AT_REVERSAL,
+    O_T_END, RK4, ROLLING, SLIDING, STAGE_4, STAGE_FIRST, STAGE_MID, STAGE_START,
+    STOP_AT_REVERSAL,
     STOP_RULE, S_JX, S_JY, S_MODE, S_ROLL, S_ROLL_SENSE, S_SPIN, S_SPIN_SENSE, S_TSTOP,
-    S_UHX, TURNED_BACK, X_N, X_UX, X_UY,
+    S_UHX, TURNED_BACK, X_N, X_ROLL_EVENT, X_SPIN_EVENT, X_UX, X_UY,
 )
 
 __all__ = ["advance_block", "contact_slip_velocity", "integrate_parallel",
            "integrate_serial", "rolling_derivative"]
 
 
-@kernel
-def evaluate_state(W, model, slip_possible, forces):
+def _literal(value, what):
+    if not isinstance(value, types.IntegerLiteral):
+        raise TypingError(f"the {what} must be a literal integer (numba.literally)")
+    return value.literal_value
+
+
+def evaluate_state(W, model, level, slipping, forces):
     """First RK stage at the step-start state, with the normal force in region X and,
-    when ``forces`` or ``slip_possible``, the friction force and slip velocity too.
-    ``slip_possible`` is decided at run time: ``COUPLES`` for a block with spin or
-    rolling friction, else False only when no lane that is still stepped slips."""
-    numba.literally(model)
-    if slip_possible == COUPLES:
-        models.evaluate(W, model, COUPLES, STAGE_START, False, 0)
-    elif slip_possible:
-        models.evaluate(W, model, True, STAGE_START, False, 0)
-    elif forces:
-        models.evaluate(W, model, False, STAGE_START, False, 0)
-    else:
-        models.evaluate(W, model, False, STAGE_FIRST, False, 0)
+    when ``forces`` or ``slipping``, the friction force and slip velocity too.
+    ``slipping``, the friction level of the evaluation decided at run time, is
+    ``COUPLES`` for a block with spin or rolling friction, else ``ROLLING`` only when no
+    lane that is still stepped slips; ``level`` (a literal) is the highest it can be: only
+    the variants of the right-hand side up to it are compiled."""
+
+
+@overload(evaluate_state, prefer_literal=True, jit_options=OVERLOAD_OPTIONS)
+def _evaluate_state(W, model, level, slipping, forces):
+    top = _literal(level, "friction level")
+
+    def rolling(W, model, level, slipping, forces):
+        if forces:
+            models.evaluate(W, model, ROLLING, STAGE_START, False, 0)
+        else:
+            models.evaluate(W, model, ROLLING, STAGE_FIRST, False, 0)
+
+    def sliding(W, model, level, slipping, forces):
+        if slipping != ROLLING:
+            models.evaluate(W, model, SLIDING, STAGE_START, False, 0)
+            keep_directions(W)
+        elif forces:
+            models.evaluate(W, model, ROLLING, STAGE_START, False, 0)
+        else:
+            models.evaluate(W, model, ROLLING, STAGE_FIRST, False, 0)
+
+    def couples(W, model, level, slipping, forces):
+        if slipping == COUPLES:
+            models.evaluate(W, model, COUPLES, STAGE_START, False, 0)
+            keep_directions(W)
+        elif slipping != ROLLING:
+            models.evaluate(W, model, SLIDING, STAGE_START, False, 0)
+            keep_directions(W)
+        elif forces:
+            models.evaluate(W, model, ROLLING, STAGE_START, False, 0)
+        else:
+            models.evaluate(W, model, ROLLING, STAGE_FIRST, False, 0)
+
+    return (rolling, sliding, couples)[top]
+
+
+def rk4_step(W, model, level, slipping):
+    """The three inner stages of classic RK4 (the first ran in :func:`evaluate_state`),
+    leaving the new state in region Y and the old one in region B, at the friction
+    level ``slipping`` (``ROLLING``: every lane sticks, no slip-only work), at most the
+    literal ``level``."""
+
+
+@overload(rk4_step, prefer_literal=True, jit_options=OVERLOAD_OPTIONS)
+def _rk4_step(W, model, level, slipping):
+    top = _literal(level, "friction level")
+
+    def rolling(W, model, level, slipping):
+        inner_stages(W, model, ROLLING)
+
+    def sliding(W, model, level, slipping):
+        if slipping != ROLLING:
+            inner_stages(W, model, SLIDING)
+        else:
+            inner_stages(W, model, ROLLING)
+
+    def couples(W, model, level, slipping):
+        if slipping == COUPLES:
+            inner_stages(W, model, COUPLES)
+        elif slipping != ROLLING:
+            inner_stages(W, model, SLIDING)
+        else:
+            inner_stages(W, model, ROLLING)
+
+    return (rolling, sliding, couples)[top]
 
 
 @kernel
-def rk4_step(W, model, slip_possible):
-    """The three inner stages of classic RK4 (the first ran in :func:`evaluate_state`),
-    leaving the new state in region Y and the old one in region B. ``slip_possible``
-    False (every lane sticks) lets the stages skip slip-only work."""
+def inner_stages(W, model, slipping):
+    """The second, third and fourth stages of RK4 at the friction level ``slipping`` (a
+    literal). The second and third share one compiled variant of the right-hand side."""
     numba.literally(model)
-    if slip_possible == COUPLES:
-        models.evaluate(W, model, COUPLES, STAGE_2, False, 0)
-        models.evaluate(W, model, COUPLES, STAGE_3, False, 0)
-        models.evaluate(W, model, COUPLES, STAGE_4, False, 0)
-    elif slip_possible:
-        models.evaluate(W, model, True, STAGE_2, False, 0)
-        models.evaluate(W, model, True, STAGE_3, False, 0)
-        models.evaluate(W, model, True, STAGE_4, False, 0)
-    else:
-        models.evaluate(W, model, False, STAGE_2, False, 0)
-        models.evaluate(W, model, False, STAGE_3, False, 0)
-        models.evaluate(W, model, False, STAGE_4, False, 0)
+    numba.literally(slipping)
+    set_mid_stage(W, False, False, 0)
+    models.evaluate(W, model, slipping, STAGE_MID, False, 0)
+    set_mid_stage(W, True, False, 0)
+    models.evaluate(W, model, slipping, STAGE_MID, False, 0)
+    models.evaluate(W, model, slipping, STAGE_4, False, 0)
 
 
 @kernel
@@ -346,17 +406,57 @@ def record_block(W, model, step, REC, i_rec, rec):
                 REC[i_rec, k, j] = np.nan
 
 
+@kernel
+def _switch_modes(W, model, level, buf, couples, can_slip, locating, slipping):
+    """Change the contact modes of the lanes whose mode changed over the last step (none
+    when no lane ``can_slip``): with ``locating``, each redoes its last step with the
+    switch located; otherwise the mode changes at the step start, and the block is
+    evaluated again. Returns the friction level of the next step's evaluations."""
+    numba.literally(model)
+    numba.literally(level)
+    if not can_slip:
+        return slipping
+    if locating:
+        if flag_switches(W, True, LOCATED_STOP_HORIZON, couples) > 0:
+            locate_where_located(W, model, level, buf)
+    elif flag_switches(W, True, STOP_HORIZON, couples) > 0:  # modes change now
+        again = COUPLES if couples else SLIDING
+        switch_marked(W, model)
+        evaluate_state(W, model, level, again, True)
+        # re-stuck outside the cone, or a couple stuck beyond its bound
+        if flag_switches(W, False, STOP_HORIZON, couples) > 0:
+            switch_marked(W, model)
+            evaluate_state(W, model, level, again, True)
+    return COUPLES if couples else (SLIDING if any_slipping(W) else ROLLING)
+
+
+def switch_modes(W, model, level, buf, couples, can_slip, locating, slipping):
+    """:func:`_switch_modes` at a friction level (a literal) where lanes can slip; at
+    ``ROLLING`` nothing, and none of the switching is compiled."""
+
+
+@overload(switch_modes, prefer_literal=True, jit_options=OVERLOAD_OPTIONS)
+def _switch_modes_at(W, model, level, buf, couples, can_slip, locating, slipping):
+    if _literal(level, "friction level") == ROLLING:
+        return lambda W, model, level, buf, couples, can_slip, locating, slipping: slipping
+    return lambda W, model, level, buf, couples, can_slip, locating, slipping: _switch_modes(
+        W, model, level, buf, couples, can_slip, locating, slipping)
+
+
 @allocating_kernel
-def advance_block(model, P, Y, nsteps, method, record_every, band, O, REC):
+def advance_block(model, level, P, Y, nsteps, method, record_every, band, O, REC):
     """Integrate one block from t = 0 for nsteps[j] steps of P[DT, j] per lane.
 
-    ``model`` a literal model number; P (n_param, BLOCK) parameters; Y (n_state, BLOCK)
+    ``model`` a literal model number; ``level`` a literal friction level, at least the
+    one the block's parameters need (:func:`.workspace.friction_level`): the work of
+    higher levels is not compiled into its copy; P (n_param, BLOCK) parameters; Y (n_state, BLOCK)
     initial state, overwritten with the final state; nsteps (BLOCK,) int64; method RK4
     or EULER; REC (n_rec, n_record, BLOCK) receives every ``record_every``-th step (NaN
     after a lane stopped); ``band`` is the spin-reversal hysteresis as a fraction of
     |spin(0)|; O (n_obs, BLOCK) receives the observables.
     """
     numba.literally(model)
+    numba.literally(level)
     W = np.zeros(models.state_regions(model)[5] * BLOCK)
     buf = np.empty((LOCATE_ROWS, models.state_regions(model)[4]))
     status = np.zeros(BLOCK, dtype=np.int64)
@@ -392,7 +492,10 @@ def advance_block(model, P, Y, nsteps, method, record_every, band, O, REC):
         W[at(OFF_K, K_WIN0, j)] = nsteps[j] - max(nsteps[j] // 10, 1)
         W[at(OFF_K, K_T_CROSS, j)] = np.nan
         W[at(OFF_K, K_FIRST_REV, j)] = np.nan
-    evaluate_state(W, model, COUPLES if couples else 1, True)
+        # no couple switches: only evaluations at the level COUPLES write these
+        W[at(OFF_X, X_SPIN_EVENT, j)] = math.inf
+        W[at(OFF_X, X_ROLL_EVENT, j)] = math.inf
+    evaluate_state(W, model, level, COUPLES if couples else SLIDING, True)
     can_slip = couples  # some lane may slip now or later: its static friction is finite,
     # or it has a couple
     for j in range(BLOCK):
@@ -433,24 +536,14 @@ def advance_block(model, P, Y, nsteps, method, record_every, band, O, REC):
     stop = next_stop(W)  # kept up to date whenever a lane is written out
     locating = method == RK4 and located(model)
     for step in range(max_steps + 1):
-        slipping = COUPLES if couples else (1 if can_slip and any_slipping(W) else 0)
+        slipping = COUPLES if couples else (
+            SLIDING if can_slip and any_slipping(W) else ROLLING)
         recording = n_rec > 0 and step % record_every == 0 and step // record_every < n_rec
         # the friction force and slip velocity are read only by the stick/slip decisions
         # and the record
-        evaluate_state(W, model, slipping, can_slip or recording)
-        if can_slip:
-            level = COUPLES if couples else 1
-            if locating and step > 0:
-                if flag_switches(W, True, LOCATED_STOP_HORIZON, couples) > 0:
-                    locate_where_located(W, model, buf)
-            elif flag_switches(W, True, STOP_HORIZON, couples) > 0:  # modes change now
-                switch_marked(W, model)
-                evaluate_state(W, model, level, True)
-                # re-stuck outside the cone, or a couple stuck beyond its bound
-                if flag_switches(W, False, STOP_HORIZON, couples) > 0:
-                    switch_marked(W, model)
-                    evaluate_state(W, model, level, True)
-            slipping = COUPLES if couples else (1 if any_slipping(W) else 0)
+        evaluate_state(W, model, level, slipping, can_slip or recording)
+        slipping = switch_modes(W, model, level, buf, couples, can_slip,
+                                locating and step > 0, slipping)
         if step > 0 and observe(W, model, step - 1) > 0:
             if note_reversals(W, model, step) > 0:
                 stop = next_stop(W)
@@ -469,7 +562,7 @@ def advance_block(model, P, Y, nsteps, method, record_every, band, O, REC):
             break  # (a record goes on to max_steps: its later samples are NaN)
 
         if method == RK4:
-            rk4_step(W, model, slipping)
+            rk4_step(W, model, level, slipping)
         else:
             models.euler_step(W, model)
         if can_slip:
@@ -484,7 +577,7 @@ def advance_block(model, P, Y, nsteps, method, record_every, band, O, REC):
 
 
 @parallel_kernel
-def integrate_parallel(model, P, Y, nsteps, method, record_every, band, O, REC):
+def integrate_parallel(model, level, P, Y, nsteps, method, record_every, band, O, REC):
     """Integrate all blocks, spread over numba's threads (one block per task).
 
     Arrays carry a leading block axis: P (n_blocks, n_param, BLOCK), Y (n_blocks,
@@ -492,16 +585,18 @@ def integrate_parallel(model, P, Y, nsteps, method, record_every, band, O, REC):
     (n_blocks, n_rec, n_record, BLOCK).
     """
     numba.literally(model)
+    numba.literally(level)
     for b in prange(P.shape[0]):
-        advance_block(model, P[b], Y[b], nsteps[b], method, record_every, band, O[b], REC[b])
+        advance_block(model, level, P[b], Y[b], nsteps[b], method, record_every, band, O[b], REC[b])
 
 
 @kernel
-def integrate_serial(model, P, Y, nsteps, method, record_every, band, O, REC):
+def integrate_serial(model, level, P, Y, nsteps, method, record_every, band, O, REC):
     """As :func:`integrate_parallel`, on the calling thread only (the GIL released)."""
     numba.literally(model)
+    numba.literally(level)
     for b in range(P.shape[0]):
-        advance_block(model, P[b], Y[b], nsteps[b], method, record_every, band, O[b], REC[b])
+        advance_block(model, level, P[b], Y[b], nsteps[b], method, record_every, band, O[b], REC[b])
 
 
 @allocating_kernel
@@ -517,7 +612,7 @@ def contact_slip_velocity(model, P, Y, U):
     for b in range(P.shape[0]):
         for j in range(BLOCK):
             load_lane(W, model, P[b], Y[b], j)
-        evaluate_state(W, model, 1, True)
+        evaluate_state(W, model, ROLLING, ROLLING, True)  # u: the same in every variant
         for j in range(BLOCK):
             U[b, 0, j] = W[at(OFF_X, X_UX, j)]
             U[b, 1, j] = W[at(OFF_X, X_UY, j)]
@@ -534,7 +629,7 @@ def rolling_derivative(model, P, Y, D):
     for b in range(P.shape[0]):
         for j in range(BLOCK):
             load_lane(W, model, P[b], Y[b], j)
-        evaluate_state(W, model, 0, True)
+        evaluate_state(W, model, ROLLING, ROLLING, True)
         for k in range(n_state):
             for j in range(BLOCK):
                 D[b, k, j] = W[at(off_a, k, j)]  # the first RK stage leaves d in A

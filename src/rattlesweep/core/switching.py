@@ -33,12 +33,13 @@ from .workspace import (
     ROLL_SWITCHES, S_DCX, S_DCY, S_DPX, S_DPY, S_MODE, S_ROLL, S_ROLL_SENSE, S_SPIN,
     S_SPIN_SENSE, S_TSTOP, S_TURN, S_UHX, S_UHY, S_USX, S_USY, SPIN_SWITCHES, SWITCHES,
     X_FX, X_FY, X_N,
-    X_ROLL_COUPLE, X_ROLL_EVENT, X_SPIN_COUPLE, X_SPIN_EVENT, X_TSTOP, X_UX, X_UY, at,
+    X_DCX, X_DCY, X_ROLL_COUPLE, X_ROLL_EVENT, X_SPIN_COUPLE, X_SPIN_EVENT, X_TSTOP, X_TURN,
+    X_UX, X_UY, at,
 )
 
 __all__ = [
     "LOCATED_STOP_HORIZON", "STOP_HORIZON", "any_slipping", "cone_margin", "couple_margin",
-    "flag_switches", "note_slip", "pass_step", "start_slip", "stop_time", "switch_couples",
+    "flag_switches", "keep_directions", "note_slip", "pass_step", "start_slip", "stop_time", "switch_couples",
 ]
 
 LOCATED_STOP_HORIZON = 1.0
@@ -91,6 +92,18 @@ def pass_step(W):
     for j in range(BLOCK):
         W[at(OFF_S, S_DPX, j)] = W[at(OFF_S, S_DCX, j)]
         W[at(OFF_S, S_DPY, j)] = W[at(OFF_S, S_DCY, j)]
+
+
+@kernel
+def keep_directions(W):
+    """After a step-start evaluation of the block with slip work, every slipping lane's
+    consistent slip direction and its turn rate (contact outputs) become its switching
+    state: the one place they are written, once per evaluation of a step start."""
+    for j in range(BLOCK):
+        slipping = W[at(OFF_S, S_MODE, j)] > 0.5
+        W[at(OFF_S, S_DCX, j)] = W[at(OFF_X, X_DCX, j)] if slipping else W[at(OFF_S, S_DCX, j)]
+        W[at(OFF_S, S_DCY, j)] = W[at(OFF_X, X_DCY, j)] if slipping else W[at(OFF_S, S_DCY, j)]
+        W[at(OFF_S, S_TURN, j)] = W[at(OFF_X, X_TURN, j)] if slipping else W[at(OFF_S, S_TURN, j)]
 
 
 @kernel

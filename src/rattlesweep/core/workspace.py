@@ -24,7 +24,9 @@ parameters, state, stage state, the RK4 accumulator and scratch.
 from __future__ import annotations
 
 import math
+from typing import Any
 
+import numpy as np
 from numba import types
 from numba.extending import overload
 
@@ -33,7 +35,7 @@ from .rows import Row, Rows
 
 __all__ = [
     "BLOCK", "at", "lane_range", "STATUS_NAMES", "OK", "CAPSIZED", "LIFTED_OFF", "NON_FINITE", "RK4",
-    "EULER", "METHODS",
+    "EULER", "METHODS", "ROLLING", "SLIDING", "COUPLES", "LEVEL_NAMES", "friction_level",
 ]
 
 BLOCK = 32
@@ -75,13 +77,29 @@ RK4, EULER = range(2)
 # --- the RK4 stages of one right-hand-side evaluation (see stages.put_derivative) ------
 STAGE_START = 0  # step-start state, every contact output
 STAGE_FIRST = 1  # step-start state, the normal force only
-STAGE_2 = 2
-STAGE_3 = 3
-STAGE_4 = 4
+STAGE_MID = 2  # the second or third stage: the stage state's fraction of dt in H_STAGE_DT
+STAGE_4 = 3
 
+# --- friction levels -------------------------------------------------------------------
+# The contact work an evaluation does, as its literal ``slip_possible`` flag; and, as a
+# literal argument of the stepper's entry points, the most a batch needs: only the
+# variants up to it are compiled.
+ROLLING = 0
+"""Every lane rolls (sticks): no slip work, no switching (infinite static friction)."""
+SLIDING = 1
+"""Coulomb stick/slip of the contact point (finite static friction)."""
 COUPLES = 2
-"""The value of an evaluation's ``slip_possible`` flag that also computes the spin and
-rolling couples (MODEL.md section 4b): for blocks where some lane has them."""
+"""Stick/slip plus the spin and rolling couples (MODEL.md section 4b)."""
+LEVEL_NAMES = ("rolling", "sliding", "couples")
+
+
+def friction_level(mu_static: Any, mu_spin: Any, mu_roll: Any) -> int:
+    """The friction level a batch of launches with these coefficients needs (arrays or
+    numbers): COUPLES where some launch has a couple, SLIDING where some static friction
+    is finite (or not a number), else ROLLING."""
+    if np.any(np.asarray(mu_spin) > 0.0) or np.any(np.asarray(mu_roll) > 0.0):
+        return COUPLES
+    return SLIDING if np.any(~(np.asarray(mu_static) == math.inf)) else ROLLING
 
 # --- contact outputs of an evaluation at the step-start state, rows of region X --------
 # Horizontal vectors are world (X, Y); a planar model leaves the Y components zero.
@@ -100,6 +118,11 @@ CONTACT = Rows(
     Row("spin_couple", "N m", "spin friction couple about the contact normal"),
     Row("roll_couple", "N m", "rolling resistance couple (planar: about the axis of "
         "rocking)"),
+    Row("consistent_direction_now", "1", "a slipping lane's consistent slip direction "
+        "at the evaluated state (unit; 3-D model, step-start evaluations of the block)",
+        2, "horizontal"),
+    Row("consistent_turn_now", "rad s-1", "the rate at which it turned since the step "
+        "before (3-D model, as consistent_direction_now)"),
 )
 X_N = CONTACT.start("normal_force")
 X_FX = CONTACT.start("friction_force")
@@ -111,6 +134,9 @@ X_SPIN_EVENT = CONTACT.start("spin_event")
 X_ROLL_EVENT = CONTACT.start("roll_event")
 X_SPIN_COUPLE = CONTACT.start("spin_couple")
 X_ROLL_COUPLE = CONTACT.start("roll_couple")
+X_DCX = CONTACT.start("consistent_direction_now")
+X_DCY = X_DCX + 1
+X_TURN = CONTACT.start("consistent_turn_now")
 
 # --- switching state of each lane, rows of region S ----------------------------------
 SWITCH = Rows(
@@ -235,7 +261,8 @@ COS2_HEADING_BAND = math.cos(HEADING_BAND) ** 2
 # --- fractions of the time step, rows of region H (set from DT in the block set-up) ---
 H_HALF_DT = 0  # dt / 2, s
 H_SIXTH_DT = 1  # dt / 6, s (a division the last RK4 stage would otherwise take every step)
-N_FRACTIONS = 2
+H_STAGE_DT = 2  # the stage state's step in the STAGE_MID under way: dt / 2 or dt, s
+N_FRACTIONS = 3
 
 # --- the parameter rows every model starts its parameters with, rows of region P -----
 COMMON_PARAMS = Rows(

@@ -229,7 +229,8 @@ def run_refined(sweep: Sweep, out: str | os.PathLike[str], *, client: Any = None
                 apply(result)
             bar = Progress(len(items), len(index), len(done),
                            sum(len(r.index) for r in done), enabled=progress,
-                           compiling=client is None and not kernels_compiled(parallel=False))
+                           compiling=client is None and not kernels_compiled(
+                               parallel=False, level=sweep.friction_level))
 
             def write(result: LevelTileResult) -> None:
                 store.write(result)

@@ -120,7 +120,8 @@ def run_sweep(sweep: Sweep, out: str | os.PathLike, *, client: Client | None = N
         bar = Progress(sweep.n_tiles, sweep.size, len(done),
                        sum(_points(sweep, t) for t in done), enabled=progress,
                        compiling=(client is None and scheduler is None
-                                  and not kernels_compiled(parallel=False)))
+                                  and not kernels_compiled(parallel=False,
+                                                           level=sweep.friction_level)))
         for note in getattr(store, "notes", ()):
             bar.note(note)
         if scheduler is not None:

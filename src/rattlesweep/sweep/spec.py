@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Iterator, Mapping
@@ -46,6 +47,7 @@ from typing import Any, Iterator, Mapping
 import numpy as np
 
 from ..body import Body
+from ..core.workspace import friction_level
 from .corners import check_corners, choose_tile_size, tile_block
 from .grid import Axis, RandomParam, batch_inputs
 from .params import resolve
@@ -245,6 +247,26 @@ class Sweep:
     def random_params(self) -> tuple[RandomParam, ...]:
         """The random parameters as :class:`~rattlesweep.sweep.grid.RandomParam` objects."""
         return self._random_params
+
+    @property
+    def friction_level(self) -> int:
+        """The kernel's friction level (:func:`rattlesweep.core.workspace.friction_level`)
+        that the sweep's launches can need, from every value its friction coefficients
+        take (a random one: any value)."""
+        values: dict[str, list[float]] = {k: [] for k in
+                                          ("mu", "mu_static", "mu_spin", "mu_roll")}
+        for axis in self.grid_axes:
+            if axis.param in values:
+                values[axis.param].extend(np.asarray(axis.si, dtype=float).ravel())
+        for param in self.random_params:
+            if param.param in values:
+                values[param.param].extend([1.0, math.nan])  # any value: the highest level
+        for key, value in self.fixed_si().items():
+            if key in values:
+                values[key].append(float(value))
+        static = values["mu_static"] or values["mu"] or [math.inf]
+        return friction_level(np.array(static), np.array(values["mu_spin"] or [0.0]),
+                              np.array(values["mu_roll"] or [0.0]))
 
     def fixed_si(self) -> dict[str, float]:
         """Fixed numeric parameters in SI, by canonical name (``body`` excluded)."""

@@ -179,7 +179,7 @@ def eval_block(W, slip_possible, stage, one_lane, lane):
 def euler_step(W):
     """Semi-implicit Euler on region Y, in place, with the derivative in A from the first
     stage: velocities first, then positions with the new velocities. Leaves the old state
-    in A, as the RK4 stages do."""
+    in B, as the RK4 stages do."""
     for j in range(BLOCK):
         dt = W[at(OFF_P, DT, j)]
         rate = W[at(OFF_Y, RATE, j)] + dt * W[at(OFF_A, RATE, j)]

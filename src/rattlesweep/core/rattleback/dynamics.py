@@ -13,16 +13,19 @@ from __future__ import annotations
 import math
 
 import numba
+from numba import types
+from numba.core.errors import TypingError
+from numba.extending import overload
 
-from ..jit import inline_kernel, kernel
+from ..jit import OVERLOAD_OPTIONS, inline_kernel, kernel
 from ..stages import first_stage, put_derivative
 from ..switching import stop_time
 from ..workspace import (
-    BLOCK, COUPLES, DT, EPS_U, GRAV, MU_K, MU_ROLL, MU_SPIN, OFF_P, OFF_S, OFF_X, S_DCX,
-    S_DCY, S_DPX, S_DPY, S_MODE, S_ROLL, S_SPIN, S_SPIN_SENSE, S_TURN, S_UHX, S_UHY,
+    BLOCK, COUPLES, DT, EPS_U, GRAV, MU_K, MU_ROLL, MU_SPIN, OFF_P, OFF_S, OFF_X, ROLLING,
+    S_DCX, S_DCY, S_DPX, S_DPY, S_MODE, S_ROLL, S_SPIN, S_SPIN_SENSE, S_TURN, S_UHX, S_UHY,
     STAGE_FIRST, STAGE_START,
-    X_FX, X_FY, X_N, X_ROLL_COUPLE, X_ROLL_EVENT, X_SPIN_COUPLE, X_SPIN_EVENT, X_TSTOP,
-    X_UX, X_UY, at, lane_range,
+    X_DCX, X_DCY, X_FX, X_FY, X_N, X_ROLL_COUPLE, X_ROLL_EVENT, X_SPIN_COUPLE, X_SPIN_EVENT, X_TSTOP,
+    X_TURN, X_UX, X_UY, at, lane_range,
 )
 from .geometry import adjugate_solve, cross
 from .layout import (
@@ -103,10 +106,10 @@ def eval_block(W, slip_possible, stage, one_lane, lane):
       go to region X (the semi-implicit Euler step also starts from A = d);
     * ``STAGE_FIRST``: the same with the normal force as the only output, for steps
       where nothing reads the others;
-    * ``STAGE_2``: A += 2d and T = Y + (h/2) d;
-    * ``STAGE_3``: A += 2d and T = Y + h d;
-    * ``STAGE_4``: Y = Y + (h/6)(A + d), the new state, in place, and A = the old Y,
-      for a lane whose step fails. Forces, which nobody reads in these inner stages,
+    * ``STAGE_MID``: A += 2d and T = Y + c d (c = h/2 in the second stage, h in the
+      third: :func:`.stages.set_mid_stage`);
+    * ``STAGE_4``: Y = Y + (h/6)(A + d), the new state, in place, and B = the old Y,
+      for a lane whose step fails or whose contact mode changed inside it. Forces, which nobody reads in these inner stages,
       are not written.
 
     ``one_lane`` (a literal) restricts the evaluation to lane ``lane``.
@@ -127,21 +130,18 @@ def eval_block(W, slip_possible, stage, one_lane, lane):
     numba.literally(one_lane)
     if stage == STAGE_START:
         contact_kinematics(W, True, OFF_Y, one_lane, lane)  # the slip velocity is an output
-        if slip_possible:
-            if one_lane:
-                slip_direction(W, OFF_Y, True, lane, False)
-            else:  # once per step: measure φ̇*
-                slip_direction(W, OFF_Y, False, lane, True)
+        if one_lane:
+            steer(W, slip_possible, OFF_Y, True, lane, False)
+        else:  # once per step: measure φ̇*
+            steer(W, slip_possible, OFF_Y, False, lane, True)
         accelerations(W, slip_possible, OFF_Y, one_lane, lane)
     elif stage == STAGE_FIRST:
         contact_kinematics(W, slip_possible, OFF_Y, one_lane, lane)
-        if slip_possible:
-            slip_direction(W, OFF_Y, one_lane, lane, False)
+        steer(W, slip_possible, OFF_Y, one_lane, lane, False)
         accelerations(W, slip_possible, OFF_Y, one_lane, lane)
     else:
         contact_kinematics(W, slip_possible, OFF_T, one_lane, lane)
-        if slip_possible:
-            slip_direction(W, OFF_T, one_lane, lane, False)
+        steer(W, slip_possible, OFF_T, one_lane, lane, False)
         accelerations(W, slip_possible, OFF_T, one_lane, lane)
     if slip_possible or first_stage(stage):
         divide_out(W, True, one_lane, lane)
@@ -266,7 +266,7 @@ def consistency(k_xx, k_yy, k_zz, k_xy, k_xz, k_yz, ax, ay, mu, ex, ey):
     return vx * ey - vy * ex, (dvx * ey - dvy * ex) + (vx * ex + vy * ey), dd
 
 
-@inline_kernel
+@kernel
 def consistent_direction(W, j, state, mu, gx, gy, dx, dy):
     """The consistent slip direction of lane j at its state, and its normal force.
 
@@ -399,7 +399,10 @@ def slip_direction(W, state, one_lane, lane, history):
     û ∝ w u/|u| + (1 − w) t̂ with t̂ = d* turned back by τ φ̇* and w = ``RELAX_STEPS`` τ /
     dt < 1: on the manifold û is unchanged, and off it u's direction relaxes onto it at
     the rate ``RELAX_STEPS`` / dt, which the step follows. φ̇* is measured over the last
-    step; ``history`` (a literal, True for the block's step-start evaluation) updates it.
+    step: ``history`` (a literal, True for the block's step-start evaluation) measures it
+    afresh and puts d* and φ̇* into the contact outputs, which
+    :func:`.switching.keep_directions` makes the lane's switching state; the evaluation
+    itself writes no switching state.
 
     A first, branch-free pass gives every lane u/|u| (a sticking lane, or a slip too
     slow to have a direction, keeps its stored one) and sorts the slipping lanes into
@@ -442,9 +445,9 @@ def slip_direction(W, state, one_lane, lane, history):
         h = W[at(OFF_P, DT, j)]
         if kind == FAST_SLIP:
             if history:  # its direction stands in for d*
-                W[at(OFF_S, S_TURN, j)] = turn_rate(W, j, dx, dy, h)
-                W[at(OFF_S, S_DCX, j)] = dx
-                W[at(OFF_S, S_DCY, j)] = dy
+                W[at(OFF_X, X_TURN, j)] = turn_rate(W, j, dx, dy, h)
+                W[at(OFF_X, X_DCX, j)] = dx
+                W[at(OFF_X, X_DCY, j)] = dy
             continue
         ux = W[at(OFF_G, SLIP_X, j)]
         uy = W[at(OFF_G, SLIP_Y, j)]
@@ -462,9 +465,9 @@ def slip_direction(W, state, one_lane, lane, history):
             dx, dy)
         if history:
             turn = turn_rate(W, j, cx, cy, h) if slope > 0.0 else 0.0
-            W[at(OFF_S, S_TURN, j)] = turn
-            W[at(OFF_S, S_DCX, j)] = cx
-            W[at(OFF_S, S_DCY, j)] = cy
+            W[at(OFF_X, X_TURN, j)] = turn
+            W[at(OFF_X, X_DCX, j)] = cx
+            W[at(OFF_X, X_DCY, j)] = cy
         if slope > 0.0 and RELAX_STEPS * uu < slope * h:
             lag = -turn * uu / slope  # the manifold's angle from d*, rad
             lag = min(max(lag, -0.5), 0.5)
@@ -476,6 +479,21 @@ def slip_direction(W, state, one_lane, lane, history):
             bb = math.sqrt(bx * bx + by * by)
             W[at(OFF_G, UHAT_X, j)] = bx / bb if bb > 1e-3 else cx
             W[at(OFF_G, UHAT_Y, j)] = by / bb if bb > 1e-3 else cy
+
+
+def steer(W, slip_possible, state, one_lane, lane, history):
+    """:func:`slip_direction` where lanes may slip (``slip_possible``, a literal, not
+    ``ROLLING``); nothing, and nothing compiled, where every lane sticks."""
+
+
+@overload(steer, prefer_literal=True, jit_options=OVERLOAD_OPTIONS)
+def _steer(W, slip_possible, state, one_lane, lane, history):
+    if not isinstance(slip_possible, (types.IntegerLiteral, types.BooleanLiteral)):
+        raise TypingError("slip_possible must be a literal (numba.literally)")
+    if slip_possible.literal_value == ROLLING:
+        return lambda W, slip_possible, state, one_lane, lane, history: None
+    return lambda W, slip_possible, state, one_lane, lane, history: slip_direction(
+        W, state, one_lane, lane, history)
 
 
 @kernel

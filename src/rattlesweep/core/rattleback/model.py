@@ -75,7 +75,7 @@ def start_lane(W, j):
 def euler_step(W):
     """Semi-implicit Euler on region Y, in place, with the derivative in A from the first
     RK stage: velocities first, then positions and orientation with the new velocities.
-    Leaves the old state in A, as the RK4 stages do."""
+    Leaves the old state in B, as the RK4 stages do."""
     for j in range(BLOCK):
         dt = W[at(OFF_P, DT, j)]
         h = 0.5 * dt

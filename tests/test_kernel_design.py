@@ -1,0 +1,151 @@
+"""Design rules of the kernels that no result shows: the right-hand side writes nothing
+but its outputs, and the compiled variants are a counted, bounded set."""
+
+import math
+
+import numba
+import numpy as np
+import pytest
+
+import rattlesweep as rs
+from rattlesweep.batch import prepare
+from rattlesweep.core import models, stepper
+from rattlesweep.core.models import RATTLEBACK
+from rattlesweep.core.rattleback import dynamics, layout
+from rattlesweep.core.workspace import (
+    BLOCK, COUPLES, OFF_S, OFF_X, ROLLING, S_DPX, S_DPY, S_MODE, S_UHX, S_UHY,
+    SLIDING, STAGE_START, X_DCX,
+)
+
+
+@numba.njit(cache=True)
+def _evaluate_sliding(W):
+    models.evaluate(W, RATTLEBACK, SLIDING, STAGE_START, False, 0)
+
+
+@numba.njit(cache=True)
+def _evaluate_couples(W):
+    models.evaluate(W, RATTLEBACK, COUPLES, STAGE_START, False, 0)
+
+
+def _slipping_block():
+    """A workspace holding one block of kane_levinson launches, every other lane
+    slipping: slowly (steered, where the consistent direction is solved for) or fast,
+    with a consistent direction from the step before."""
+    n = BLOCK
+    prep = prepare(rs.Body.preset("kane_levinson"), spin=np.linspace(-8.0, 8.0, n),
+                   roll=math.radians(3.0), pitch=math.radians(2.0), mu=0.3,
+                   mu_spin=np.where(np.arange(n) % 3 == 0, 1e-3, 0.0), t_end=0.01)
+    Y = prep.Y[0].copy()
+    offsets = np.where(np.arange(n) % 4 == 1, 1e-5, 1.0)  # m/s: slow, fast
+    Y[layout.VEL_X] += offsets
+    W = np.zeros(layout.N_WORK * BLOCK)
+    for j in range(n):
+        assert stepper.load_lane(W, RATTLEBACK, prep.P[0], Y, j)
+    lanes = np.arange(BLOCK)
+    slipping = lanes % 2 == 1
+    W[(OFF_S + S_MODE) * BLOCK + lanes] = slipping
+    angle = 0.3 * lanes
+    W[(OFF_S + S_UHX) * BLOCK + lanes] = np.cos(angle)
+    W[(OFF_S + S_UHY) * BLOCK + lanes] = np.sin(angle)
+    W[(OFF_S + S_DPX) * BLOCK + lanes] = np.cos(angle - 0.01)
+    W[(OFF_S + S_DPY) * BLOCK + lanes] = np.sin(angle - 0.01)
+    return W, slipping
+
+
+def _rows(offset, n):
+    return slice(offset * BLOCK, (offset + n) * BLOCK)
+
+
+@pytest.mark.parametrize("evaluate", [_evaluate_sliding, _evaluate_couples],
+                         ids=["sliding", "couples"])
+def test_the_right_hand_side_writes_only_its_outputs(evaluate):
+    """Evaluated twice at one state, a block gives identical derivatives and outputs, and
+    leaves every row but its outputs as it found them: the switching state (modes, slip
+    directions, the consistent direction's history) is written by the switching
+    module, not by the right-hand side."""
+    W, slipping = _slipping_block()
+    before = W.copy()
+    evaluate(W)
+    first = W.copy()
+    evaluate(W)
+    np.testing.assert_array_equal(W, first)  # NaN == NaN here
+    # the block exercised both kinds of slip, and put d* among its outputs
+    kinds = first[(layout.OFF_G + layout.SLIP_KIND) * BLOCK + np.arange(BLOCK)]
+    assert set(kinds[slipping]) == {dynamics.FAST_SLIP, dynamics.SLOW_SLIP}
+    assert np.all(first[(OFF_X + X_DCX) * BLOCK + np.flatnonzero(slipping)] != 0.0)
+    outputs = np.zeros(W.size, dtype=bool)
+    for offset, n in [(layout.OFF_A, layout.N_STATE), (layout.OFF_T, layout.N_STATE),
+                      (OFF_X, OFF_S - OFF_X), (layout.OFF_G, layout.N_SCRATCH)]:
+        outputs[_rows(offset, n)] = True
+    changed = np.flatnonzero(~outputs & ~((first == before) | (np.isnan(first)
+                                                              & np.isnan(before))))
+    assert changed.size == 0, f"rows written outside the outputs: {set(changed // BLOCK)}"
+
+
+# --- the compile budget ------------------------------------------------------------------
+# Every specialisation is a design decision: these are the variants each level compiles.
+# A right-hand side variant is (friction level of the evaluation, stage, one lane).
+_BLOCK_STAGES = ("start", "first", "mid", "last")
+RHS_VARIANTS = {
+    ROLLING: {(ROLLING, stage, False) for stage in range(len(_BLOCK_STAGES))},
+    SLIDING: {(SLIDING, stage, one) for stage in (0, 2, 3) for one in (False, True)},
+    COUPLES: {(COUPLES, stage, one) for stage in (0, 2, 3) for one in (False, True)},
+}
+"""The right-hand side variants each friction level adds; a batch at a level compiles
+its own and those of the levels below it (a block without couples, or where no lane
+slips, steps at a lower level)."""
+
+ENTRY_BUDGET = {"integrate_serial": 1, "integrate_parallel": 1,
+                "contact_slip_velocity": 1, "rolling_derivative": 1}
+"""Compiled specialisations per entry point, per model and friction level."""
+
+
+def _cached(dispatcher):
+    """The signatures numba's on-disk cache holds for a kernel, from the current sources."""
+    return [key[0] for key in dispatcher._cache._cache_file._load_index()]
+
+
+def test_compiled_variants_stay_within_the_budget():
+    """Running a batch at each friction level compiles exactly the designed right-hand
+    side variants, and one specialisation of each entry point per model and level."""
+    body = rs.Body.preset("toy")
+    for friction in ({}, {"mu": 0.3}, {"mu": 0.3, "mu_roll": 1e-4}):
+        rs.run_batch(body, spin=[-5.0, 5.0], roll_deg=1.0, t_end=0.01, parallel=False,
+                     **friction)
+    variants = {tuple(t.literal_value for t in sig[1:4])
+                for sig in _cached(dynamics.eval_block)}
+    designed = set().union(*RHS_VARIANTS.values())
+    assert variants == designed, (
+        f"compiled right-hand side variants {sorted(variants - designed)} beyond the "
+        f"design, or {sorted(designed - variants)} missing")
+    for name, budget in ENTRY_BUDGET.items():
+        per_literals: dict = {}
+        for sig in _cached(getattr(stepper, name)):
+            key = tuple(t.literal_value for t in sig if isinstance(t, numba.types.Literal))
+            per_literals[key] = per_literals.get(key, 0) + 1
+        assert all(count <= budget for count in per_literals.values()), (name, per_literals)
+
+
+PROBE = """
+import rattlesweep as rs
+from rattlesweep.core import events, stepper
+from rattlesweep.core.rattleback import dynamics
+rs.simulate(rs.Body.preset("toy"), spin=5.0, t_end=0.01)
+index = lambda d: [key[0] for key in d._cache._cache_file._load_index()]
+print(sorted({sig[1].literal_value for sig in index(dynamics.eval_block)}),
+      len(index(dynamics.slip_direction)), len(index(events.locate_lane)),
+      sorted({sig[1].literal_value for sig in index(stepper.integrate_serial)}))
+"""
+
+
+def test_a_rolling_run_compiles_no_slip_work(tmp_path):
+    """From an empty cache, a rolling run compiles only rolling variants of the
+    right-hand side, no slip direction and no located switching."""
+    import os
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, "-c", PROBE], capture_output=True, text=True,
+                         env={**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}, check=True)
+    assert out.stdout.split("\n")[0] == f"[{ROLLING}] 0 0 [{ROLLING}]"
