@@ -27,6 +27,7 @@ from .engine import (
     Model, Prepared, as_bodies, check_band, check_method, check_record_every,
     check_single_step, check_stop,
 )
+from .inputs import RATTLEBACK as INPUTS
 from .launch import (
     angles_in_radians, check_unit_quaternion, quaternion_from_angles, tilt_limit_error,
     up_vector,
@@ -120,9 +121,7 @@ def launch_inputs(
                                  f"got shape {arr.shape}")
             vectors[name] = arr
     arrays = {k: as_float_array(k, v) for k, v in scalars.items()}
-    engine.check_common(arrays)
-    d = arrays["damping"]
-    fail_where("damping", d, ~(np.isfinite(d) & (d >= 0)), "must be finite and >= 0 (N m s)")
+    engine.check_common(arrays, INPUTS)
     shape, n, flat_bodies, flat, flat_vec = engine.broadcast_inputs(as_bodies(body, Body), arrays,
                                                                     vectors)
     table, index = distinct_bodies(flat_bodies)

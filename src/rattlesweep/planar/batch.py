@@ -22,6 +22,7 @@ from ..core.planar import layout
 from ..engine import (
     Model, Prepared, as_bodies, check_method, check_record_every, check_single_step,
 )
+from ..inputs import PLANAR as INPUTS
 from ..validation import fail_where
 from .body import PlanarBodies, PlanarBody
 from .metadata import attrs_for
@@ -65,11 +66,7 @@ def prepare_planar(body: PlanarBodies, *, theta: ArrayLike, rate: ArrayLike = 0.
         inputs["dt"] = dt
     shape, n, flat_bodies, flat, _ = engine.broadcast_inputs(as_bodies(body, PlanarBody),
                                                              inputs)
-    th = flat["theta"]
-    fail_where("theta", th, np.isfinite(th) & (np.abs(th) >= math.pi / 2),
-               "must be in (-pi/2, pi/2) rad (at |theta| = pi/2 the flat edge reaches "
-               "the floor)")
-    engine.check_common(flat)
+    engine.check_common(flat, INPUTS)
     table, index = distinct_bodies(flat_bodies)
     default_from = None  # the inputs a default step comes from, for messages
     if "dt" not in flat:
