@@ -71,7 +71,8 @@ class Input:
     rule. ``result`` and
     ``result_units`` are its name and units in results where they are not ``name`` and
     ``units`` (an angle in degrees); ``in_results`` is False for an input that results
-    hold as a global attribute or not at all.
+    hold as a global attribute or not at all. A vector input has ``width`` components
+    along the dimension ``dim`` of results.
     """
 
     name: str
@@ -88,6 +89,8 @@ class Input:
     in_results: bool = True
     default_doc: str = ""
     required: bool = False
+    width: int = 1  # the length of a vector input's last axis
+    dim: str = ""  # the name of that axis in results
 
     @property
     def result_name(self) -> str:
@@ -167,19 +170,20 @@ RATTLEBACK_INPUTS: tuple[Input, ...] = (
     Input("delta", "rad", "misalignment of the inertia axes about +z",
           "Misalignment of the principal axes of inertia from the geometric axes.", "body",
           0.0, FINITE, sweep=True, result="delta_deg", result_units="degree"),
-    Input("com", "m", "centre of mass from the centre of the flat face, body frame",
-          "Centre of mass G from the centre of the flat face.", "body"),
+    Input("full_ellipsoid", "1", "1 for a full ellipsoid (no rim), 0 for a semi-ellipsoid",
+          "Whether the body is a full ellipsoid (no rim, never capsizes).", "body"),
     *(Input(f"inertia_{ij}", "kg m2", f"inertia tensor element I_{ij} about G",
             f"Element I_{ij} of the inertia tensor about G, body frame.", "body")
       for ij in ("xx", "yy", "zz", "xy", "xz", "yz")),
-    Input("full_ellipsoid", "1", "1 for a full ellipsoid (no rim), 0 for a semi-ellipsoid",
-          "Whether the body is a full ellipsoid (no rim, never capsizes).", "body"),
+    Input("com", "m", "centre of mass from the centre of the flat face, body frame",
+          "Centre of mass G from the centre of the flat face.", "body", width=3,
+          dim="body_axis"),
     Input("spin", "rad s-1", "initial spin about the vertical",
           "Initial rotation about the world vertical, counter-clockwise seen from above.",
           "launch", 0.0, FINITE, sweep=True, launch_state=True, result="launch_spin"),
     Input("omega", "rad s-1", "initial angular velocity, body components",
           "Initial angular velocity (body frame), instead of spin.", "launch",
-          launch_state=True, result="launch_omega"),
+          launch_state=True, result="launch_omega", width=3, dim="body_axis"),
     Input("roll", "rad", "initial roll about body x",
           "Initial roll about body x (or roll_deg, in degrees).", "launch", 0.0, FINITE,
           sweep=True, launch_state=True, result="roll_deg", result_units="degree"),
@@ -191,10 +195,10 @@ RATTLEBACK_INPUTS: tuple[Input, ...] = (
           FINITE, sweep=True, launch_state=True, result="yaw_deg", result_units="degree"),
     Input("orientation", "1", "initial orientation quaternion (w, x, y, z)",
           "Initial orientation, a unit quaternion body to world, instead of the angles.",
-          "launch", launch_state=True),
+          "launch", launch_state=True, width=4, dim="quaternion_component"),
     Input("velocity", "m s-1", "initial horizontal velocity of the centre of mass",
           "Initial horizontal velocity of G: a sliding launch.", "launch",
-          launch_state=True, result="launch_velocity",
+          launch_state=True, result="launch_velocity", width=2, dim="horizontal",
           default_doc="rolling (the contact point at rest)"),
     MU, MU_STATIC, MU_SPIN, MU_ROLL,
     Input("damping", "N m s", "viscous torque coefficient",
