@@ -94,7 +94,7 @@ def launch_inputs(
     units), without the kernel. Raises ValueError naming the parameter, the value and
     the rule for any invalid input. Non-finite launch values (spin, omega, angles,
     orientation, velocity) are not errors: those trajectories get the status
-    ``non_finite``. ``announce`` warns (:class:`~rattlesweep.engine.LongRunWarning`) of
+    ``non_finite``. ``announce`` warns (:class:`~rattlesweep.LongRunWarning`) of
     a batch of more than :data:`~rattlesweep.engine.LONG_RUN_STEPS` steps."""
     if spin is not None and omega is not None:
         raise ValueError("give either spin (about the vertical) or omega (body frame), not both")
