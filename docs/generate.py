@@ -1,6 +1,6 @@
 """Pages of the documentation generated from the package itself, so that they cannot
-drift from it: the command-line help, the inputs of both models and the sweepable parameters (from
-their descriptions, :mod:`rattlesweep.inputs`) and the body presets.
+drift from it: the command-line help, the inputs of both models and the sweepable
+parameters (from their descriptions, :mod:`rattlesweep.inputs`) and the body presets.
 
 Called by conf.py at the start of each build; writes Markdown under ``docs/generated/``.
 """

@@ -23,8 +23,9 @@ LAMINA = rs.PlanarBody(0.10, 0.05, 1.0)
 T_END = 0.02
 
 # each rule: a value it accepts at its edge, and one it refuses
-EDGES = {id(POSITIVE): (1e-3, 0.0), id(NONNEG): (0.0, -1e-9), id(NONNEG_INF): (math.inf, -1e-9),
-         id(FINITE): (0.0, math.inf), id(HALF_TURN): (1.5, 1.6), id(BAND): (0.0, 1.0)}
+EDGES = {id(POSITIVE): (1e-3, 0.0), id(NONNEG): (0.0, -1e-9),
+         id(NONNEG_INF): (math.inf, -1e-9), id(FINITE): (0.0, math.inf),
+         id(HALF_TURN): (1.5, 1.6), id(BAND): (0.0, 1.0)}
 
 # arguments that are another form of a described input (the angles in degrees)
 FORMS = {"roll_deg", "pitch_deg", "yaw_deg"}
@@ -38,7 +39,8 @@ def results(tmp_path_factory):
     batches = [
         rs.run_batch(TOY, spin=[2.0, -2.0], roll_deg=0.5, pitch_deg=0.25, yaw_deg=10.0,
                      velocity=(0.01, 0.0), **launch),
-        rs.run_batch(TOY, omega=[0.1, 0.0, 2.0], orientation=[1.0, 0.0, 0.0, 0.0], **launch),
+        rs.run_batch(TOY, omega=[0.1, 0.0, 2.0], orientation=[1.0, 0.0, 0.0, 0.0],
+                     **launch),
     ]
     runs = [rs.simulate(TOY, spin=2.0, roll_deg=0.5, pitch_deg=0.25, yaw_deg=10.0,
                         velocity=(0.01, 0.0), **launch),
@@ -146,12 +148,14 @@ def test_the_functions_take_the_described_inputs_with_their_defaults(model):
 def test_omitted_inputs_take_their_described_defaults():
     batch = rs.run_batch(TOY, t_end=T_END)
     run = rs.simulate(TOY, t_end=T_END)
-    numbers = [s for s in RATTLEBACK.values() if s.in_results and isinstance(s.default, float)]
+    numbers = [s for s in RATTLEBACK.values()
+               if s.in_results and isinstance(s.default, float)]
     assert {s.name for s in numbers} >= {"spin", "roll", "mu", "mu_spin", "damping", "g"}
     for spec in numbers:
         if spec.name == "delta":
             continue
-        np.testing.assert_array_equal(batch[spec.result_name].values, spec.default, spec.name)
+        np.testing.assert_array_equal(batch[spec.result_name].values, spec.default,
+                                      spec.name)
         assert run.attrs[spec.result_name] == spec.default, spec.name
     assert batch.mu_static.values[0] == batch.mu.values[0]  # "`mu`"
     assert batch.attrs["method"] == RATTLEBACK["method"].default
@@ -237,4 +241,5 @@ def test_a_sweep_obeys_each_rule(name):
     with pytest.raises(ValueError, match=rf"{name} {re.escape(spec.rule.message)}; got"):
         rs.Sweep(axes=axes, fixed={**fixed, name: bad})
     with pytest.raises(ValueError, match=rf"{name} {re.escape(spec.rule.message)}; got"):
-        rs.Sweep(axes={**axes, name: [fixed.get(name, good), bad]}, fixed=fixed)
+        rs.Sweep(axes={**axes, name: [fixed[name], bad]},
+                 fixed={k: v for k, v in fixed.items() if k != name})

@@ -5,9 +5,10 @@ What is generated from these descriptions: the CF attributes (``units``, ``long_
 that results carry for each input (:mod:`rattlesweep.metadata`,
 :mod:`rattlesweep.planar.metadata`), the parameters a sweep can vary
 (:mod:`rattlesweep.sweep.params`), the rules the batch layer checks for every model
-(:func:`rattlesweep.engine.check_common`) and the documentation's tables of inputs
+(:func:`rattlesweep.engine.check_common`), the inputs a batch keeps as coordinates, the
+command line's friction options and the documentation's tables of inputs
 (``docs/generate.py``). The kernel's parameter rows (:mod:`rattlesweep.core`) pack an
-input by the name it has here.
+input by the name it has here, in the units it has here.
 
 Values are in SI units (angles in radians); results show an angle in degrees under a
 ``_deg`` name (``roll`` is ``roll_deg``), and the launch spin as ``launch_spin``, since
@@ -25,10 +26,8 @@ from numpy.typing import ArrayLike
 
 from .validation import fail_where
 
-__all__ = [
-    "BAND", "FINITE", "HALF_TURN", "INPUTS", "NONNEG", "NONNEG_INF", "PLANAR", "POSITIVE", "RATTLEBACK", "Input",
-    "Rule", "check_rules", "result_attrs",
-]
+__all__ = ["BAND", "FINITE", "HALF_TURN", "INPUTS", "NONNEG", "NONNEG_INF", "PLANAR",
+           "POSITIVE", "RATTLEBACK", "Input", "Rule", "check_rules", "result_attrs"]
 
 
 @dataclass(frozen=True)
@@ -50,9 +49,10 @@ POSITIVE = Rule("must be finite and > 0", "finite, > 0",
 FINITE = Rule("must be finite", "finite", np.isfinite)
 NONNEG_INF = Rule("must be >= 0 (inf allowed: rolling without slip)", ">= 0, `inf` allowed",
                   lambda v: v >= 0)
-NONNEG = Rule("must be finite and >= 0", "finite, >= 0", lambda v: np.isfinite(v) & (v >= 0))
-HALF_TURN = Rule("must be in (-pi/2, pi/2) rad (at |theta| = pi/2 the flat edge reaches the "
-                 "floor)", "in (-pi/2, pi/2)", lambda v: np.abs(v) < math.pi / 2)
+NONNEG = Rule("must be finite and >= 0", "finite, >= 0",
+              lambda v: np.isfinite(v) & (v >= 0))
+HALF_TURN = Rule("must be in (-pi/2, pi/2) rad (at |theta| = pi/2 the flat edge reaches "
+                 "the floor)", "in (-pi/2, pi/2)", lambda v: np.abs(v) < math.pi / 2)
 BAND = Rule("must be in [0, 1) (a fraction of |initial spin|)", "in [0, 1)",
             lambda v: (v >= 0) & (v < 1))
 
@@ -68,11 +68,10 @@ class Input:
     values obey. A ``launch_state`` input (spin, angles, velocities) is a value the
     trajectory starts from: a batch gives a non-finite one the status ``non_finite``
     instead of refusing it (its finite values obey the rule); a sweep refuses it by its
-    rule. ``result`` and
-    ``result_units`` are its name and units in results where they are not ``name`` and
-    ``units`` (an angle in degrees); ``in_results`` is False for an input that results
-    hold as a global attribute or not at all. A vector input has ``width`` components
-    along the dimension ``dim`` of results.
+    rule. ``result`` and ``result_units`` are its name and units in results where they
+    are not ``name`` and ``units`` (an angle in degrees); ``in_results`` is False for an
+    input that results hold as a global attribute or not at all. A vector input has
+    ``width`` components along the dimension ``dim`` of results.
     """
 
     name: str

@@ -1,7 +1,7 @@
 """CF metadata (units, long names) of the inputs of planar results, from their
-descriptions (:mod:`rattlesweep.inputs`); the attributes of
-what the kernel computes come from :mod:`rattlesweep.core.planar.layout`, and the status
-flags are shared with the 3-D engine (:data:`rattlesweep.metadata.STATUS_ATTRS`)."""
+descriptions (:mod:`rattlesweep.inputs`); the attributes of what the kernel computes
+come from :mod:`rattlesweep.core.planar.layout`, and the status flags are shared with the
+3-D engine (:data:`rattlesweep.metadata.STATUS_ATTRS`)."""
 
 from __future__ import annotations
 

@@ -3,9 +3,10 @@
 Every sweepable input is a scalar described in :mod:`rattlesweep.inputs` (name, SI
 units, long name, default, rule); this module adds the units a configuration may give it
 in. Values are given in the units the user chooses (``units = "deg"``, or a ``_deg``
-suffix on an angle's name) and converted to SI before they reach the kernel. Results name each parameter as :func:`rattlesweep.run_batch`
-does (:func:`result_name`): angles in degrees as ``roll_deg``, ``delta_deg``..., the
-launch spin as ``launch_spin``; other coordinates keep the user's units.
+suffix on an angle's name) and converted to SI before they reach the kernel. Results
+name each parameter as :func:`rattlesweep.run_batch` does (:func:`result_name`): angles
+in degrees as ``roll_deg``, ``delta_deg``..., the launch spin as ``launch_spin``; other
+coordinates keep the user's units.
 """
 
 from __future__ import annotations
