@@ -1,5 +1,6 @@
 """Pages of the documentation generated from the package itself, so that they cannot
-drift from it: the command-line help, the sweepable parameters and the body presets.
+drift from it: the command-line help, the inputs of both models and the sweepable
+parameters (from their descriptions, :mod:`rattlesweep.inputs`) and the body presets.
 
 Called by conf.py at the start of each build; writes Markdown under ``docs/generated/``.
 """
@@ -12,10 +13,8 @@ from pathlib import Path
 from rattlesweep.body import PRESETS
 from rattlesweep.cli import build_parser
 from rattlesweep.sweep.demo import DEMO_TOML
-from rattlesweep.sweep.params import DEFAULTS, PARAMS
-
-_RULES = {"positive": "finite, > 0", "finite": "finite", "nonneg_inf": ">= 0, `inf` allowed",
-          "nonneg": "finite, >= 0"}
+from rattlesweep.inputs import PLANAR, RATTLEBACK, Input
+from rattlesweep.sweep.params import PARAMS
 
 
 def cli_page() -> str:
@@ -43,17 +42,51 @@ def parameters_table() -> str:
              "|---|---|---|---|---|"]
     for p in PARAMS.values():
         units = ", ".join(f"`{u}`" for u in p.units)
-        default = DEFAULTS.get(p.name, "")
-        shown = "" if default == "" else f"`{default}`"
-        if p.name == "mu_static":
-            shown = "`mu`"
-        if p.name == "dt":
-            shown = "1/64 of the body's shortest small-oscillation period"
-        if p.name in ("a", "b", "c", "mass", "delta"):
-            shown = "the `toy` preset's"
-        if p.name == "t_end":
+        if p.group == "body":
+            shown = "the `toy` preset's"  # a sweep's body when none is given
+        elif p.spec.required:
             shown = "required to simulate"
-        lines.append(f"| `{p.name}` | {p.long_name} | {units} | {_RULES[p.rule]} | {shown} |")
+        else:
+            shown = p.spec.default_text
+        lines.append(f"| `{p.name}` | {p.long_name} | {units} | {p.rule.short} | {shown} |")
+    return "\n".join(lines) + "\n"
+
+
+def _inputs_table(inputs: dict[str, Input], function: str) -> list[str]:
+    lines = [f"| argument of `{function}` | name in results | units | meaning | default | "
+             "rule |", "|---|---|---|---|---|---|"]
+    for i in inputs.values():
+        if i.group == "body":
+            continue
+        shown = f"`{i.result_name}`" if i.in_results else "global attribute" if (
+            i.name in ("method", "record_every", "reversal_band", "stop")) else "not kept"
+        units = i.result_units or i.units
+        rule = i.rule.short if i.rule else ""
+        if i.launch_state and rule:
+            rule += " (a batch gives a non-finite value the status `non_finite`)"
+        lines.append(f"| `{i.name}` | {shown} | {units} | {i.doc} | {i.default_text} | "
+                     f"{rule} |")
+    return lines
+
+
+def _body_table(inputs: dict[str, Input]) -> list[str]:
+    lines = ["| name in results | units | long name |", "|---|---|---|"]
+    lines += [f"| `{i.result_name}` | {i.result_units or i.units} | {i.long_name} |"
+              for i in inputs.values() if i.group == "body" and i.in_results]
+    return lines
+
+
+def inputs_page() -> str:
+    """The inputs of both models: the arguments and the body's parameters as results
+    name them, each with its units, default and rule."""
+    lines = ["### The rattleback (`run_batch`, `simulate`)", "",
+             *_inputs_table(RATTLEBACK, "run_batch"), "",
+             "Its body's parameters, coordinates of every result (`delta_deg` of a sweep "
+             "that varies it):", "",
+             *_body_table(RATTLEBACK), "",
+             "### The rocking semi-ellipse (`run_planar_batch`, `simulate_planar`)", "",
+             *_inputs_table(PLANAR, "run_planar_batch"), "",
+             "Its body's parameters:", "", *_body_table(PLANAR)]
     return "\n".join(lines) + "\n"
 
 
@@ -67,6 +100,7 @@ def presets_table() -> str:
 def write_all(out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
     pages = {"cli.md": cli_page(), "parameters.md": parameters_table(),
+             "inputs.md": inputs_page(),
              "presets.md": presets_table(), "demo.toml": DEMO_TOML}
     for name, text in pages.items():
         path = out / name

@@ -34,6 +34,11 @@ def test_docs_build_without_warnings(tmp_path):
         assert (out / f"{page}.html").is_file(), page
     api = (out / "generated/api/rattlesweep.run_batch.html").read_text()
     assert "mu_static" in api and "Returns" in api
+    # the tables of inputs, from their descriptions: the default step's damping bound too
+    for page in ("toml", "guide/results"):
+        html = (out / f"{page}.html").read_text()
+        assert "smallest principal moment of inertia" in html, page
+    assert "launch_angle" in (out / "guide/results.html").read_text()
     cli = (out / "cli.html").read_text()
     assert "rattlesweep sweep" in cli and "--scheduler" in cli
     assert (out / "_images").is_dir() and any((out / "_images").glob("reversal_map*.png"))

@@ -1,8 +1,10 @@
 """Import costs: the package and a sweep specification load without the heavy libraries
 they do not use (dask, netCDF4, matplotlib)."""
 
+import importlib
 import json
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -79,3 +81,49 @@ def test_making_a_sweep_runs_no_kernel():
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
                          env=env, check=True).stdout
     assert out.split()[-1] == "0"
+
+
+# exception classes users do not catch: raised and handled inside the explorer's server
+INTERNAL = {"SettingError", "CapExceeded", "Superseded", "PortInUse"}
+
+
+def _exception_classes() -> dict[str, str]:
+    """Every exception or warning class the package defines: name -> module."""
+    found = {}
+    pattern = re.compile(r"^class (\w+)\((\w*(?:Error|Warning|Exception))\):", re.M)
+    for path in Path(SRC, "rattlesweep").rglob("*.py"):
+        module = ".".join(path.relative_to(SRC).with_suffix("").parts)
+        for name, _ in pattern.findall(path.read_text()):
+            found[name] = module
+    return found
+
+
+def test_every_public_exception_and_warning_is_at_the_top_level():
+    found = _exception_classes()
+    known = {"CoarseStepWarning", "LongRunWarning", "SweepWriteError", "UnitsWarning"}
+    assert known <= set(found)
+    for name, module in found.items():
+        if name in INTERNAL:
+            continue
+        assert name in rs.__all__ and name in dir(rs), name
+        assert getattr(rs, name) is getattr(importlib.import_module(module), name), name
+    assert not INTERNAL & set(rs.__all__)
+
+
+def test_sweep_errors_and_the_plots_load_on_first_use_only():
+    # names from the sweep package, without dask or netCDF4 until the sweep runs
+    assert _imported_after("""
+        import rattlesweep as rs
+        from rattlesweep.sweep.store import SweepWriteError
+        from rattlesweep.sweep.lock import SweepLocked
+        assert rs.SweepWriteError is SweepWriteError and rs.SweepLocked is SweepLocked
+        assert issubclass(rs.CoarseStepWarning, RuntimeWarning)
+    """) == {m: False for m in HEAVY}
+    # rs.plot with no import of rattlesweep.plot first: matplotlib then, and only then
+    got = _imported_after("""
+        import sys
+        import rattlesweep as rs
+        assert "matplotlib" not in sys.modules
+        assert callable(rs.plot.time_series) and callable(rs.plot.reversal_map)
+    """)
+    assert got["matplotlib"] and not got["dask"]

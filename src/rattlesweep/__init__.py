@@ -1,8 +1,9 @@
 """rattlesweep: fast batch simulation of rattlebacks with Coulomb stick/slip friction.
 
 The sweep machinery (:mod:`rattlesweep.sweep`, :class:`Sweep`, :func:`run_sweep`,
-:func:`resume`) is imported on first use: it brings in dask and netCDF4, which a
-simulation does not need.
+:func:`resume` and its errors), the pictures (:mod:`rattlesweep.plot`) and the printable
+designs (:mod:`rattlesweep.design`) are imported on first use: they bring in dask,
+netCDF4 or matplotlib, which a simulation does not need.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 from ._version import __version__
 from .body import PRESETS, Body
 from .batch import run_batch
+from .engine import CoarseStepWarning, LongRunWarning
 from .simulate import simulate
 from .launch import UnitsWarning
 from .tidy import decode, to_csv, to_table, unstack
@@ -20,25 +22,35 @@ from . import planar
 from .planar import PlanarBody, run_planar_batch, simulate_planar
 from . import stability
 
-__all__ = ["Body", "PRESETS", "PlanarBody", "Sweep", "planar", "resume", "run_batch",
-           "run_planar_batch", "run_sweep", "stability", "sweep", "UnitsWarning",
-           "decode", "to_csv", "to_table", "unstack",
-           "simulate", "simulate_planar", "__version__"]
+__all__ = ["Body", "CoarseStepWarning", "DesignRefused", "LongRunWarning", "PRESETS",
+           "PlanarBody", "Sweep", "SweepLocked", "SweepWriteError", "UnitsWarning",
+           "decode", "design", "planar", "plot", "resume", "run_batch", "run_planar_batch",
+           "run_sweep", "simulate", "simulate_planar", "stability", "sweep", "to_csv",
+           "to_table", "unstack", "__version__"]
 
-_FROM_SWEEP = ("Sweep", "resume", "run_sweep")
+_LAZY_MODULES = ("design", "plot", "sweep")
+"""Subpackages imported on first use as attributes (``rs.plot``)."""
+
+_LAZY_NAMES = {"Sweep": ".sweep", "resume": ".sweep.run", "run_sweep": ".sweep.run",
+               "SweepWriteError": ".sweep.store", "SweepLocked": ".sweep.lock",
+               "DesignRefused": ".design.constraints"}
+"""Names imported on first use, and the module each comes from."""
 
 if TYPE_CHECKING:
     # what __getattr__ imports on first use, seen by type checkers as it is
-    from . import sweep
+    from . import design, plot, sweep
+    from .design.constraints import DesignRefused
     from .sweep import Sweep
+    from .sweep.lock import SweepLocked
     from .sweep.run import resume, run_sweep
+    from .sweep.store import SweepWriteError
 else:
     # hidden from type checkers, which would give any other name its result type
     def __getattr__(name: str) -> Any:
-        if name == "sweep":
-            return importlib.import_module(".sweep", __name__)
-        if name in _FROM_SWEEP:
-            value = getattr(importlib.import_module(".sweep", __name__), name)
+        if name in _LAZY_MODULES:
+            return importlib.import_module(f".{name}", __name__)
+        if name in _LAZY_NAMES:
+            value = getattr(importlib.import_module(_LAZY_NAMES[name], __name__), name)
             globals()[name] = value
             return value
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -27,6 +27,7 @@ from .engine import (
     Model, Prepared, as_bodies, check_band, check_method, check_record_every,
     check_single_step, check_stop,
 )
+from .inputs import RATTLEBACK as INPUTS
 from .launch import (
     angles_in_radians, check_unit_quaternion, quaternion_from_angles, tilt_limit_error,
     up_vector,
@@ -48,8 +49,9 @@ MODEL = Model(
 )
 """The rattleback model as the batch layer sees it."""
 
-BODY_COLUMNS = ("a", "b", "c", "mass", "full_ellipsoid", "inertia_xx", "inertia_yy",
-                "inertia_zz", "inertia_xy", "inertia_xz", "inertia_yz")
+SETTINGS = tuple(s.name for s in INPUTS.values()
+                 if s.group in ("friction", "numerics") and s.in_results)
+"""The inputs results hold as they are given: friction and numerics."""
 
 @dataclass(frozen=True)
 class Inputs:
@@ -92,7 +94,7 @@ def launch_inputs(
     units), without the kernel. Raises ValueError naming the parameter, the value and
     the rule for any invalid input. Non-finite launch values (spin, omega, angles,
     orientation, velocity) are not errors: those trajectories get the status
-    ``non_finite``. ``announce`` warns (:class:`~rattlesweep.engine.LongRunWarning`) of
+    ``non_finite``. ``announce`` warns (:class:`~rattlesweep.LongRunWarning`) of
     a batch of more than :data:`~rattlesweep.engine.LONG_RUN_STEPS` steps."""
     if spin is not None and omega is not None:
         raise ValueError("give either spin (about the vertical) or omega (body frame), not both")
@@ -111,8 +113,9 @@ def launch_inputs(
     if dt is not None:
         scalars["dt"] = dt
     vectors: dict[str, np.ndarray] = {}
-    for name, value, width in (("omega", omega, 3), ("orientation", orientation, 4),
-                               ("velocity", velocity, 2)):
+    for name, value in (("omega", omega), ("orientation", orientation),
+                        ("velocity", velocity)):
+        width = INPUTS[name].width
         if value is not None:
             arr = as_float_array(name, value)
             if arr.ndim == 0 or arr.shape[-1] != width:
@@ -120,9 +123,7 @@ def launch_inputs(
                                  f"got shape {arr.shape}")
             vectors[name] = arr
     arrays = {k: as_float_array(k, v) for k, v in scalars.items()}
-    engine.check_common(arrays)
-    d = arrays["damping"]
-    fail_where("damping", d, ~(np.isfinite(d) & (d >= 0)), "must be finite and >= 0 (N m s)")
+    engine.check_common(arrays, INPUTS)
     shape, n, flat_bodies, flat, flat_vec = engine.broadcast_inputs(as_bodies(body, Body), arrays,
                                                                     vectors)
     table, index = distinct_bodies(flat_bodies)
@@ -210,11 +211,11 @@ def _coords(inputs: Inputs, columns: dict[str, np.ndarray], velocity: np.ndarray
         coords["launch_spin"] = (dim, flat["spin"])
     if velocity is not None:
         coords["launch_velocity"] = ((dim, "horizontal"), velocity)
-    for k in ("mu", "mu_static", "mu_spin", "mu_roll", "damping", "g", "dt", "t_end"):
+    for k in SETTINGS:
         coords[k] = (dim, flat[k])
-    for k in BODY_COLUMNS:
-        coords[k] = (dim, columns[k])
-    coords["com"] = ((dim, "body_axis"), columns["com"])
+    for spec in INPUTS.values():
+        if spec.group == "body" and spec.name in columns:
+            coords[spec.name] = ((dim, spec.dim) if spec.dim else dim, columns[spec.name])
     coords["body_name"] = (dim, np.array([b.name for b in inputs.bodies])[inputs.index])
     return coords
 

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 from ._version import __version__
 from .body import PRESETS, Body
+from .inputs import RATTLEBACK as INPUTS
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -496,23 +497,16 @@ def _add_launch_options(p: argparse.ArgumentParser) -> None:
                         metavar=("VX", "VY"), help="horizontal velocity of G (m/s), a "
                         "sliding launch (default: the velocity at which the contact rolls)")
     friction = p.add_argument_group("friction and numerics")
-    friction.add_argument("--mu", type=float, default=math.inf,
-                          help="kinetic Coulomb friction (inf: pure rolling)")
-    friction.add_argument("--mu-static", type=float, default=None,
-                          help="static friction, >= mu (default: mu)")
-    friction.add_argument("--mu-spin", type=float, default=0.0,
-                          help="spin friction: bound of the couple about the normal per "
-                          "unit normal force (m)")
-    friction.add_argument("--mu-roll", type=float, default=0.0,
-                          help="rolling resistance: bound of the rolling couple per unit "
-                          "normal force (m)")
-    friction.add_argument("--damping", type=float, default=0.0,
-                          help="viscous torque coefficient (N m s)")
-    friction.add_argument("--g", type=float, default=9.81, help="gravity (m/s2)")
-    friction.add_argument("--t-end", type=float, default=10.0, help="end time (s)")
-    friction.add_argument("--dt", type=float, default=None,
-                          help="time step (s; default: 1/64 of the body's shortest "
-                          "small-oscillation period)")
+    for name in ("mu", "mu_static", "mu_spin", "mu_roll", "damping", "g", "t_end", "dt"):
+        spec = INPUTS[name]
+        default = spec.default if isinstance(spec.default, float) else None
+        text = spec.long_name + ("" if spec.units == "1" else f" ({spec.units})")
+        if name == "t_end":  # required by run_batch; here a quick look from the terminal
+            default = 10.0
+        elif spec.default_doc:
+            text += f"; default: {spec.default_doc.replace('`', '')}"
+        friction.add_argument(f"--{name.replace('_', '-')}", type=float, default=default,
+                              help=text)
     friction.add_argument("--method", choices=["rk4", "euler"], default="rk4",
                           help="integrator: RK4, or first-order semi-implicit Euler")
 

@@ -26,10 +26,11 @@ from numba import types
 from .core import stepper
 from .core.jit import on_disk
 from .core.rows import Rows
-from .core.models import RATTLEBACK
+from .core.models import RATTLEBACK as RATTLEBACK_MODEL
 from .core.workspace import (
     BLOCK, METHODS, MU_ROLL, MU_S, MU_SPIN, OBSERVABLES, SLIDING, STOP_RULES, friction_level,
 )
+from .inputs import RATTLEBACK, Input, check_rules
 from .validation import (as_float_array, check_boolean, check_memory, fail_where,
                          is_real)
 
@@ -152,19 +153,14 @@ def broadcast_inputs(bodies: np.ndarray, scalars: Mapping[str, Any],
     return tuple(shape), n, np.broadcast_to(bodies, shape).reshape(n), flat, flat_vec
 
 
-def check_common(arrays: Mapping[str, np.ndarray]) -> None:
-    """The rules of the inputs every model has: friction, g, t_end and (when given) dt."""
+def check_common(arrays: Mapping[str, np.ndarray], inputs: Mapping[str, Input]) -> None:
+    """The rules of a model's inputs (``inputs``, its descriptions in
+    :mod:`rattlesweep.inputs`) for the values in ``arrays`` (name -> values), and
+    ``mu_static >= mu``: friction, damping, g, dt (when given) and t_end."""
+    check_rules(arrays, inputs)
     mu_k, mu_s = arrays["mu"], arrays["mu_static"]
-    fail_where("mu", mu_k, ~(mu_k >= 0), "must be >= 0 (inf for pure rolling)")
-    fail_where("mu_static", mu_s, ~(mu_s >= 0), "must be >= 0 (inf for pure rolling)")
     bad = np.broadcast_to(mu_s, np.broadcast_shapes(mu_s.shape, mu_k.shape)) < mu_k
     fail_where("mu_static", np.broadcast_to(mu_s, bad.shape), bad, "must be >= mu")
-    for name in ("mu_spin", "mu_roll"):
-        v = arrays[name]
-        fail_where(name, v, ~(np.isfinite(v) & (v >= 0)), "must be finite and >= 0 (m)")
-    for name in ("g", "t_end") + (("dt",) if "dt" in arrays else ()):
-        v = arrays[name]
-        fail_where(name, v, ~(np.isfinite(v) & (v > 0)), "must be finite and > 0")
 
 
 COARSE_DT = 4.0
@@ -395,9 +391,10 @@ def check_single_step(prep: Prepared) -> None:
 
 def check_band(reversal_band: float) -> float:
     band = float(reversal_band) if is_real(reversal_band) else np.nan  # else refused below
-    if not (0.0 <= band < 1.0):
-        raise ValueError(f"reversal_band must be in [0, 1) (a fraction of |initial spin|), "
-                         f"got {reversal_band!r}")
+    rule = RATTLEBACK["reversal_band"].rule
+    assert rule is not None
+    if rule.bad(band):
+        raise ValueError(f"reversal_band {rule.message}, got {reversal_band!r}")
     return band
 
 
@@ -451,7 +448,7 @@ def check_record_size(prep: Prepared, n_rec: int, record_every: int) -> None:
             f"less often (a larger record_every), or a shorter t_end")
 
 
-def kernels_compiled(parallel: bool = True, model: int = RATTLEBACK,
+def kernels_compiled(parallel: bool = True, model: int = RATTLEBACK_MODEL,
                      level: int = SLIDING) -> bool:
     """True when the machine code of the kernel entry that :func:`execute` calls
     (``parallel`` or serial) for the model number ``model`` at the friction level

@@ -1,6 +1,7 @@
 """CF metadata (units, long names, flags) of the inputs and coordinates of rattleback
-results. The attributes of what the kernel computes (observables, recorded series) come
-from the model's row tables (:mod:`rattlesweep.core.rattleback.layout`) through
+results; the inputs' come from their descriptions (:mod:`rattlesweep.inputs`). The
+attributes of what the kernel computes (observables, recorded series) come from the
+model's row tables (:mod:`rattlesweep.core.rattleback.layout`) through
 :meth:`rattlesweep.engine.Model.attrs`."""
 
 from __future__ import annotations
@@ -8,6 +9,7 @@ from __future__ import annotations
 from typing import Any, Sequence
 
 from .core.workspace import STATUS_NAMES
+from .inputs import RATTLEBACK, result_attrs
 
 __all__ = ["STATUS_ATTRS", "VARIABLE_ATTRS", "attrs_for", "flag_attrs"]
 
@@ -24,37 +26,11 @@ STATUS_ATTRS = flag_attrs(
     "went negative; non_finite: a state or input was NaN or inf. A stopped trajectory "
     "keeps its last valid state.")
 
-VARIABLE_ATTRS = {
-    "time": ("s", "time"),
-    # inputs
-    "roll_deg": ("degree", "initial roll about body x"),
-    "pitch_deg": ("degree", "initial pitch about body y"),
-    "yaw_deg": ("degree", "initial yaw about the vertical"),
-    "orientation": ("1", "initial orientation quaternion (w, x, y, z)"),
-    "launch_spin": ("rad s-1", "initial spin about the vertical"),
-    "launch_omega": ("rad s-1", "initial angular velocity, body components"),
-    "launch_velocity": ("m s-1", "initial horizontal velocity of G (sliding launch)"),
-    "mu": ("1", "kinetic friction coefficient"),
-    "mu_static": ("1", "static friction coefficient"),
-    "mu_spin": ("m", "spin friction coefficient (couple bound per unit normal force)"),
-    "mu_roll": ("m", "rolling resistance coefficient (couple bound per unit normal force)"),
-    "damping": ("N m s", "viscous torque coefficient"),
-    "g": ("m s-2", "gravitational acceleration"),
-    "dt": ("s", "time step"),
-    "t_end": ("s", "requested end time"),
-    "a": ("m", "semi-axis along body x"),
-    "b": ("m", "semi-axis along body y"),
-    "c": ("m", "semi-axis along body z"),
-    "mass": ("kg", "mass"),
-    "com": ("m", "centre of mass from the centre of the flat face, body frame"),
-    "inertia_xx": ("kg m2", "inertia tensor element I_xx about G"),
-    "inertia_yy": ("kg m2", "inertia tensor element I_yy about G"),
-    "inertia_zz": ("kg m2", "inertia tensor element I_zz about G"),
-    "inertia_xy": ("kg m2", "inertia tensor element I_xy about G"),
-    "inertia_xz": ("kg m2", "inertia tensor element I_xz about G"),
-    "inertia_yz": ("kg m2", "inertia tensor element I_yz about G"),
-    "full_ellipsoid": ("1", "1 for a full ellipsoid (no rim), 0 for a semi-ellipsoid"),
-}
+VARIABLE_ATTRS = {"time": ("s", "time"), **{
+    name: (attrs["units"], attrs["long_name"])
+    for name, attrs in result_attrs(RATTLEBACK).items()}}
+"""Units and long name of each coordinate by name: ``time`` and the inputs, from their
+descriptions (:mod:`rattlesweep.inputs`)."""
 
 
 def attrs_for(name: str) -> dict[str, Any]:

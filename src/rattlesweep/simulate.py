@@ -13,6 +13,7 @@ from . import engine, results
 from .batch import prepare, radian_angles
 from .body import Body
 from .engine import check_band, check_method, check_record_every
+from .inputs import RATTLEBACK as INPUTS
 from .metadata import attrs_for
 
 __all__ = ["simulate"]
@@ -76,13 +77,14 @@ def simulate(
         spin=spin, omega=omega, **angles, orientation=orientation,
         velocity=velocity, mu=mu, mu_static=mu_static, mu_spin=mu_spin, mu_roll=mu_roll,
         damping=damping, g=g, dt=dt, t_end=t_end)
-    for name in ("spin", "roll", "pitch", "yaw", "mu", "mu_static", "mu_spin", "mu_roll",
-                 "damping", "g", "dt", "t_end"):
-        if inputs[name] is not None and np.ndim(inputs[name]) != 0:
+    for name, value in inputs.items():
+        width = INPUTS[name].width
+        if value is None:
+            continue
+        if width == 1 and np.ndim(value) != 0:
             raise ValueError(f"{name} must be a scalar for simulate(); use run_batch for arrays")
-    for name, width in (("omega", 3), ("orientation", 4), ("velocity", 2)):
-        if inputs[name] is not None and np.shape(inputs[name]) != (width,):
-            raise ValueError(f"{name} must have shape ({width},), got {np.shape(inputs[name])}")
+        if width > 1 and np.shape(value) != (width,):
+            raise ValueError(f"{name} must have shape ({width},), got {np.shape(value)}")
     degrees = {k: v for k, v in (("roll", roll_deg), ("pitch", pitch_deg), ("yaw", yaw_deg))
                if v is not None}
     prep = prepare(body, degrees=degrees, **inputs)

@@ -22,6 +22,7 @@ from ..core.planar import layout
 from ..engine import (
     Model, Prepared, as_bodies, check_method, check_record_every, check_single_step,
 )
+from ..inputs import PLANAR as INPUTS
 from ..validation import fail_where
 from .body import PlanarBodies, PlanarBody
 from .metadata import attrs_for
@@ -39,6 +40,11 @@ MODEL = Model(
                              "energy_initial - energy_final")},
 )
 """The planar model as the batch layer sees it."""
+
+LAUNCH = tuple(s.name for s in INPUTS.values() if s.in_results and s.group != "body")
+"""The inputs of a launch that results hold (under their result names)."""
+BODY = tuple(s.name for s in INPUTS.values() if s.group == "body")
+"""The body's parameters, results' coordinates too."""
 
 
 def prepare_planar(body: PlanarBodies, *, theta: ArrayLike, rate: ArrayLike = 0.0,
@@ -65,11 +71,7 @@ def prepare_planar(body: PlanarBodies, *, theta: ArrayLike, rate: ArrayLike = 0.
         inputs["dt"] = dt
     shape, n, flat_bodies, flat, _ = engine.broadcast_inputs(as_bodies(body, PlanarBody),
                                                              inputs)
-    th = flat["theta"]
-    fail_where("theta", th, np.isfinite(th) & (np.abs(th) >= math.pi / 2),
-               "must be in (-pi/2, pi/2) rad (at |theta| = pi/2 the flat edge reaches "
-               "the floor)")
-    engine.check_common(flat)
+    engine.check_common(flat, INPUTS)
     table, index = distinct_bodies(flat_bodies)
     default_from = None  # the inputs a default step comes from, for messages
     if "dt" not in flat:
@@ -79,7 +81,7 @@ def prepare_planar(body: PlanarBodies, *, theta: ArrayLike, rate: ArrayLike = 0.
         # warn at the user's call: run_planar_batch or simulate_planar -> prepare_planar
         engine.warn_coarse_dt(table, index, flat["g"], flat["dt"], stacklevel=3)
     columns = {k: np.array([getattr(b, k) for b in table], dtype=float)[index]
-               for k in ("a", "b", "mass", "com_depth", "inertia")}
+               for k in BODY}
 
     # initial state: rolling (contact point at rest) unless a velocity is given
     rate0 = flat["rate"]
@@ -94,13 +96,9 @@ def prepare_planar(body: PlanarBodies, *, theta: ArrayLike, rate: ArrayLike = 0.
         v0 = rolling
     state = {"angle": flat["theta"], "rate": rate0, "x_G": np.zeros(n), "velocity_x": v0}
     dim = "trajectory"
-    coords = {
-        "launch_angle": flat["theta"], "launch_rate": rate0, "launch_velocity": v0,
-        "mu": flat["mu"], "mu_static": flat["mu_static"], "mu_roll": flat["mu_roll"],
-        "g": flat["g"], "dt": flat["dt"],
-        "t_end": flat["t_end"], **columns,
-        "body_name": np.array([b.name for b in table])[index],
-    }
+    used = {**flat, "velocity": v0, **columns}  # the velocity actually used
+    coords = {INPUTS[k].result_name: used[k] for k in (*LAUNCH, *BODY)}
+    coords["body_name"] = np.array([b.name for b in table])[index]
     steps = engine.steps_for(flat["t_end"], flat["dt"], default_from, (table, index))
     return engine.prepared(MODEL, {**columns, **flat}, engine.pack(layout.STATE, state, n),
                            steps, n, shape, {k: (dim, v) for k, v in coords.items()})

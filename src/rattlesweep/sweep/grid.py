@@ -17,7 +17,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..body import Body
-from .params import BODY_PARAMS, DEFAULTS, result_name, result_values
+from .params import BODY_PARAMS, DEFAULTS, PARAMS, result_name, result_values
 
 __all__ = ["NORMAL_CLIP", "Axis", "RandomParam", "batch_inputs", "body_for",
            "semi_ellipsoid_defaults", "uniform01"]
@@ -175,10 +175,8 @@ def batch_inputs(columns: dict[str, np.ndarray], body_column: np.ndarray | None,
         bodies = _object_array([_preset(name) for name in names])[inverse.reshape(-1)]
     else:
         bodies = _object_array([body_for(fixed_body, {})])[np.zeros(n, dtype=np.intp)]
-    kwargs = {k: columns.get(k, DEFAULTS.get(k)) for k in
-              ("spin", "roll", "pitch", "yaw", "mu", "mu_spin", "mu_roll", "damping", "g",
-               "t_end")}
-    for k in ("mu_static", "dt"):
-        if k in columns:
-            kwargs[k] = columns[k]
+    # an input neither given nor with a number for its default (mu_static, dt) is left
+    # to the batch's own default; t_end, required, is None
+    kwargs = {k: columns.get(k, DEFAULTS.get(k)) for k, p in PARAMS.items()
+              if p.group != "body" and (k in columns or k in DEFAULTS or p.spec.required)}
     return bodies, kwargs

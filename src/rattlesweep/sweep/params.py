@@ -1,10 +1,12 @@
 """The parameters a sweep can vary: names, units, and the rules their values obey.
 
-Every sweepable input is a scalar named here. Values are given in the units the user
-chooses (``units = "deg"``, or a ``_deg`` suffix on an angle's name) and converted to SI
-before they reach the kernel. Results name each parameter as :func:`rattlesweep.run_batch`
-does (:func:`result_name`): angles in degrees as ``roll_deg``, ``delta_deg``..., the
-launch spin as ``launch_spin``; other coordinates keep the user's units.
+Every sweepable input is a scalar described in :mod:`rattlesweep.inputs` (name, SI
+units, long name, default, rule); this module adds the units a configuration may give it
+in. Values are given in the units the user chooses (``units = "deg"``, or a ``_deg``
+suffix on an angle's name) and converted to SI before they reach the kernel. Results
+name each parameter as :func:`rattlesweep.run_batch` does (:func:`result_name`): angles
+in degrees as ``roll_deg``, ``delta_deg``..., the launch spin as ``launch_spin``; other
+coordinates keep the user's units.
 """
 
 from __future__ import annotations
@@ -13,6 +15,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+
+from ..inputs import RATTLEBACK, Input, Rule
 
 __all__ = ["BODY_PARAMS", "DEFAULTS", "PARAMS", "Param", "check_values", "resolve",
            "result_name", "result_values"]
@@ -28,56 +32,48 @@ _ONE = {"1": (1.0, "1")}
 _DAMPING = {"N m s": (1.0, "N m s")}
 _ACCEL = {"m/s2": (1.0, "m s-2"), "m s-2": (1.0, "m s-2")}
 
-# rule names: "positive" (finite > 0), "finite", "nonneg_inf" (>= 0, inf allowed),
-# "nonneg" (finite >= 0)
+_UNITS = {"rad": _ANGLE, "rad s-1": _SPIN, "m": _LENGTH, "kg": _MASS, "s": _TIME,
+          "1": _ONE, "N m s": _DAMPING, "m s-2": _ACCEL}
+"""The units a configuration may give a parameter in, by the SI units of its
+description (the first is the default)."""
 
 
 @dataclass(frozen=True)
 class Param:
-    """One sweepable scalar: its SI unit table, default, rule and long name."""
+    """One sweepable scalar: its description, the units a configuration may give it in
+    (name -> (SI factor, CF units)) and its rule."""
 
-    name: str
+    spec: Input
     units: dict[str, tuple[float, str]]
-    rule: str
-    long_name: str
-    group: str  # "body", "launch", "friction", "numerics"
+
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+    @property
+    def long_name(self) -> str:
+        return self.spec.long_name
+
+    @property
+    def group(self) -> str:
+        return self.spec.group
+
+    @property
+    def rule(self) -> Rule:
+        assert self.spec.rule is not None  # every sweepable input has a rule
+        return self.spec.rule
 
 
-PARAMS: dict[str, Param] = {p.name: p for p in (
-    Param("a", _LENGTH, "positive", "semi-axis along body x", "body"),
-    Param("b", _LENGTH, "positive", "semi-axis along body y", "body"),
-    Param("c", _LENGTH, "positive", "semi-axis along body z", "body"),
-    Param("mass", _MASS, "positive", "mass", "body"),
-    Param("delta", _ANGLE, "finite", "misalignment of the inertia axes about +z", "body"),
-    Param("spin", _SPIN, "finite", "initial spin about the vertical", "launch"),
-    Param("roll", _ANGLE, "finite", "initial roll about body x", "launch"),
-    Param("pitch", _ANGLE, "finite", "initial pitch about body y", "launch"),
-    Param("yaw", _ANGLE, "finite", "initial yaw about the vertical", "launch"),
-    Param("mu", _ONE, "nonneg_inf", "kinetic friction coefficient", "friction"),
-    Param("mu_static", _ONE, "nonneg_inf", "static friction coefficient", "friction"),
-    Param("mu_spin", _LENGTH, "nonneg", "spin friction coefficient (couple bound per "
-          "unit normal force)", "friction"),
-    Param("mu_roll", _LENGTH, "nonneg", "rolling resistance coefficient (couple bound "
-          "per unit normal force)", "friction"),
-    Param("damping", _DAMPING, "nonneg", "viscous torque coefficient", "friction"),
-    Param("g", _ACCEL, "positive", "gravitational acceleration", "numerics"),
-    Param("dt", _TIME, "positive", "time step", "numerics"),
-    Param("t_end", _TIME, "positive", "requested end time", "numerics"),
-)}
+PARAMS: dict[str, Param] = {i.name: Param(i, _UNITS[i.units])
+                            for i in RATTLEBACK.values() if i.sweep}
+"""The inputs a sweep can vary (:mod:`rattlesweep.inputs`: those marked ``sweep``)."""
 
-BODY_PARAMS = ("a", "b", "c", "mass", "delta")
+BODY_PARAMS = tuple(k for k, p in PARAMS.items() if p.group == "body")
 """Parameters of a homogeneous semi-ellipsoid (:meth:`rattlesweep.Body.semi_ellipsoid`)."""
 
-DEFAULTS = {"spin": 0.0, "roll": 0.0, "pitch": 0.0, "yaw": 0.0, "mu": math.inf,
-            "mu_spin": 0.0, "mu_roll": 0.0, "damping": 0.0, "g": 9.81}
+DEFAULTS = {k: float(p.spec.default) for k, p in PARAMS.items()
+            if p.group != "body" and isinstance(p.spec.default, float)}
 """Values (SI) of launch, friction and numerics parameters a sweep leaves out."""
-
-_RULES = {
-    "positive": (lambda v: np.isfinite(v) & (v > 0), "must be finite and > 0"),
-    "finite": (lambda v: np.isfinite(v), "must be finite"),
-    "nonneg_inf": (lambda v: v >= 0, "must be >= 0 (inf allowed)"),
-    "nonneg": (lambda v: np.isfinite(v) & (v >= 0), "must be finite and >= 0"),
-}
 
 
 def resolve(key: str, units: str | None, where: str) -> tuple[Param, float, str]:
@@ -138,8 +134,7 @@ def result_values(key: str, values: np.ndarray, factor: float, units: str
 def check_values(param: Param, values: np.ndarray, factor: float, where: str) -> None:
     """Raise ValueError if any value (in the user's units, SI = values * factor) breaks
     the parameter's rule; the message quotes the value as the user wrote it."""
-    ok, rule = _RULES[param.rule]
-    with np.errstate(invalid="ignore"):
-        bad = ~ok(np.asarray(values, dtype=float) * factor)
+    bad = param.rule.bad(np.asarray(values, dtype=float) * factor)
     if np.any(bad):
-        raise ValueError(f"{where}: {param.name} {rule}; got {float(values[np.argmax(bad)])!r}")
+        raise ValueError(f"{where}: {param.name} {param.rule.message}; got "
+                         f"{float(values[np.argmax(bad)])!r}")

@@ -80,7 +80,7 @@ def run_sweep(sweep: Sweep, out: str | os.PathLike, *, client: Client | None = N
     yet; a different sweep there is refused, and so is a second sweep while one runs
     (a lock in the output). Ctrl-C stops after the tiles in flight; what finished is
     kept. A failed write (disk full, no permission) raises
-    :class:`~rattlesweep.sweep.store.SweepWriteError` and leaves what was written
+    :class:`~rattlesweep.SweepWriteError` and leaves what was written
     intact. ``command`` is recorded in the ``history`` attribute (default: the process's
     command line).
     """
@@ -178,7 +178,7 @@ def check_size(sweep: Sweep) -> None:
 
 
 def announce(sweep: Sweep) -> None:
-    """Warn (:class:`~rattlesweep.engine.LongRunWarning`) before a sweep of more than
+    """Warn (:class:`~rattlesweep.LongRunWarning`) before a sweep of more than
     :data:`~rattlesweep.engine.LONG_RUN_STEPS` steps at most, with the count. A refined
     sweep simulates an unknown part of its finest grid; its first level is counted."""
     import warnings

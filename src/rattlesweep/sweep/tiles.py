@@ -14,6 +14,7 @@ import numpy as np
 from .. import engine, results
 from ..batch import MODEL, prepare
 from ..engine import check_method
+from ..inputs import RATTLEBACK
 from .outcomes import OUTCOME_ATTRS, classify
 from .spec import Sweep
 
@@ -89,11 +90,13 @@ def variable_attrs(sweep: Sweep, name: str) -> dict[str, Any]:
             attrs["comment"] += " " + _STOP_COMMENT
         return attrs
     if name == "dt":
-        return {"units": "s", "long_name": "time step (the body's default)"}
+        return {**RATTLEBACK["dt"].attrs, "comment": f"the default step: "
+                f"{RATTLEBACK['dt'].default_doc.replace('`', '')}"}
     for rp in sweep.random_params:
         if rp.name == name:
-            return {"units": rp.result_units, "long_name": f"{rp.long_name} (random draw, "
-                    f"{rp.kind} {rp.a:g}, {rp.b:g})"}
+            # the long name is the input's, as in every other result; the draw is a comment
+            return {"units": rp.result_units, "long_name": rp.long_name,
+                    "comment": f"random draw, {rp.kind} {rp.a:g}, {rp.b:g}"}
     return MODEL.attrs(name)
 
 
