@@ -1,6 +1,8 @@
 """``rattlesweep sweep --dry-run`` says what a sweep will cost without computing or
 writing it, and a zarr sweep runs without zarr's own warnings. Tiny sweeps."""
 
+import subprocess
+import sys
 import warnings
 
 import pytest
@@ -81,3 +83,42 @@ def test_zarr_output_is_quiet(tmp_path, capsys):
         assert main(["export", str(store), str(tmp_path / "z.nc")]) == 0
     assert [str(w.message) for w in caught] == []
     assert "Warning" not in capsys.readouterr().err
+
+
+LONG = """\
+name = "long launches"
+[axes]
+spin = { start = -6, stop = 6, num = 8 }
+[fixed]
+t_end = 1.0
+damping = 1e3
+mu = 0.3
+"""
+"""Launches of about 3.6e9 steps each (damping = 1e3 shrinks the default step): hours of
+kernel time, which a calibration running whole launches spent before answering."""
+
+
+def test_calibration_of_hours_long_launches_runs_a_bounded_number_of_steps():
+    from rattlesweep.sweep import estimate as module
+
+    sweep = Sweep.from_toml(LONG)
+    e = estimate(sweep, workers=1)
+    assert e.sample == 8
+    assert 0 < e.sample_steps <= module._SAMPLE_STEPS
+    # every launch takes the sweep's longest step count (dt is the same for all), and the
+    # time is scaled from the steps run to those
+    assert e.sample_full_steps == 8 * sweep.max_steps > 1e10
+    assert e.seconds == pytest.approx(
+        e.sample_seconds * e.sample_full_steps / e.sample_steps + 0.3 + 0.015)
+
+
+def test_dry_run_of_hours_long_launches_answers_and_says_it_scaled(tmp_path):
+    config = tmp_path / "long.toml"
+    config.write_text(LONG)
+    done = subprocess.run([sys.executable, "-m", "rattlesweep.cli", "sweep", str(config),
+                           "--dry-run", "--workers", "1"],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert "of their 29,042,876,064 steps, the time scaled by steps" in done.stdout
+    assert "time: about" in done.stdout and "on 1 local thread" in done.stdout
+
