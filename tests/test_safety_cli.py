@@ -57,3 +57,81 @@ def test_info_counts_only_complete_tiles(tmp_path, config, capsys):
     n = len(tiles)
     assert f"tiles written: {n - 2} of {n} (complete and readable), 1 damaged" in \
         capsys.readouterr().out
+
+
+# --- info and plot say when an output is damaged ----------------------------------------
+
+def _corrupt(path, at=40_000, n=3_000):
+    data = bytearray(path.read_bytes())
+    data[at:at + n] = b"\xff" * n
+    path.write_bytes(bytes(data))
+
+
+def test_info_and_plot_of_a_directory_with_a_corrupt_sweep_nc_say_it_is_damaged(
+        tmp_path, config, capsys):
+    out = tmp_path / "o"
+    assert main(["sweep", str(config), "--out", str(out), "--quiet"]) == 0
+    _corrupt(out / "sweep.nc")
+    capsys.readouterr()
+    assert main(["info", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"rattlesweep info: warning: {out} is damaged (4 of 4 tiles verified" in err
+    assert "sweep.nc cannot be read in full" in err
+    assert f"`rattlesweep resume {out}` writes it again" in err
+    assert "expected a rattlesweep result file" not in err  # it is one, damaged
+    assert main(["plot", str(out / "sweep.nc")]) == 2
+    err = capsys.readouterr().err
+    assert f"rattlesweep plot: warning: {out} is damaged" in err
+    assert "sweep.nc cannot be read in full" in err and "rattlesweep resume" in err
+
+
+def test_info_of_a_finished_directory_names_a_deleted_tile_as_missing(tmp_path, config,
+                                                                        capsys):
+    out = tmp_path / "o"
+    assert main(["sweep", str(config), "--out", str(out), "--quiet"]) == 0
+    (out / "tiles" / "tile-000001.nc").unlink()
+    capsys.readouterr()
+    assert main(["info", str(out)]) == 0  # sweep.nc itself is sound
+    captured = capsys.readouterr()
+    assert "outcomes:" in captured.out
+    assert "missing (deleted after the sweep finished): 1 tile (tile 1)" in captured.err
+    assert f"`rattlesweep resume {out}` recomputes" in captured.err
+
+
+def test_info_of_a_sound_output_warns_of_nothing(tmp_path, config, capsys):
+    out = tmp_path / "o"
+    assert main(["sweep", str(config), "--out", str(out), "--quiet"]) == 0
+    capsys.readouterr()
+    assert main(["info", str(out), str(out / "sweep.nc")]) == 0
+    assert capsys.readouterr().err == ""
+
+
+def test_info_of_a_zarr_store_with_a_chunk_deleted_says_which_tile(tmp_path, config,
+                                                                  capsys):
+    pytest.importorskip("zarr")
+    store = tmp_path / "z.zarr"
+    assert main(["sweep", str(config), "--out", str(store), "--output", "zarr",
+                 "--quiet"]) == 0
+    chunks = sorted(store.glob("outcome/c/*/*/*/*"))
+    chunks[2].unlink()
+    capsys.readouterr()
+    assert main(["info", str(store)]) == 0
+    captured = capsys.readouterr()
+    assert "not computed" in captured.out  # what the store reads as, now explained:
+    assert f"rattlesweep info: warning: {store} is damaged (3 of 4 tiles verified" in \
+        captured.err
+    assert "damaged: tile 2: chunk outcome/c/2" in captured.err
+    assert f"`rattlesweep resume {store}` recomputes" in captured.err
+
+
+def test_verify_says_1_tile_and_not_computed_yet_for_an_unfinished_directory(
+        tmp_path, config, capsys):
+    out = tmp_path / "o"
+    assert main(["sweep", str(config), "--out", str(out), "--quiet"]) == 0
+    (out / "sweep.nc").unlink()  # as before the merge
+    (out / "tiles" / "tile-000003.nc").unlink()
+    capsys.readouterr()
+    assert main(["verify", str(out)]) == 1
+    text = capsys.readouterr().out
+    assert "3 of 4 tiles verified" in text
+    assert "not computed yet: 1 tile (tile 3)" in text

@@ -212,6 +212,8 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
             select[key] = float(value)
         except ValueError:
             select[key] = value
+    for path in (*args.files, *filter(None, (args.overlay, args.versus))):
+        _warn_damaged(Path(path), "plot")
     overlay = _open_netcdf(args.overlay) if args.overlay else None
     for path in args.files:
         with _open_netcdf(path) as ds:
@@ -237,6 +239,44 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
     if overlay is not None:
         overlay.close()
     return 0
+
+
+def _sweep_output(path: Path) -> Path | None:
+    """The sweep output ``path`` is or belongs to: a zarr store, a sweep directory, or
+    the directory of a merged ``sweep.nc``; None for a file of no sweep directory."""
+    from .sweep.directory import CONFIG_NAME, RESULT_NAME
+    from .sweep.zarr_store import is_zarr_store
+
+    if is_zarr_store(path) or (path / CONFIG_NAME).is_file():
+        return path
+    if path.name == RESULT_NAME and (path.parent / CONFIG_NAME).is_file():
+        return path.parent
+    return None
+
+
+def _warn_damaged(path: Path, command: str) -> Path | None:
+    """Verify the sweep output ``path`` is or belongs to (what ``rattlesweep verify``
+    does) and warn on stderr about any tile or merged file damaged or lost; tiles of an
+    unfinished output not computed yet are no damage. Returns the output warned
+    about."""
+    from .sweep.verify import verify
+
+    out = _sweep_output(path)
+    if out is None:
+        return None
+    try:
+        found = verify(out)
+    except ValueError as exc:
+        print(f"rattlesweep {command}: warning: {out} cannot be verified: {exc}",
+              file=sys.stderr)
+        return out
+    if not (found.damaged or found.problems or (found.missing and found.finished)):
+        return None
+    head, *lines = found.report().splitlines()
+    print(f"rattlesweep {command}: warning: {out} is damaged ({head.split(': ', 1)[1]}; "
+          f"`rattlesweep verify {out}` lists the same):", *lines, sep="\n",
+          file=sys.stderr)
+    return out
 
 
 def _info_directory(path: Path) -> Path | None:
@@ -294,6 +334,7 @@ def _cmd_info(args: argparse.Namespace, argv: list[str] | None) -> int:
     failed = 0
     for name in args.files:
         path = Path(name)
+        damaged = _warn_damaged(path, "info")
         try:
             if path.is_dir():
                 result = _info_directory(path)
@@ -310,8 +351,13 @@ def _cmd_info(args: argparse.Namespace, argv: list[str] | None) -> int:
             reason = str(exc).splitlines()[0]
             if "did not find a match" in reason:
                 reason = "it is not a netCDF file"
-            print(f"rattlesweep info: cannot read {path}: expected a rattlesweep result "
-                  f"file (netCDF) or a sweep directory; {reason}", file=sys.stderr)
+            if damaged is not None:
+                print(f"rattlesweep info: cannot read {path} ({reason}): it is damaged; "
+                      f"`rattlesweep resume {damaged}` writes it again", file=sys.stderr)
+            else:
+                print(f"rattlesweep info: cannot read {path}: expected a rattlesweep "
+                      f"result file (netCDF) or a sweep directory; {reason}",
+                      file=sys.stderr)
             failed += 1
             continue
         with ds:

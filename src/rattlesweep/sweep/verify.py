@@ -14,14 +14,17 @@ __all__ = ["Verification", "verify"]
 @dataclass(frozen=True)
 class Verification:
     """What :func:`verify` found: the output's ``location``, its number of tiles, the
-    tiles not written yet (``missing``), the tiles found damaged (tile -> what is
-    wrong) and other problems (the merged file)."""
+    tiles without a file or done flag (``missing``), the tiles found damaged (tile ->
+    what is wrong) and other problems (the merged file). ``finished`` says that the
+    sweep had finished (its merged file was written), so a tile in ``missing`` was lost
+    rather than not computed yet."""
 
     location: str
     n_tiles: int
     missing: tuple[int, ...]
     damaged: Mapping[int, str]
     problems: tuple[str, ...] = ()
+    finished: bool = False
 
     @property
     def ok(self) -> bool:
@@ -31,19 +34,26 @@ class Verification:
     def report(self) -> str:
         """A few lines for the user."""
         sound = self.n_tiles - len(self.missing) - len(self.damaged)
-        lines = [f"{self.location}: {sound} of {self.n_tiles} tiles verified"]
+        lines = [f"{self.location}: {sound} of {_tiles(self.n_tiles)} verified"]
         if self.missing:
-            lines.append(f"  not computed yet: {len(self.missing)} tiles (the first: "
+            what = ("missing (deleted after the sweep finished)" if self.finished
+                    else "not computed yet")
+            first = "" if len(self.missing) == 1 else "the first: "
+            lines.append(f"  {what}: {_tiles(len(self.missing))} ({first}tile "
                          f"{self.missing[0]})")
         for tile in sorted(self.damaged)[:10]:
             lines.append(f"  damaged: tile {tile}: {self.damaged[tile]}")
         if len(self.damaged) > 10:
-            lines.append(f"  damaged: {len(self.damaged) - 10} more tiles")
+            lines.append(f"  damaged: {_tiles(len(self.damaged) - 10)} more")
         lines.extend(f"  {p}" for p in self.problems)
         if not self.ok:
             lines.append(f"  `rattlesweep resume {self.location}` recomputes what is "
                          "missing or damaged")
         return "\n".join(lines)
+
+
+def _tiles(n: int) -> str:
+    return f"{n} tile{'' if n == 1 else 's'}"
 
 
 def verify(out: str | os.PathLike,
@@ -95,7 +105,8 @@ def _verify_directory(out: Path, sweep: Any) -> Verification:
                 "unreadable or incomplete")
     complete = not missing and not damaged
     return Verification(str(out), sweep.n_tiles, tuple(missing), damaged,
-                        _check_merged(out / RESULT_NAME, sweep, required=complete))
+                        _check_merged(out / RESULT_NAME, sweep, required=complete),
+                        finished=(out / RESULT_NAME).exists())
 
 
 def _check_merged(path: Path, sweep: Any, required: bool) -> tuple[str, ...]:
