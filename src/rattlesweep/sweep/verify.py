@@ -89,9 +89,10 @@ def _verify_directory(out: Path, sweep: Any) -> Verification:
     from .directory import RESULT_NAME, TILES_DIR, tile_path, tile_state
 
     if sweep.refine is not None:
-        # a refined sweep's tiles are per level; its merged file is what is checked
-        return Verification(str(out), 0, (), {}, _check_merged(out / RESULT_NAME, sweep,
-                                                               required=True))
+        # a refined sweep's tiles are per level; its merged file, on the finest grid, is
+        # what is checked
+        return Verification(str(out), 0, (), {}, _check_merged(
+            out / RESULT_NAME, sweep, required=True, grid=sweep.finest()))
     missing, damaged = [], {}
     for tile in range(sweep.n_tiles):
         path = tile_path(out / TILES_DIR, tile)
@@ -109,9 +110,11 @@ def _verify_directory(out: Path, sweep: Any) -> Verification:
                         finished=(out / RESULT_NAME).exists())
 
 
-def _check_merged(path: Path, sweep: Any, required: bool) -> tuple[str, ...]:
-    """Problems of the merged file ``path`` (none when it is absent and not
-    ``required``)."""
+def _check_merged(path: Path, sweep: Any, required: bool, grid: Any = None
+                  ) -> tuple[str, ...]:
+    """Problems of the merged file ``path`` of ``sweep``, whose coordinates are those
+    of the sweep ``grid`` (default: ``sweep``); none when it is absent and not
+    ``required``."""
     import netCDF4
 
     from ..io import NETCDF_LOCK
@@ -125,7 +128,7 @@ def _check_merged(path: Path, sweep: Any, required: bool) -> tuple[str, ...]:
                 return (f"{path.name} holds another configuration's results",)
             for var in nc.variables.values():
                 var[:]
-            wrong = [name for name, (_, want, _) in grid_coords(sweep).items()
+            wrong = [name for name, (_, want, _) in grid_coords(grid or sweep).items()
                      if name in nc.variables and not _same(nc.variables[name][...], want)]
     except Exception as exc:  # any failure to read it in full
         first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
