@@ -135,3 +135,37 @@ def test_verify_says_1_tile_and_not_computed_yet_for_an_unfinished_directory(
     text = capsys.readouterr().out
     assert "3 of 4 tiles verified" in text
     assert "not computed yet: 1 tile (tile 3)" in text
+
+
+# --- a netCDF sweep writes only into a directory of its own ------------------------------
+
+def test_a_directory_holding_other_files_is_refused_and_left_untouched(tmp_path, config,
+                                                                        capsys):
+    mine = tmp_path / "mine"
+    (mine / "data").mkdir(parents=True)
+    (mine / "notes.txt").write_text("keep")
+    (mine / "results.csv").write_text("1,2")
+    before = sorted(p.relative_to(mine) for p in mine.rglob("*"))
+    assert main(["sweep", str(config), "--out", str(mine), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert (f"output {mine} holds 3 other files (the first: data/) and no sweep.toml"
+            in err)
+    assert "Give a new or empty directory" in err
+    assert sorted(p.relative_to(mine) for p in mine.rglob("*")) == before  # no lock either
+    (mine / "data").rmdir()
+    (mine / "results.csv").unlink()
+    assert main(["sweep", str(config), "--out", str(mine), "--quiet", "--refine", "1"]) == 2
+    assert "holds 1 other file (notes.txt) and no sweep.toml" in capsys.readouterr().err
+
+
+def test_an_empty_directory_or_one_a_killed_start_left_is_used(tmp_path, config):
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert main(["sweep", str(config), "--out", str(empty), "--quiet"]) == 0
+    started = tmp_path / "started"  # killed before sweep.toml was written
+    (started / "tiles").mkdir(parents=True)
+    (started / ".sweep.toml.tmp").write_text("")
+    assert main(["sweep", str(config), "--out", str(started), "--quiet"]) == 0
+    # a sweep's own directory may hold other files (a map drawn beside its result)
+    (started / "map.png").write_bytes(b"png")
+    assert main(["sweep", str(config), "--out", str(started), "--quiet"]) == 0
