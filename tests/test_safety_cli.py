@@ -169,3 +169,19 @@ def test_an_empty_directory_or_one_a_killed_start_left_is_used(tmp_path, config)
     # a sweep's own directory may hold other files (a map drawn beside its result)
     (started / "map.png").write_bytes(b"png")
     assert main(["sweep", str(config), "--out", str(started), "--quiet"]) == 0
+
+
+# --- messages that say what is wrong -----------------------------------------------------
+
+@pytest.mark.parametrize("refine", [None, "1"])
+def test_a_file_where_the_tiles_directory_goes_is_named(tmp_path, config, capsys, refine):
+    out = tmp_path / "o"
+    out.mkdir()
+    in_the_way = out / ("levels" if refine else "tiles")
+    in_the_way.write_text("a file")
+    extra = ["--refine", refine] if refine else []
+    assert main(["sweep", str(config), "--out", str(out), "--quiet", *extra]) == 2
+    err = capsys.readouterr().err
+    assert f"{in_the_way} is in the way: a sweep keeps its tile files in a directory" in err
+    assert "Errno" not in err
+    assert in_the_way.read_text() == "a file"

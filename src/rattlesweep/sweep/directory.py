@@ -184,10 +184,19 @@ class TileDirectory:
                                  f"use a new directory")
         return config
 
+    def make_tiles_dir(self) -> None:
+        """Create the directory of the tile files; a ValueError naming the path when
+        something else is in its way."""
+        if self.tiles_dir.exists() and not self.tiles_dir.is_dir():
+            raise ValueError(f"{self.tiles_dir} is in the way: a sweep keeps its tile files "
+                             f"in a directory there, and {self.tiles_dir} is a file. Move it "
+                             "away, or give a new directory")
+        self.tiles_dir.mkdir(exist_ok=True)
+
     def _prepare(self) -> list[int]:
         sweep = self.sweep
         config = self._check_config()
-        self.tiles_dir.mkdir(exist_ok=True)
+        self.make_tiles_dir()
         # temporary files of a process killed while writing a tile or the merge of this
         # sweep (a directory without sweep.toml holds none of its files); the lock is
         # held, so no other process writes them now

@@ -104,7 +104,7 @@ class RefinedDirectory(TileDirectory):
 
     def _prepare(self) -> list[int]:
         config = self._check_config()
-        self.tiles_dir.mkdir(exist_ok=True)
+        self.make_tiles_dir()
         for stale in self.tiles_dir.glob("level-*/.*.tmp"):
             stale.unlink(missing_ok=True)
         if not config.exists():
