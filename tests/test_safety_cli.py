@@ -1,6 +1,9 @@
 """The sweep commands' arguments and messages: refused before anything is written, with a
 message naming the argument."""
 
+import subprocess
+import sys
+
 import pytest
 
 from rattlesweep.cli import main
@@ -185,3 +188,18 @@ def test_a_file_where_the_tiles_directory_goes_is_named(tmp_path, config, capsys
     assert f"{in_the_way} is in the way: a sweep keeps its tile files in a directory" in err
     assert "Errno" not in err
     assert in_the_way.read_text() == "a file"
+
+
+def test_a_long_run_warning_is_one_line_of_the_command(tmp_path):
+    config = tmp_path / "long.toml"
+    config.write_text(small_sweep(fixed={"t_end": 1.0, "damping": 1e3}).to_toml())
+    in_the_way = tmp_path / "a-file"
+    in_the_way.write_text("")  # the sweep is refused after its announcement
+    done = subprocess.run([sys.executable, "-m", "rattlesweep.cli", "sweep", str(config),
+                           "--out", str(in_the_way)], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 2
+    warning, error = done.stderr.splitlines()
+    assert warning.startswith("rattlesweep: warning: this sweep takes up to ")
+    assert "core-minutes" in warning
+    assert error.startswith(f"rattlesweep: error: output {in_the_way} exists")
