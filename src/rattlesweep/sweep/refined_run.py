@@ -238,7 +238,7 @@ def run_refined(sweep: Sweep, out: str | os.PathLike[str], *, client: Any = None
 
             try:
                 run_tiles(fine, todo, write, client=client, workers=workers,
-                          compute=compute_level_tile)
+                          compute=compute_level_tile, on_wait=bar.tick)
             except KeyboardInterrupt:
                 bar.interrupted(store.location)
                 raise
