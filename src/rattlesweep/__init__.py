@@ -1,47 +1,55 @@
 """rattlesweep: fast batch simulation of rattlebacks with Coulomb stick/slip friction.
 
-The sweep machinery (:mod:`rattlesweep.sweep`, :class:`Sweep`, :func:`run_sweep`,
-:func:`resume`) is imported on first use: it brings in dask and netCDF4, which a
-simulation does not need.
+Every name below is imported on first use, so that ``import rattlesweep`` (and the
+``rattlesweep`` command's start, which must answer Ctrl-C from its first instant) loads
+none of numpy, numba or xarray; the sweep machinery (:mod:`rattlesweep.sweep`,
+:class:`Sweep`, :func:`run_sweep`, :func:`resume`) brings in dask and netCDF4 too.
 """
 
 from __future__ import annotations
 
 import importlib
+import importlib.util
 from typing import TYPE_CHECKING, Any
 
 from ._version import __version__
-from .body import PRESETS, Body
-from .batch import run_batch
-from .simulate import simulate
-from .launch import UnitsWarning
-from .tidy import decode, to_csv, to_table, unstack
-from . import planar
-from .planar import PlanarBody, run_planar_batch, simulate_planar
-from . import stability
 
 __all__ = ["Body", "PRESETS", "PlanarBody", "Sweep", "planar", "resume", "run_batch",
            "run_planar_batch", "run_sweep", "stability", "sweep", "UnitsWarning",
            "decode", "to_csv", "to_table", "unstack",
            "simulate", "simulate_planar", "__version__"]
 
-_FROM_SWEEP = ("Sweep", "resume", "run_sweep")
+_FROM = {"Body": ".body", "PRESETS": ".body", "run_batch": ".batch",
+         "simulate": ".simulate", "UnitsWarning": ".launch", "decode": ".tidy",
+         "to_csv": ".tidy", "to_table": ".tidy", "unstack": ".tidy",
+         "PlanarBody": ".planar", "run_planar_batch": ".planar",
+         "simulate_planar": ".planar", "Sweep": ".sweep", "resume": ".sweep.run",
+         "run_sweep": ".sweep.run"}
+"""Each name of the package and the module it comes from."""
 
 if TYPE_CHECKING:
     # what __getattr__ imports on first use, seen by type checkers as it is
-    from . import sweep
+    from . import planar, stability, sweep
+    from .batch import run_batch
+    from .body import PRESETS, Body
+    from .launch import UnitsWarning
+    from .planar import PlanarBody, run_planar_batch, simulate_planar
+    from .simulate import simulate
     from .sweep import Sweep
     from .sweep.run import resume, run_sweep
+    from .tidy import decode, to_csv, to_table, unstack
 else:
     # hidden from type checkers, which would give any other name its result type
     def __getattr__(name: str) -> Any:
-        if name == "sweep":
-            return importlib.import_module(".sweep", __name__)
-        if name in _FROM_SWEEP:
-            value = getattr(importlib.import_module(".sweep", __name__), name)
-            globals()[name] = value
-            return value
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+        if name in _FROM:
+            value = getattr(importlib.import_module(_FROM[name], __name__), name)
+        elif not name.startswith("_") and importlib.util.find_spec(
+                f"{__name__}.{name}") is not None:
+            value = importlib.import_module(f".{name}", __name__)  # a module: rs.engine
+        else:
+            raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+        globals()[name] = value
+        return value
 
 
 def __dir__() -> list[str]:

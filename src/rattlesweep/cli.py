@@ -8,18 +8,17 @@ import math
 import os
 import shlex
 import sys
-import threading
 import time
 import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ._version import __version__
-from .body import PRESETS, Body
 
 if TYPE_CHECKING:
     import xarray as xr
 
+    from .body import Body
     from .sweep import Sweep
 
 __all__ = ["build_parser", "main"]
@@ -398,6 +397,8 @@ _SHAPE = ("a", "b", "c", "mass", "delta_deg")
 def _body_from_args(args: argparse.Namespace) -> Body:
     """The preset, the body of ``--body FILE``, or a homogeneous semi-ellipsoid whose
     parameters not given are the ``toy`` preset's (as in a sweep file)."""
+    from .body import Body
+
     shape = {k: getattr(args, k) for k in _SHAPE if getattr(args, k) is not None}
     given = [o for o, used in (("--preset", args.preset is not None),
                                ("--body", args.body is not None),
@@ -513,6 +514,8 @@ def _cmd_explore(args: argparse.Namespace, argv: list[str] | None) -> int:
 
 
 def _add_launch_options(p: argparse.ArgumentParser) -> None:
+    from .body import PRESETS
+
     body = p.add_argument_group("body (one of: a preset, a TOML file, a semi-ellipsoid; "
                                 "default: the kane_levinson preset)")
     body.add_argument("--preset", default=None, choices=sorted(PRESETS),
@@ -805,24 +808,49 @@ def _main(argv: list[str] | None) -> int:
     except OSError as exc:  # a file that cannot be read or written: the message says which
         print(f"rattlesweep: error: {exc}", file=sys.stderr)
         return 2
+    except Exception as exc:
+        # Ctrl-C while a compiled extension loads surfaces as the ImportError it causes
+        # (numba's "numba._devicearray failed to import")
+        if not _caused_by_interrupt(exc):
+            raise
+        print("rattlesweep: interrupted", file=sys.stderr)
+        return 130
+
+
+def _caused_by_interrupt(exc: BaseException) -> bool:
+    """Whether a KeyboardInterrupt is among the causes of ``exc``."""
+    seen: set[int] = set()
+    cause: BaseException | None = exc
+    while cause is not None and id(cause) not in seen:
+        if isinstance(cause, KeyboardInterrupt):
+            return True
+        seen.add(id(cause))
+        cause = cause.__cause__ or cause.__context__
+    return False
 
 
 def run() -> None:
     """The command's entry point: :func:`main`, then exit with its status.
 
-    A sweep stopped by a second Ctrl-C does not wait for the tiles still computing (a
-    kernel call cannot be interrupted, and a tile of long launches may take hours); their
-    threads would keep the process alive to the end of each tile, for results nothing
-    writes any more. So the process then exits at once: every file it wrote is complete,
-    as each is written atomically, and the sweep's lock is released already."""
-    status = main()
-    if status == 130 and any(t.name.startswith("rattlesweep-tile") and t.is_alive()
-                             for t in threading.enumerate()):
+    Ctrl-C anywhere in the command (its imports included: the package loads its heavy
+    libraries only once the command runs) ends it with status 130 and one line, and the
+    process then exits at once, without the interpreter's shutdown: a sweep stopped by
+    a second Ctrl-C does not wait for the tiles still computing (a kernel call cannot be
+    interrupted, and a tile of long launches may take hours; their threads would keep
+    the process alive for results nothing writes any more), and a library whose import
+    the interrupt cut short can turn the shutdown into a death by SIGINT. Every file
+    written is complete, as each is written atomically, and the sweep's lock is released
+    already."""
+    try:
+        status = main()
+    except KeyboardInterrupt:  # outside main's own handling (while it reports an error)
+        print("rattlesweep: interrupted", file=sys.stderr)
+        status = 130
+    if status == 130:
         sys.stdout.flush()
         sys.stderr.flush()
         os._exit(status)
     sys.exit(status)
-
 
 if __name__ == "__main__":
     run()
