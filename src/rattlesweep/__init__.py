@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import importlib
 import importlib.util
+import sys
+import types
 from typing import TYPE_CHECKING, Any
 
 from ._version import __version__
@@ -54,3 +56,20 @@ else:
 
 def __dir__() -> list[str]:
     return sorted(set(globals()) | set(__all__))
+
+
+class _Package(types.ModuleType):
+    """The package's module: ``rattlesweep.simulate`` stays the function when its module
+    of the same name is imported (the import system binds every submodule to its name
+    in the package, which the function must keep)."""
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name in _FUNCTION_MODULES and isinstance(value, types.ModuleType):
+            value = getattr(value, name)
+        super().__setattr__(name, value)
+
+
+_FUNCTION_MODULES = ("simulate",)
+"""Names of the package that are functions of the submodule of the same name."""
+
+sys.modules[__name__].__class__ = _Package
