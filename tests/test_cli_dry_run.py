@@ -1,7 +1,12 @@
 """``rattlesweep sweep --dry-run`` says what a sweep will cost without computing or
 writing it, and a zarr sweep runs without zarr's own warnings. Tiny sweeps."""
 
+import signal
+import subprocess
+import sys
+import time
 import warnings
+from pathlib import Path
 
 import pytest
 
@@ -81,3 +86,82 @@ def test_zarr_output_is_quiet(tmp_path, capsys):
         assert main(["export", str(store), str(tmp_path / "z.nc")]) == 0
     assert [str(w.message) for w in caught] == []
     assert "Warning" not in capsys.readouterr().err
+
+
+LONG = """\
+name = "long launches"
+[axes]
+spin = { start = -6, stop = 6, num = 8 }
+[fixed]
+t_end = 1.0
+damping = 1e3
+mu = 0.3
+"""
+"""Launches of about 3.6e9 steps each (damping = 1e3 shrinks the default step): hours of
+kernel time, which a calibration running whole launches spent before answering."""
+
+
+def test_calibration_of_hours_long_launches_runs_a_bounded_number_of_steps():
+    from rattlesweep.sweep import estimate as module
+
+    sweep = Sweep.from_toml(LONG)
+    e = estimate(sweep, workers=1)
+    assert e.sample == 8
+    assert 0 < e.sample_steps <= module._SAMPLE_STEPS
+    # every launch takes the sweep's longest step count (dt is the same for all), and the
+    # time is scaled from the steps run to those
+    assert e.sample_full_steps == 8 * sweep.max_steps > 1e10
+    assert e.seconds == pytest.approx(
+        e.sample_seconds * e.sample_full_steps / e.sample_steps + 0.3 + 0.015)
+
+
+def test_dry_run_of_hours_long_launches_answers_and_says_it_scaled(tmp_path):
+    config = tmp_path / "long.toml"
+    config.write_text(LONG)
+    done = subprocess.run([sys.executable, "-m", "rattlesweep.cli", "sweep", str(config),
+                           "--dry-run", "--workers", "1"],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert "of their 29,042,876,064 steps, the time scaled by steps" in done.stdout
+    assert "time: about" in done.stdout and "on 1 local thread" in done.stdout
+
+
+
+def _catches_sigint(pid):
+    """Whether process ``pid`` has a handler of its own for SIGINT (Linux's /proc): a
+    Python interpreter installs it early in its start, before any import of a module of
+    the command."""
+    status = Path(f"/proc/{pid}/status").read_text()
+    caught = next(line for line in status.splitlines() if line.startswith("SigCgt:"))
+    return bool(int(caught.split()[1], 16) & (1 << (signal.SIGINT - 1)))
+
+
+@pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="needs Linux's /proc")
+def test_ctrl_c_at_any_instant_of_a_dry_run_exits_130_with_one_line(tmp_path):
+    """From the command's imports (numpy, numba, scipy, xarray: the first second) to the
+    calibration's kernel calls: status 130 and 'rattlesweep: interrupted', never a
+    traceback or a hang. (Before the command's code runs, in the interpreter's own start
+    and the import of its standard library and of the light package, about 0.1 s, a
+    Ctrl-C is Python's to handle.)"""
+    config = tmp_path / "long.toml"
+    config.write_text(LONG.replace("num = 8", "num = 64"))
+    statuses = []
+    for delay in (0.25, 0.5, 0.8, 1.2):
+        proc = subprocess.Popen([sys.executable, "-m", "rattlesweep.cli", "sweep",
+                                 str(config), "--dry-run", "--workers", "1"],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                preexec_fn=lambda: signal.signal(signal.SIGINT,
+                                                                 signal.SIG_DFL))
+        while not _catches_sigint(proc.pid):
+            time.sleep(0.002)
+        time.sleep(delay)
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=30)  # hours, had the calibration no bound
+        statuses.append(proc.returncode)
+        assert proc.returncode in (0, 130, -signal.SIGINT), (delay, err)
+        if proc.returncode == 130:
+            assert err == "rattlesweep: interrupted\n" and out == ""
+        else:  # it had finished already: the signal came in the interpreter's shutdown,
+            # which ends by SIGINT (a shell's status 130 too)
+            assert "memory: about" in out and "Traceback" not in err
+    assert 130 in statuses

@@ -127,3 +127,34 @@ def test_sweep_errors_and_the_plots_load_on_first_use_only():
         assert callable(rs.plot.time_series) and callable(rs.plot.reversal_map)
     """)
     assert got["matplotlib"] and not got["dask"]
+
+
+def test_the_command_starts_without_numerical_libraries():
+    """The command's module loads only the standard library, so rattlesweep.cli:run is
+    running (and turns a Ctrl-C into status 130) before numpy, numba or xarray load."""
+    probe = textwrap.dedent("""
+        import json, sys
+        import rattlesweep.cli
+        print(json.dumps([m for m in ("numpy", "numba", "xarray") if m in sys.modules]))
+    """)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [SRC, *filter(None, [os.environ.get("PYTHONPATH")])])}
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         env=env, check=True).stdout
+    assert json.loads(out.splitlines()[-1]) == []
+
+
+def test_simulate_stays_the_function_when_its_module_is_imported_first():
+    probe = textwrap.dedent("""
+        import rattlesweep.simulate  # what rattlesweep.explore does, among others
+        import rattlesweep as rs
+        from rattlesweep import simulate
+        assert callable(rs.simulate) and rs.simulate is simulate
+        assert rs.simulate.__module__ == "rattlesweep.simulate"
+        print("ok")
+    """)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [SRC, *filter(None, [os.environ.get("PYTHONPATH")])])}
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                          env=env)
+    assert done.stdout.strip() == "ok", done.stderr

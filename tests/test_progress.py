@@ -28,3 +28,35 @@ def test_without_compiling_the_rate_counts_every_tile():
     assert bar.rate > 0.0
     resumed = Progress(2, 200, 2, 200, stream=io.StringIO(), compiling=True)
     assert "compiling" not in resumed.stream.getvalue()  # nothing left to compute
+
+
+def test_a_tile_held_back_by_the_interval_is_shown_while_the_next_one_runs():
+    out = io.StringIO()  # no terminal: a line every `every` seconds at most
+    bar = Progress(3, 300, 0, 0, stream=out, every=0.2)
+    bar.update({"n": 100})
+    bar.update({"n": 100})  # written at once after the first: held back
+    assert out.getvalue().splitlines()[-1].split("] ")[1].startswith("1/3 tiles")
+    bar.tick()  # too soon: still held back
+    assert len(out.getvalue().splitlines()) == 1
+    time.sleep(0.25)
+    bar.tick()  # the runner's wait for the third tile
+    assert out.getvalue().splitlines()[-1].split("] ")[1].startswith("2/3 tiles")
+    bar.tick()  # nothing new: no line
+    assert len(out.getvalue().splitlines()) == 2
+
+
+def test_the_runner_shows_every_tile_written_while_it_waits_for_the_next():
+    from rattlesweep.sweep.execute import run_tiles
+    from sweep_helpers import small_sweep
+
+    def compute(sweep, tile):
+        time.sleep(0.8 if tile == 2 else 0.0)  # the last tile takes long
+        return tile
+
+    out = io.StringIO()
+    bar = Progress(3, 300, 0, 0, stream=out, every=0.2)
+    run_tiles(small_sweep(), [0, 1, 2], lambda tile: bar.update({"n": 100}), workers=1, compute=compute,
+              on_wait=bar.tick)
+    lines = [line.split("] ")[1].split(" tiles")[0] for line in out.getvalue().splitlines()]
+    # tile 1, written within 0.2 s of tile 0, is shown before tile 2 ends
+    assert lines == ["1/3", "2/3", "3/3"]

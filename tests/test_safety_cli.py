@@ -1,6 +1,9 @@
 """The sweep commands' arguments and messages: refused before anything is written, with a
 message naming the argument."""
 
+import subprocess
+import sys
+
 import pytest
 
 from rattlesweep.cli import main
@@ -57,3 +60,146 @@ def test_info_counts_only_complete_tiles(tmp_path, config, capsys):
     n = len(tiles)
     assert f"tiles written: {n - 2} of {n} (complete and readable), 1 damaged" in \
         capsys.readouterr().out
+
+
+# --- info and plot say when an output is damaged ----------------------------------------
+
+def _corrupt(path, at=40_000, n=3_000):
+    data = bytearray(path.read_bytes())
+    data[at:at + n] = b"\xff" * n
+    path.write_bytes(bytes(data))
+
+
+def test_info_and_plot_of_a_directory_with_a_corrupt_sweep_nc_say_it_is_damaged(
+        tmp_path, config, capsys):
+    out = tmp_path / "o"
+    assert main(["sweep", str(config), "--out", str(out), "--quiet"]) == 0
+    _corrupt(out / "sweep.nc")
+    capsys.readouterr()
+    assert main(["info", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"rattlesweep info: warning: {out} is damaged (4 of 4 tiles verified" in err
+    assert "sweep.nc cannot be read in full" in err
+    assert f"`rattlesweep resume {out}` writes it again" in err
+    assert "expected a rattlesweep result file" not in err  # it is one, damaged
+    assert main(["plot", str(out / "sweep.nc")]) == 2
+    err = capsys.readouterr().err
+    assert f"rattlesweep plot: warning: {out} is damaged" in err
+    assert "sweep.nc cannot be read in full" in err and "rattlesweep resume" in err
+
+
+def test_info_of_a_finished_directory_names_a_deleted_tile_as_missing(tmp_path, config,
+                                                                        capsys):
+    out = tmp_path / "o"
+    assert main(["sweep", str(config), "--out", str(out), "--quiet"]) == 0
+    (out / "tiles" / "tile-000001.nc").unlink()
+    capsys.readouterr()
+    assert main(["info", str(out)]) == 0  # sweep.nc itself is sound
+    captured = capsys.readouterr()
+    assert "outcomes:" in captured.out
+    assert "missing (deleted after the sweep finished): 1 tile (tile 1)" in captured.err
+    assert f"`rattlesweep resume {out}` recomputes" in captured.err
+
+
+def test_info_of_a_sound_output_warns_of_nothing(tmp_path, config, capsys):
+    out = tmp_path / "o"
+    assert main(["sweep", str(config), "--out", str(out), "--quiet"]) == 0
+    capsys.readouterr()
+    assert main(["info", str(out), str(out / "sweep.nc")]) == 0
+    assert capsys.readouterr().err == ""
+
+
+def test_info_of_a_zarr_store_with_a_chunk_deleted_says_which_tile(tmp_path, config,
+                                                                  capsys):
+    pytest.importorskip("zarr")
+    store = tmp_path / "z.zarr"
+    assert main(["sweep", str(config), "--out", str(store), "--output", "zarr",
+                 "--quiet"]) == 0
+    chunks = sorted(store.glob("outcome/c/*/*/*/*"))
+    chunks[2].unlink()
+    capsys.readouterr()
+    assert main(["info", str(store)]) == 0
+    captured = capsys.readouterr()
+    assert "not computed" in captured.out  # what the store reads as, now explained:
+    assert f"rattlesweep info: warning: {store} is damaged (3 of 4 tiles verified" in \
+        captured.err
+    assert "damaged: tile 2: chunk outcome/c/2" in captured.err
+    assert f"`rattlesweep resume {store}` recomputes" in captured.err
+
+
+def test_verify_says_1_tile_and_not_computed_yet_for_an_unfinished_directory(
+        tmp_path, config, capsys):
+    out = tmp_path / "o"
+    assert main(["sweep", str(config), "--out", str(out), "--quiet"]) == 0
+    (out / "sweep.nc").unlink()  # as before the merge
+    (out / "tiles" / "tile-000003.nc").unlink()
+    capsys.readouterr()
+    assert main(["verify", str(out)]) == 1
+    text = capsys.readouterr().out
+    assert "3 of 4 tiles verified" in text
+    assert "not computed yet: 1 tile (tile 3)" in text
+
+
+# --- a netCDF sweep writes only into a directory of its own ------------------------------
+
+def test_a_directory_holding_other_files_is_refused_and_left_untouched(tmp_path, config,
+                                                                        capsys):
+    mine = tmp_path / "mine"
+    (mine / "data").mkdir(parents=True)
+    (mine / "notes.txt").write_text("keep")
+    (mine / "results.csv").write_text("1,2")
+    before = sorted(p.relative_to(mine) for p in mine.rglob("*"))
+    assert main(["sweep", str(config), "--out", str(mine), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert (f"output {mine} holds 3 other files (the first: data/) and no sweep.toml"
+            in err)
+    assert "Give a new or empty directory" in err
+    assert sorted(p.relative_to(mine) for p in mine.rglob("*")) == before  # no lock either
+    (mine / "data").rmdir()
+    (mine / "results.csv").unlink()
+    assert main(["sweep", str(config), "--out", str(mine), "--quiet", "--refine", "1"]) == 2
+    assert "holds 1 other file (notes.txt) and no sweep.toml" in capsys.readouterr().err
+
+
+def test_an_empty_directory_or_one_a_killed_start_left_is_used(tmp_path, config):
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert main(["sweep", str(config), "--out", str(empty), "--quiet"]) == 0
+    started = tmp_path / "started"  # killed before sweep.toml was written
+    (started / "tiles").mkdir(parents=True)
+    (started / ".sweep.toml.tmp").write_text("")
+    assert main(["sweep", str(config), "--out", str(started), "--quiet"]) == 0
+    # a sweep's own directory may hold other files (a map drawn beside its result)
+    (started / "map.png").write_bytes(b"png")
+    assert main(["sweep", str(config), "--out", str(started), "--quiet"]) == 0
+
+
+# --- messages that say what is wrong -----------------------------------------------------
+
+@pytest.mark.parametrize("refine", [None, "1"])
+def test_a_file_where_the_tiles_directory_goes_is_named(tmp_path, config, capsys, refine):
+    out = tmp_path / "o"
+    out.mkdir()
+    in_the_way = out / ("levels" if refine else "tiles")
+    in_the_way.write_text("a file")
+    extra = ["--refine", refine] if refine else []
+    assert main(["sweep", str(config), "--out", str(out), "--quiet", *extra]) == 2
+    err = capsys.readouterr().err
+    assert f"{in_the_way} is in the way: a sweep keeps its tile files in a directory" in err
+    assert "Errno" not in err
+    assert in_the_way.read_text() == "a file"
+
+
+def test_a_long_run_warning_is_one_line_of_the_command(tmp_path):
+    config = tmp_path / "long.toml"
+    config.write_text(small_sweep(fixed={"t_end": 1.0, "damping": 1e3}).to_toml())
+    in_the_way = tmp_path / "a-file"
+    in_the_way.write_text("")  # the sweep is refused after its announcement
+    done = subprocess.run([sys.executable, "-m", "rattlesweep.cli", "sweep", str(config),
+                           "--out", str(in_the_way)], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 2
+    warning, error = done.stderr.splitlines()
+    assert warning.startswith("rattlesweep: warning: this sweep takes up to ")
+    assert "core-minutes" in warning
+    assert error.startswith(f"rattlesweep: error: output {in_the_way} exists")

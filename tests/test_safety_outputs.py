@@ -219,3 +219,12 @@ def test_a_wrong_coordinate_in_a_merged_sweep_nc_is_found_and_resume_rewrites_it
     assert verify(out).ok
     with xr.open_dataset(out / RESULT_NAME) as again:
         xr.testing.assert_identical(without_history(reference), without_history(again))
+
+
+def test_a_finished_refined_directory_verifies_against_its_finest_grid(tmp_path, capsys):
+    s = small_sweep(refine={"levels": 1})
+    out = tmp_path / "refined"
+    run_sweep(s, out, progress=False)
+    assert verify(out).ok  # its sweep.nc lies on the finest grid, not the declared one
+    assert main(["info", str(out)]) == 0
+    assert capsys.readouterr().err == ""

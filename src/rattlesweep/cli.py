@@ -8,18 +8,17 @@ import math
 import os
 import shlex
 import sys
-import threading
 import time
+import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ._version import __version__
-from .body import PRESETS, Body
-from .inputs import RATTLEBACK as INPUTS
 
 if TYPE_CHECKING:
     import xarray as xr
 
+    from .body import Body
     from .sweep import Sweep
 
 __all__ = ["build_parser", "main"]
@@ -213,6 +212,8 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
             select[key] = float(value)
         except ValueError:
             select[key] = value
+    for path in (*args.files, *filter(None, (args.overlay, args.versus))):
+        _warn_damaged(Path(path), "plot")
     overlay = _open_netcdf(args.overlay) if args.overlay else None
     for path in args.files:
         with _open_netcdf(path) as ds:
@@ -238,6 +239,44 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
     if overlay is not None:
         overlay.close()
     return 0
+
+
+def _sweep_output(path: Path) -> Path | None:
+    """The sweep output ``path`` is or belongs to: a zarr store, a sweep directory, or
+    the directory of a merged ``sweep.nc``; None for a file of no sweep directory."""
+    from .sweep.directory import CONFIG_NAME, RESULT_NAME
+    from .sweep.zarr_store import is_zarr_store
+
+    if is_zarr_store(path) or (path / CONFIG_NAME).is_file():
+        return path
+    if path.name == RESULT_NAME and (path.parent / CONFIG_NAME).is_file():
+        return path.parent
+    return None
+
+
+def _warn_damaged(path: Path, command: str) -> Path | None:
+    """Verify the sweep output ``path`` is or belongs to (what ``rattlesweep verify``
+    does) and warn on stderr about any tile or merged file damaged or lost; tiles of an
+    unfinished output not computed yet are no damage. Returns the output warned
+    about."""
+    from .sweep.verify import verify
+
+    out = _sweep_output(path)
+    if out is None:
+        return None
+    try:
+        found = verify(out)
+    except ValueError as exc:
+        print(f"rattlesweep {command}: warning: {out} cannot be verified: {exc}",
+              file=sys.stderr)
+        return out
+    if not (found.damaged or found.problems or (found.missing and found.finished)):
+        return None
+    head, *lines = found.report().splitlines()
+    print(f"rattlesweep {command}: warning: {out} is damaged ({head.split(': ', 1)[1]}; "
+          f"`rattlesweep verify {out}` lists the same):", *lines, sep="\n",
+          file=sys.stderr)
+    return out
 
 
 def _info_directory(path: Path) -> Path | None:
@@ -295,6 +334,7 @@ def _cmd_info(args: argparse.Namespace, argv: list[str] | None) -> int:
     failed = 0
     for name in args.files:
         path = Path(name)
+        damaged = _warn_damaged(path, "info")
         try:
             if path.is_dir():
                 result = _info_directory(path)
@@ -311,8 +351,13 @@ def _cmd_info(args: argparse.Namespace, argv: list[str] | None) -> int:
             reason = str(exc).splitlines()[0]
             if "did not find a match" in reason:
                 reason = "it is not a netCDF file"
-            print(f"rattlesweep info: cannot read {path}: expected a rattlesweep result "
-                  f"file (netCDF) or a sweep directory; {reason}", file=sys.stderr)
+            if damaged is not None:
+                print(f"rattlesweep info: cannot read {path} ({reason}): it is damaged; "
+                      f"`rattlesweep resume {damaged}` writes it again", file=sys.stderr)
+            else:
+                print(f"rattlesweep info: cannot read {path}: expected a rattlesweep "
+                      f"result file (netCDF) or a sweep directory; {reason}",
+                      file=sys.stderr)
             failed += 1
             continue
         with ds:
@@ -352,6 +397,8 @@ _SHAPE = ("a", "b", "c", "mass", "delta_deg")
 def _body_from_args(args: argparse.Namespace) -> Body:
     """The preset, the body of ``--body FILE``, or a homogeneous semi-ellipsoid whose
     parameters not given are the ``toy`` preset's (as in a sweep file)."""
+    from .body import Body
+
     shape = {k: getattr(args, k) for k in _SHAPE if getattr(args, k) is not None}
     given = [o for o, used in (("--preset", args.preset is not None),
                                ("--body", args.body is not None),
@@ -467,6 +514,9 @@ def _cmd_explore(args: argparse.Namespace, argv: list[str] | None) -> int:
 
 
 def _add_launch_options(p: argparse.ArgumentParser) -> None:
+    from .body import PRESETS
+    from .inputs import RATTLEBACK as INPUTS
+
     body = p.add_argument_group("body (one of: a preset, a TOML file, a semi-ellipsoid; "
                                 "default: the kane_levinson preset)")
     body.add_argument("--preset", default=None, choices=sorted(PRESETS),
@@ -718,9 +768,21 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _show_warning(message: Warning | str, category: type[Warning], filename: str,
+                  lineno: int, file: Any = None, line: str | None = None) -> None:
+    """A warning as the command's one line on stderr, without Python's source line."""
+    print(f"rattlesweep: warning: {message}", file=sys.stderr if file is None else file)
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    with warnings.catch_warnings():  # restores Python's own display on return
+        warnings.showwarning = _show_warning
+        return _main(argv)
+
+
+def _main(argv: list[str] | None) -> int:
     try:
+        args = build_parser().parse_args(argv)
         status = args.func(args, argv)
         sys.stdout.flush()  # a closed pipe is then found here, not at interpreter exit
         return status
@@ -740,24 +802,49 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as exc:  # a file that cannot be read or written: the message says which
         print(f"rattlesweep: error: {exc}", file=sys.stderr)
         return 2
+    except Exception as exc:
+        # Ctrl-C while a compiled extension loads surfaces as the ImportError it causes
+        # (numba's "numba._devicearray failed to import")
+        if not _caused_by_interrupt(exc):
+            raise
+        print("rattlesweep: interrupted", file=sys.stderr)
+        return 130
+
+
+def _caused_by_interrupt(exc: BaseException) -> bool:
+    """Whether a KeyboardInterrupt is among the causes of ``exc``."""
+    seen: set[int] = set()
+    cause: BaseException | None = exc
+    while cause is not None and id(cause) not in seen:
+        if isinstance(cause, KeyboardInterrupt):
+            return True
+        seen.add(id(cause))
+        cause = cause.__cause__ or cause.__context__
+    return False
 
 
 def run() -> None:
     """The command's entry point: :func:`main`, then exit with its status.
 
-    A sweep stopped by a second Ctrl-C does not wait for the tiles still computing (a
-    kernel call cannot be interrupted, and a tile of long launches may take hours); their
-    threads would keep the process alive to the end of each tile, for results nothing
-    writes any more. So the process then exits at once: every file it wrote is complete,
-    as each is written atomically, and the sweep's lock is released already."""
-    status = main()
-    if status == 130 and any(t.name.startswith("rattlesweep-tile") and t.is_alive()
-                             for t in threading.enumerate()):
+    Ctrl-C anywhere in the command (its imports included: the package loads its heavy
+    libraries only once the command runs) ends it with status 130 and one line, and the
+    process then exits at once, without the interpreter's shutdown: a sweep stopped by
+    a second Ctrl-C does not wait for the tiles still computing (a kernel call cannot be
+    interrupted, and a tile of long launches may take hours; their threads would keep
+    the process alive for results nothing writes any more), and a library whose import
+    the interrupt cut short can turn the shutdown into a death by SIGINT. Every file
+    written is complete, as each is written atomically, and the sweep's lock is released
+    already."""
+    try:
+        status = main()
+    except KeyboardInterrupt:  # outside main's own handling (while it reports an error)
+        print("rattlesweep: interrupted", file=sys.stderr)
+        status = 130
+    if status == 130:
         sys.stdout.flush()
         sys.stderr.flush()
         os._exit(status)
     sys.exit(status)
-
 
 if __name__ == "__main__":
     run()

@@ -113,7 +113,9 @@ class TileDirectory:
             raise
 
     def _check_path(self) -> None:
-        """Refuse an output path that is no directory, or a zarr store."""
+        """Refuse an output path that is no directory, a zarr store, or a directory
+        holding files of no sweep (one without ``sweep.toml`` holding anything else than
+        what a sweep writes): nothing is written into it, not even the lock."""
         from .zarr_store import is_zarr_store
 
         if self.out.exists() and not self.out.is_dir():
@@ -124,6 +126,22 @@ class TileDirectory:
             raise ValueError(f"output {self.out} is a zarr store: a netCDF sweep writes a "
                              "directory of its own (resume the store with `rattlesweep "
                              f"resume {self.out}`, or give a new path)")
+        if self.out.is_dir() and not (self.out / CONFIG_NAME).exists():
+            others = sorted(p.name + "/" * p.is_dir() for p in self.out.iterdir()
+                            if not self._own(p.name))
+            if others:
+                many = len(others) > 1
+                raise ValueError(
+                    f"output {self.out} holds {len(others)} other "
+                    f"file{'s' if many else ''} ({'the first: ' if many else ''}"
+                    f"{others[0]}) and no {CONFIG_NAME}, so it is no sweep's directory: a "
+                    f"netCDF sweep writes only into a directory of its own ({CONFIG_NAME}, "
+                    f"{TILES_DIR}/, {RESULT_NAME}). Give a new or empty directory")
+
+    def _own(self, name: str) -> bool:
+        """Whether ``name`` in the output directory is one a sweep writes."""
+        return (name in (CONFIG_NAME, RESULT_NAME, TILES_DIR, self.tiles_dir.name)
+                or name.startswith((LOCK_NAME, f".{CONFIG_NAME}.", f".{RESULT_NAME}.")))
 
     def _check_unclaimed(self) -> None:
         """In a directory without a configuration file, refuse to touch results this
@@ -166,10 +184,19 @@ class TileDirectory:
                                  f"use a new directory")
         return config
 
+    def make_tiles_dir(self) -> None:
+        """Create the directory of the tile files; a ValueError naming the path when
+        something else is in its way."""
+        if self.tiles_dir.exists() and not self.tiles_dir.is_dir():
+            raise ValueError(f"{self.tiles_dir} is in the way: a sweep keeps its tile files "
+                             f"in a directory there, and {self.tiles_dir} is a file. Move it "
+                             "away, or give a new directory")
+        self.tiles_dir.mkdir(exist_ok=True)
+
     def _prepare(self) -> list[int]:
         sweep = self.sweep
         config = self._check_config()
-        self.tiles_dir.mkdir(exist_ok=True)
+        self.make_tiles_dir()
         # temporary files of a process killed while writing a tile or the merge of this
         # sweep (a directory without sweep.toml holds none of its files); the lock is
         # held, so no other process writes them now

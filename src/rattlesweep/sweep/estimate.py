@@ -2,9 +2,12 @@
 
 The time comes from a timed calibration: a sample of the grid's own points, spread evenly
 over it, is run through the kernel on one thread exactly as a tile would run them (the
-stop rule included), and the time per point is scaled to the grid and the number of
-workers; the sweep layer's own cost (starting, writing each tile) is added from figures
-measured on a 2-core machine. The memory comes from sizes known before anything runs: the bytes of the result
+stop rule included) for a bounded number of steps each, so the calibration takes about a
+second however long the launches are; the time per step is scaled by the steps every
+launch takes (a launch that ended before its bound, at its first reversal or a capsize,
+by the steps it took), then to the grid and the number of workers; the sweep layer's
+own cost (starting, writing each tile) is added from figures measured on a 2-core
+machine. The memory comes from sizes known before anything runs: the bytes of the result
 variables per point, and the kernel's working set per launch in flight (about 830 bytes,
 measured by ``benchmarks/bench_kernel.py``), on top of what this process holds now.
 Nothing is written.
@@ -18,8 +21,10 @@ import time
 
 import numpy as np
 
+from .. import engine, results
+from ..batch import MODEL, prepare
 from .spec import Sweep
-from .tiles import compute_points, result_dtypes
+from .tiles import result_dtypes
 
 __all__ = ["Estimate", "KERNEL_BYTES_PER_LAUNCH", "estimate", "format_estimate"]
 
@@ -34,9 +39,12 @@ _MERGE_COPIES = 2
 # tile (written by this process alone, one after another)
 _START_SECONDS = 0.3
 _TILE_SECONDS = 0.015
-# calibration budget: about this many trajectory-steps, at most _MAX_SAMPLE points
-_SAMPLE_STEPS = 2e7
+# calibration budget: this many trajectory-steps in all (each of at most _MAX_SAMPLE
+# launches runs at most _SAMPLE_STEPS / _MAX_SAMPLE steps), and the kernels' loading run
+# of one launch at most _WARM_STEPS steps
+_SAMPLE_STEPS = 2e6
 _MAX_SAMPLE = 64
+_WARM_STEPS = 100
 
 
 @dataclasses.dataclass(frozen=True)
@@ -47,7 +55,9 @@ class Estimate:
     ``finest_points`` the grid a refined sweep's result lies on (``points`` when not
     refined). ``seconds`` is the wall time expected for ``points`` on ``workers`` workers,
     ``finest_seconds`` that for every point of the finest grid (an upper bound for a
-    refined sweep). ``sample`` launches took ``sample_seconds`` on one thread.
+    refined sweep). ``sample`` launches ran ``sample_steps`` steps in all in
+    ``sample_seconds`` on one thread, of the ``sample_full_steps`` they take in a sweep;
+    the time is scaled by the ratio.
     ``result_bytes`` is the size of the results (on the finest grid), ``held_bytes``
     what the process holds of them (twice the results for a merged netCDF output or a
     refined sweep, none for a zarr store), ``in_flight_bytes`` the kernel's working set of
@@ -61,6 +71,8 @@ class Estimate:
     workers: int
     sample: int
     sample_seconds: float
+    sample_steps: int
+    sample_full_steps: int
     seconds: float
     finest_seconds: float
     result_bytes: int
@@ -76,6 +88,27 @@ def _process_bytes() -> int:
     return int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) * 1024
 
 
+def _calibrate(sweep: Sweep, index: np.ndarray, most: int) -> tuple[float, int, int]:
+    """Run the points at flat indices ``index`` through the kernel on this thread, as
+    :func:`~rattlesweep.sweep.tiles.compute_points` does, each for at most ``most``
+    steps. Returns the seconds taken, the steps run and the steps the launches take in
+    a sweep: a launch that ended before ``most`` (its stop rule, a capsize) takes the
+    steps it ran, one stopped at ``most`` all of its own."""
+    bodies, kwargs = sweep.points_at(index)
+    prep = prepare(bodies, stop=sweep.stop, announce=False, **kwargs)
+    bounded = dataclasses.replace(prep, nsteps=np.minimum(prep.nsteps, most))
+    t0 = time.perf_counter()
+    raw = engine.execute(bounded, method=engine.check_method(sweep.method),
+                         record_every=None, band=sweep.reversal_band, parallel=False)
+    seconds = time.perf_counter() - t0
+    ran = results.observables_dataset(MODEL, raw.observables, "point")["steps"].values
+    ran = ran.astype(np.int64)
+    own = prep.nsteps.reshape(-1)[:prep.n]
+    cut = bounded.nsteps.reshape(-1)[:prep.n]
+    full = np.where(ran < cut, ran, own)
+    return seconds, int(ran.sum()), int(full.sum())
+
+
 def estimate(sweep: Sweep, workers: int) -> Estimate:
     """Time a sample of the sweep's points on one thread and size its results; see the
     module docstring. ``workers`` is the number of tasks running at once (>= 1)."""
@@ -84,16 +117,11 @@ def estimate(sweep: Sweep, workers: int) -> Estimate:
                          "'rattlesweep stability' only)")
     workers = max(1, int(workers))
     n = sweep.size
-    # t_end / dt of a few points sizes the sample: about _SAMPLE_STEPS steps in all
-    probe = np.unique(np.linspace(0, n - 1, min(n, 16)).astype(np.int64))
-    _, warm_steps = compute_points(sweep, probe[:1])  # also loads the kernels
-    steps_per_point = max(warm_steps, 1)
-    m = int(min(_MAX_SAMPLE, n, max(1, _SAMPLE_STEPS // steps_per_point)))
+    _calibrate(sweep, np.zeros(1, dtype=np.int64), _WARM_STEPS)  # loads the kernels
+    m = min(_MAX_SAMPLE, n)
     sample = np.unique(np.linspace(0, n - 1, m).astype(np.int64))
-    t0 = time.perf_counter()
-    compute_points(sweep, sample)
-    sample_seconds = time.perf_counter() - t0
-    per_point = sample_seconds / len(sample)
+    sample_seconds, run, full = _calibrate(sweep, sample, max(1, int(_SAMPLE_STEPS // m)))
+    per_point = sample_seconds * (full / max(run, 1)) / len(sample)
     finest = sweep.finest()
     # the points shared among the workers, but never less than one whole tile (a tile
     # runs on one worker)
@@ -109,7 +137,8 @@ def estimate(sweep: Sweep, workers: int) -> Estimate:
         held = result_bytes * _MERGE_COPIES
     return Estimate(points=n, tiles=sweep.n_tiles, tile_size=sweep.tile_size,
                     finest_points=finest.size, workers=workers, sample=len(sample),
-                    sample_seconds=sample_seconds, seconds=seconds,
+                    sample_seconds=sample_seconds, sample_steps=run,
+                    sample_full_steps=full, seconds=seconds,
                     finest_seconds=finest_seconds, result_bytes=result_bytes,
                     held_bytes=held, in_flight_bytes=in_flight, process_bytes=process,
                     peak_bytes=process + in_flight + held)
@@ -146,8 +175,10 @@ def format_estimate(sweep: Sweep, e: Estimate, where: str) -> str:
                      f"{e.finest_points:,} points; each level simulates only the cells "
                      "where the outcome changes (the demo: 9 % of its finest grid)")
     stop = ", each launch stopped at its first reversal" if sweep.stop else ""
-    lines.append(f"  calibration: {e.sample} of its launches took {e.sample_seconds:.2f} s "
-                 f"on one thread{stop}")
+    bounded = (f" ({e.sample_steps:,} of their {e.sample_full_steps:,} steps, the time "
+               "scaled by steps)" if e.sample_steps < e.sample_full_steps else "")
+    lines.append(f"  calibration: {e.sample} of its launches{bounded} took "
+                 f"{e.sample_seconds:.2f} s on one thread{stop}")
     declared = " for the declared grid" if sweep.refine is not None else ""
     time_line = (f"  time: {_duration(e.seconds)}{declared} on {where}, once the kernels "
                  "are compiled")

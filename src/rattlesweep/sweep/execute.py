@@ -19,8 +19,8 @@ Handler = Callable[[Any], None]
 
 
 def run_tiles(sweep: Sweep, todo: list[Any], on_result: Handler, *, client: Any = None,
-              workers: int = 1, compute: Callable[[Sweep, Any], Any] = compute_tile
-              ) -> None:
+              workers: int = 1, compute: Callable[[Sweep, Any], Any] = compute_tile,
+              on_wait: Callable[[], None] | None = None) -> None:
     """Compute the tiles ``todo`` of ``sweep`` and call ``on_result`` with each result as
     it arrives. ``client`` (a ``distributed.Client``) runs them on its cluster; without
     it, ``workers`` local threads run them. A task is ``compute(sweep, item)`` for each
@@ -32,9 +32,11 @@ def run_tiles(sweep: Sweep, todo: list[Any], on_result: Handler, *, client: Any 
     unless Ctrl-C is pressed again; on a cluster they are cancelled. A result being
     handed over when Ctrl-C comes is handed over in full.
     An exception in ``on_result`` or a task stops the run and propagates.
+    On local threads ``on_wait`` (a progress bar's ``tick``) is called in the calling
+    thread about every 0.1 s while tiles run.
     """
     if client is None:
-        _run_threads(sweep, todo, on_result, workers, compute)
+        _run_threads(sweep, todo, on_result, workers, compute, on_wait)
     else:
         _run_cluster(sweep, todo, on_result, client, compute)
 
@@ -74,7 +76,8 @@ _POLL = 0.1
 
 
 def _run_threads(sweep: Sweep, todo: list[Any], on_result: Handler, workers: int,
-                 compute: Callable[[Sweep, Any], Any]) -> None:
+                 compute: Callable[[Sweep, Any], Any],
+                 on_wait: Callable[[], None] | None = None) -> None:
     # a few tiles queued per thread keeps the threads busy while this thread writes;
     # the rest are handed out as tiles finish, so results never pile up in memory
     window = 2 * workers
@@ -99,6 +102,8 @@ def _run_threads(sweep: Sweep, todo: list[Any], on_result: Handler, workers: int
                 for future in finished:
                     running.discard(future)
                     on_result(future.result())
+                if on_wait is not None:
+                    on_wait()
                 if interrupts.count == 0:
                     refill()
                 else:  # tiles queued but not started are dropped: only running ones end

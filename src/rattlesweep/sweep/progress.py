@@ -11,7 +11,8 @@ __all__ = ["Progress"]
 
 class Progress:
     """Report finished tiles to ``stream``: redrawn in place on a terminal, otherwise a line
-    every ``every`` seconds (and at the end).
+    every ``every`` seconds at most (and at the end); a tile counted within ``every`` of
+    the last line is shown by :meth:`tick`, which the runner calls while it waits.
 
     ``compiling`` says that the first tiles compile the kernels (a first run: about a
     minute): the bar says so, and the rate and ETA leave out the time to the first
@@ -32,6 +33,7 @@ class Progress:
         self._rate_t0, self._rate_points = self.t0, 0  # what the rate is measured over
         self._compiling = compiling and done_tiles < total_tiles
         self._last = -1e9
+        self._shown = done_tiles  # the tiles the last line counted
         self._tty = hasattr(self.stream, "isatty") and self.stream.isatty()
         if enabled and done_tiles:
             self._write(f"resuming: {done_tiles} of {total_tiles} tiles already done\n")
@@ -52,8 +54,7 @@ class Progress:
         return self._rate_points / elapsed if elapsed > 0 else 0.0
 
     def update(self, summary: Mapping[str, Any]) -> None:
-        if summary.get("skipped"):
-            return
+        """Count a tile just written (``summary``: its points ``n``, ``steps``)."""
         self.done_tiles += 1
         self.done_points += summary["n"]
         self.new_points += summary["n"]
@@ -64,9 +65,19 @@ class Progress:
             self._rate_t0 = now
         else:
             self._rate_points += summary["n"]
+        self._show(now)
+
+    def tick(self) -> None:
+        """Show the tiles counted since the last line, once ``every`` seconds have passed
+        since it (without this, a tile held back by ``every`` would wait for the next
+        tile to finish, possibly long after it was written)."""
+        if self.done_tiles != self._shown:
+            self._show(time.perf_counter())
+
+    def _show(self, now: float) -> None:
         if self.enabled and (self._tty or now - self._last >= self.every
                              or self.done_tiles == self.total_tiles):
-            self._last = now
+            self._last, self._shown = now, self.done_tiles
             self._write(self.line() + ("\r" if self._tty else "\n"))
 
     def line(self) -> str:

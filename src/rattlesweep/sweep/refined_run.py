@@ -104,7 +104,7 @@ class RefinedDirectory(TileDirectory):
 
     def _prepare(self) -> list[int]:
         config = self._check_config()
-        self.tiles_dir.mkdir(exist_ok=True)
+        self.make_tiles_dir()
         for stale in self.tiles_dir.glob("level-*/.*.tmp"):
             stale.unlink(missing_ok=True)
         if not config.exists():
@@ -239,7 +239,7 @@ def run_refined(sweep: Sweep, out: str | os.PathLike[str], *, client: Any = None
 
             try:
                 run_tiles(fine, todo, write, client=client, workers=workers,
-                          compute=compute_level_tile)
+                          compute=compute_level_tile, on_wait=bar.tick)
             except KeyboardInterrupt:
                 bar.interrupted(store.location)
                 raise

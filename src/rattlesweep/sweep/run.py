@@ -132,7 +132,8 @@ def run_sweep(sweep: Sweep, out: str | os.PathLike, *, client: Client | None = N
             bar.update(result.summary())
 
         try:
-            run_tiles(sweep, todo, write, client=client, workers=workers or _cores())
+            run_tiles(sweep, todo, write, client=client, workers=workers or _cores(),
+                      on_wait=bar.tick)
         except KeyboardInterrupt:
             bar.interrupted(store.location)
             raise

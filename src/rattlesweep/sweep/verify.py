@@ -14,14 +14,17 @@ __all__ = ["Verification", "verify"]
 @dataclass(frozen=True)
 class Verification:
     """What :func:`verify` found: the output's ``location``, its number of tiles, the
-    tiles not written yet (``missing``), the tiles found damaged (tile -> what is
-    wrong) and other problems (the merged file)."""
+    tiles without a file or done flag (``missing``), the tiles found damaged (tile ->
+    what is wrong) and other problems (the merged file). ``finished`` says that the
+    sweep had finished (its merged file was written), so a tile in ``missing`` was lost
+    rather than not computed yet."""
 
     location: str
     n_tiles: int
     missing: tuple[int, ...]
     damaged: Mapping[int, str]
     problems: tuple[str, ...] = ()
+    finished: bool = False
 
     @property
     def ok(self) -> bool:
@@ -31,19 +34,26 @@ class Verification:
     def report(self) -> str:
         """A few lines for the user."""
         sound = self.n_tiles - len(self.missing) - len(self.damaged)
-        lines = [f"{self.location}: {sound} of {self.n_tiles} tiles verified"]
+        lines = [f"{self.location}: {sound} of {_tiles(self.n_tiles)} verified"]
         if self.missing:
-            lines.append(f"  not computed yet: {len(self.missing)} tiles (the first: "
+            what = ("missing (deleted after the sweep finished)" if self.finished
+                    else "not computed yet")
+            first = "" if len(self.missing) == 1 else "the first: "
+            lines.append(f"  {what}: {_tiles(len(self.missing))} ({first}tile "
                          f"{self.missing[0]})")
         for tile in sorted(self.damaged)[:10]:
             lines.append(f"  damaged: tile {tile}: {self.damaged[tile]}")
         if len(self.damaged) > 10:
-            lines.append(f"  damaged: {len(self.damaged) - 10} more tiles")
+            lines.append(f"  damaged: {_tiles(len(self.damaged) - 10)} more")
         lines.extend(f"  {p}" for p in self.problems)
         if not self.ok:
             lines.append(f"  `rattlesweep resume {self.location}` recomputes what is "
                          "missing or damaged")
         return "\n".join(lines)
+
+
+def _tiles(n: int) -> str:
+    return f"{n} tile{'' if n == 1 else 's'}"
 
 
 def verify(out: str | os.PathLike,
@@ -79,9 +89,10 @@ def _verify_directory(out: Path, sweep: Any) -> Verification:
     from .directory import RESULT_NAME, TILES_DIR, tile_path, tile_state
 
     if sweep.refine is not None:
-        # a refined sweep's tiles are per level; its merged file is what is checked
-        return Verification(str(out), 0, (), {}, _check_merged(out / RESULT_NAME, sweep,
-                                                               required=True))
+        # a refined sweep's tiles are per level; its merged file, on the finest grid, is
+        # what is checked
+        return Verification(str(out), 0, (), {}, _check_merged(
+            out / RESULT_NAME, sweep, required=True, grid=sweep.finest()))
     missing, damaged = [], {}
     for tile in range(sweep.n_tiles):
         path = tile_path(out / TILES_DIR, tile)
@@ -95,12 +106,15 @@ def _verify_directory(out: Path, sweep: Any) -> Verification:
                 "unreadable or incomplete")
     complete = not missing and not damaged
     return Verification(str(out), sweep.n_tiles, tuple(missing), damaged,
-                        _check_merged(out / RESULT_NAME, sweep, required=complete))
+                        _check_merged(out / RESULT_NAME, sweep, required=complete),
+                        finished=(out / RESULT_NAME).exists())
 
 
-def _check_merged(path: Path, sweep: Any, required: bool) -> tuple[str, ...]:
-    """Problems of the merged file ``path`` (none when it is absent and not
-    ``required``)."""
+def _check_merged(path: Path, sweep: Any, required: bool, grid: Any = None
+                  ) -> tuple[str, ...]:
+    """Problems of the merged file ``path`` of ``sweep``, whose coordinates are those
+    of the sweep ``grid`` (default: ``sweep``); none when it is absent and not
+    ``required``."""
     import netCDF4
 
     from ..io import NETCDF_LOCK
@@ -114,7 +128,7 @@ def _check_merged(path: Path, sweep: Any, required: bool) -> tuple[str, ...]:
                 return (f"{path.name} holds another configuration's results",)
             for var in nc.variables.values():
                 var[:]
-            wrong = [name for name, (_, want, _) in grid_coords(sweep).items()
+            wrong = [name for name, (_, want, _) in grid_coords(grid or sweep).items()
                      if name in nc.variables and not _same(nc.variables[name][...], want)]
     except Exception as exc:  # any failure to read it in full
         first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
