@@ -11,7 +11,7 @@ import rattlesweep as rs
 from rattlesweep.batch import prepare
 from rattlesweep.core import models, stepper
 from rattlesweep.core.models import RATTLEBACK
-from rattlesweep.core.rattleback import dynamics, layout
+from rattlesweep.core.rattleback import dynamics, layout, slip
 from rattlesweep.core.workspace import (
     BLOCK, COUPLES, OFF_S, OFF_X, ROLLING, S_DPX, S_DPY, S_MODE, S_UHX, S_UHY,
     SLIDING, STAGE_START, X_DCX,
@@ -72,7 +72,7 @@ def test_the_right_hand_side_writes_only_its_outputs(evaluate):
     np.testing.assert_array_equal(W, first)  # NaN == NaN here
     # the block exercised both kinds of slip, and put d* among its outputs
     kinds = first[(layout.OFF_G + layout.SLIP_KIND) * BLOCK + np.arange(BLOCK)]
-    assert set(kinds[slipping]) == {dynamics.FAST_SLIP, dynamics.SLOW_SLIP}
+    assert set(kinds[slipping]) == {slip.FAST_SLIP, slip.SLOW_SLIP}
     assert np.all(first[(OFF_X + X_DCX) * BLOCK + np.flatnonzero(slipping)] != 0.0)
     outputs = np.zeros(W.size, dtype=bool)
     for offset, n in [(layout.OFF_A, layout.N_STATE), (layout.OFF_T, layout.N_STATE),
