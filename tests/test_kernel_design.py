@@ -130,11 +130,11 @@ def test_compiled_variants_stay_within_the_budget():
 PROBE = """
 import rattlesweep as rs
 from rattlesweep.core import events, stepper
-from rattlesweep.core.rattleback import dynamics
+from rattlesweep.core.rattleback import dynamics, slip
 rs.simulate(rs.Body.preset("toy"), spin=5.0, t_end=0.01)
 index = lambda d: [key[0] for key in d._cache._cache_file._load_index()]
 print(sorted({sig[1].literal_value for sig in index(dynamics.eval_block)}),
-      len(index(dynamics.slip_direction)), len(index(events.locate_lane)),
+      len(index(slip.slip_direction)), len(index(events.locate_lane)),
       sorted({sig[1].literal_value for sig in index(stepper.integrate_serial)}))
 """
 
