@@ -2,6 +2,7 @@
 
     python benchmarks/bench_kernel.py [--quick]
     python benchmarks/bench_kernel.py --compare OLD_CHECKOUT/src [--quick] [--rounds 6]
+    python benchmarks/bench_kernel.py --latency
 
 kane_levinson body, default dt, RK4, 0.5 degree roll, spins linspace(-10, 10, n) rad/s.
 Timings are the best of --repeats calls after an untimed one (spread: (slowest - best) /
@@ -151,25 +152,28 @@ def baselines(n, k_rate, quick):
 
 
 LATENCY = """
-import time; t0 = time.perf_counter()
+import sys, time; t0 = time.perf_counter()
 import rattlesweep as rs; t1 = time.perf_counter()
 body = rs.Body.preset("kane_levinson")
-rs.simulate(body, spin=5.0, roll=0.01, t_end=0.01); t2 = time.perf_counter()
-rs.run_batch(body, spin=[5.0, 6.0], roll=0.01, t_end=0.01); t3 = time.perf_counter()
+mu = float(sys.argv[1])
+rs.simulate(body, spin=5.0, roll=0.01, t_end=0.01, mu=mu); t2 = time.perf_counter()
+rs.run_batch(body, spin=[5.0, 6.0], roll=0.01, t_end=0.01, mu=mu); t3 = time.perf_counter()
 print(t1 - t0, t2 - t0, t3 - t0)
 """
 
 
 def latency():
-    print("\n4. FIRST-CALL LATENCY (fresh interpreter, s from before import, cumulative)")
-    print(f"{'numba cache':<12} {'import':>7} {'+ simulate':>11} {'+ run_batch':>12}")
-    with tempfile.TemporaryDirectory() as cache:
-        for label in ("cold", "warm"):
-            env = {**os.environ, "NUMBA_CACHE_DIR": cache}
-            imp, sim, batch = map(float, subprocess.run(
-                [sys.executable, "-c", LATENCY], env=env, check=True, text=True,
-                capture_output=True).stdout.split())
-            print(f"{label:<12} {imp:>7.2f} {sim:>11.2f} {batch:>12.2f}")
+    print("\n4. FIRST-CALL LATENCY (fresh interpreter, s from before import, cumulative; "
+          "cold: an empty numba cache for each friction level)")
+    print(f"{'mu':>5} {'numba cache':<12} {'import':>7} {'+ simulate':>11} {'+ run_batch':>12}")
+    for mu in (math.inf, 0.3):
+        with tempfile.TemporaryDirectory() as cache:
+            for label in ("cold", "warm"):
+                env = {**os.environ, "NUMBA_CACHE_DIR": cache}
+                imp, sim, batch = map(float, subprocess.run(
+                    [sys.executable, "-c", LATENCY, repr(mu)], env=env, check=True,
+                    text=True, capture_output=True).stdout.split())
+                print(f"{mu:>5g} {label:<12} {imp:>7.2f} {sim:>11.2f} {batch:>12.2f}")
 
 
 def tree(name):
@@ -240,6 +244,8 @@ def main(argv=None):
     ap.add_argument("--target", type=float, help="about this many s per timed run")
     ap.add_argument("--repeats", type=int, help="timed runs per configuration (default 3; "
                     "--compare: pairs per process, default 10)")
+    ap.add_argument("--latency", action="store_true",
+                    help="only the first-call latency (cold and warm numba cache)")
     ap.add_argument("--compare", metavar="OLD_SRC", help="A/B against another tree's src")
     ap.add_argument("--rounds", type=int, default=6, help="A/B processes, one after another")
     ap.add_argument("--pairs", action="store_true", help=argparse.SUPPRESS)
@@ -255,6 +261,8 @@ def main(argv=None):
         return compare(args.compare, sizes, args)
     if args.pairs:
         return pairs(sizes, args)
+    if args.latency:
+        return latency()
     # A process that compiled the kernels runs them measurably slower than one that loaded
     # them from numba's cache, so a child process fills the cache before anything is timed.
     subprocess.run([sys.executable, __file__, "--warm"], check=True)

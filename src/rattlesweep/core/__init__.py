@@ -7,14 +7,19 @@ Where things live:
   bookkeeping, common parameters, observables), status codes and method numbers;
 * ``rows`` – the declarative row tables (name, units, long name, packing) every layout
   is built from;
-* ``stepper`` – the one time loop and its entry points, for every model;
+* ``stepper`` – the one time loop and its entry points, for every model and friction
+  level (``workspace.ROLLING``, ``SLIDING``, ``COUPLES``: what a copy compiles);
+* ``reversals`` – the spin's first reversal and the heading's reversals, observed once
+  per step;
 * ``switching`` – the Coulomb stick/slip decisions (MODEL.md section 4);
 * ``events`` – the scalar path that redoes a lane's step with its switches located;
 * ``stages`` – the RK4 stage arithmetic fused into each model's derivative loop;
 * ``models`` – the hooks the stepper calls, chosen per model at compile time;
 * ``rattleback/`` – the 3-D model: ``layout`` (its rows), ``geometry`` (contact
-  geometry, impulses; MODEL.md section 3), ``dynamics`` (the equations of motion),
-  ``model`` (what it supplies to the stepper);
+  geometry, impulses; MODEL.md section 3), ``dynamics`` (the right-hand side,
+  ``eval_block``) with its phases ``contact`` (kinematics, slip velocity), ``slip`` (the
+  friction direction), ``accelerations`` (with the couples) and ``derivative`` (friction
+  force, stage arithmetic), ``model`` (what it supplies to the stepper);
 * ``planar/`` – the rocking semi-ellipse of MODEL.md section 8, with the same modules;
 * ``jit`` – the compile policy every kernel uses.
 """

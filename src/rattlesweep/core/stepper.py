@@ -27,7 +27,10 @@ out (unless it records). All work arrays are made once per block, none in the lo
 
 The model (:data:`.models.RATTLEBACK` or :data:`.models.PLANAR`) is a literal argument of
 every kernel here: each model gets its own compiled copy of this source, with the
-model's right-hand side, checks and records from :mod:`.models`.
+model's right-hand side, checks and records from :mod:`.models`. So is the friction
+level of the entry points (:data:`.workspace.ROLLING`, ``SLIDING`` or ``COUPLES``): a copy
+holds the right-hand side variants up to its level only, and a rolling copy no
+switching at all. The observation of reversals is :mod:`.reversals`.
 """
 
 from __future__ import annotations
@@ -41,7 +44,8 @@ from numba.core.errors import TypingError
 from numba.extending import overload
 
 from . import models
-from .jit import OVERLOAD_OPTIONS, allocating_kernel, inline_kernel, kernel, parallel_kernel
+from .jit import OVERLOAD_OPTIONS, allocating_kernel, kernel, parallel_kernel
+from .reversals import note_reversals, observe
 from .events import LOCATE_ROWS, locate_where_located, located, switch_marked
 from .stages import set_mid_stage, set_step_fractions
 from .switching import (
@@ -49,17 +53,16 @@ from .switching import (
     note_slip, pass_step,
 )
 from .workspace import (
-    at, BEYOND, BLOCK, CAPSIZED, COS2_HEADING_BAND, COUPLES, CROSSED, DT, ENDS_AS_IS,
+    at, BLOCK, CAPSIZED, COUPLES, DT, ENDS_AS_IS,
     EPS_U, H_HALF_DT, H_SIXTH_DT, K_BAND, K_FIRST_REV, K_HEAD_EXT_X, K_HEAD_EXT_Y,
-    K_HEAD_SENSE, K_HEAD_TURNS, K_MARK_END, K_MARK_REVERSAL, K_N_REV, K_OPEN, K_PENDING,
-    K_RUN, K_SIDE, K_SLIP_STEPS, K_SPIN_PREV, K_STOP, K_T_CAND, K_T_CROSS, K_WATCH_LOW,
+    K_HEAD_SENSE, K_MARK_END, K_N_REV, K_OPEN, K_PENDING,
+    K_RUN, K_SIDE, K_SLIP_STEPS, K_SPIN_PREV, K_STOP, K_T_CROSS, K_WATCH_LOW,
     K_WIN0, K_WIN_CNT, K_WIN_SUM, LIFTED_OFF, MU_ROLL, MU_S, MU_SPIN, NON_FINITE,
     NOT_MARKED, OFF_H, OFF_K, OFF_P, OFF_S, OFF_X, OK, O_E0, O_E_END, O_FINAL_SPIN,
     O_FIRST_REV, O_MEAN_FINAL_SPIN, O_N_REV, O_SLIP_FRAC, O_SPIN0, O_STATUS, O_STEPS,
     O_T_END, RK4, ROLLING, SLIDING, STAGE_4, STAGE_FIRST, STAGE_MID, STAGE_START,
-    STOP_AT_REVERSAL,
-    STOP_RULE, S_JX, S_JY, S_MODE, S_ROLL, S_ROLL_SENSE, S_SPIN, S_SPIN_SENSE, S_TSTOP,
-    S_UHX, TURNED_BACK, X_N, X_ROLL_EVENT, X_SPIN_EVENT, X_UX, X_UY,
+    S_JX, S_JY, S_MODE, S_ROLL, S_ROLL_SENSE, S_SPIN, S_SPIN_SENSE, S_TSTOP,
+    S_UHX, X_N, X_ROLL_EVENT, X_SPIN_EVENT, X_UX, X_UY,
 )
 
 __all__ = ["advance_block", "contact_slip_velocity", "integrate_parallel",
@@ -219,108 +222,6 @@ def flag_bad_step(W, model):
         W[at(OFF_K, K_MARK_END, j)] = (float(LIFTED_OFF) if lift else (
             float(NON_FINITE) if bad_value else (float(CAPSIZED) if capsized else NOT_MARKED)))
         n += 1 if lift | bad_value | capsized else 0
-    return n
-
-
-@kernel
-def observe(W, model, step):
-    """Update the run observables from the new state Y, and mark (a sum of the marks)
-    the lanes whose spin crossed zero (CROSSED) or went beyond the reversal band on the
-    other side (BEYOND), and those whose heading turned back by more than HEADING_BAND
-    from the furthest it reached in its present sense (TURNED_BACK); returns how many it
-    marked. Frozen lanes are updated too: harmless, nothing reads them."""
-    numba.literally(model)
-    n = 0
-    for j in range(BLOCK):
-        spin, watched = models.spin_and_watch(W, model, j)
-        W[at(OFF_K, K_SLIP_STEPS, j)] += W[at(OFF_S, S_MODE, j)]
-        W[at(OFF_K, K_WATCH_LOW, j)] = min(W[at(OFF_K, K_WATCH_LOW, j)], watched)
-        window = 1.0 if step >= W[at(OFF_K, K_WIN0, j)] else 0.0
-        W[at(OFF_K, K_WIN_SUM, j)] += window * spin
-        W[at(OFF_K, K_WIN_CNT, j)] += window
-        # the first reversal: the spin crossed zero and went beyond the band on the
-        # other side; it is reported at the (linearly interpolated) crossing instant
-        dt = W[at(OFF_P, DT, j)]
-        side = W[at(OFF_K, K_SIDE, j)]
-        spin_prev = W[at(OFF_K, K_SPIN_PREV, j)]
-        W[at(OFF_K, K_T_CAND, j)] = (step + 1) * dt - dt * spin / (spin - spin_prev)
-        crossed = (side * spin_prev > 0.0) & (side * spin <= 0.0)
-        beyond = side * spin < -W[at(OFF_K, K_BAND, j)]
-        W[at(OFF_K, K_SPIN_PREV, j)] = spin
-        # the heading's reversals: the furthest direction in the present sense follows
-        # the heading while it turns that way; a turn back by more than HEADING_BAND from
-        # there is a reversal (angles from cross and dot products: no trigonometry per
-        # step). The furthest direction stays within the band of the heading, so its
-        # whole turns across the cut of atan2 (the half-line X < 0, Y = 0) unwrap both.
-        hx, hy = models.heading(W, model, j)
-        ex = W[at(OFF_K, K_HEAD_EXT_X, j)]
-        ey = W[at(OFF_K, K_HEAD_EXT_Y, j)]
-        sense = W[at(OFF_K, K_HEAD_SENSE, j)]
-        turn = sense * (ex * hy - ey * hx)
-        dot = ex * hx + ey * hy
-        # (without a sense, for a launch without spin, it follows the heading throughout)
-        ahead = ((turn > 0.0) & (dot > 0.0)) | (sense == 0.0)
-        nx = hx if ahead else ex
-        ny = hy if ahead else ey
-        W[at(OFF_K, K_HEAD_EXT_X, j)] = nx
-        W[at(OFF_K, K_HEAD_EXT_Y, j)] = ny
-        W[at(OFF_K, K_HEAD_TURNS, j)] += cut_turns(ex, ey, nx, ny)
-        back = (turn < 0.0) & ((dot <= 0.0) | (
-            dot * dot < COS2_HEADING_BAND * (ex * ex + ey * ey) * (hx * hx + hy * hy)))
-        W[at(OFF_K, K_MARK_REVERSAL, j)] = (
-            (float(CROSSED) if crossed else NOT_MARKED)
-            + (float(BEYOND) if beyond else NOT_MARKED)
-            + (float(TURNED_BACK) if back else NOT_MARKED))
-        n += 1 if crossed | beyond | back else 0
-    return n
-
-
-@inline_kernel
-def cut_turns(ox, oy, nx, ny):
-    """+1 when a direction moving from (ox, oy) to (nx, ny) (a small turn) crosses the
-    cut of atan2 at +-pi counter-clockwise, -1 clockwise, else 0 (a direction with
-    Y = -0.0 counts as above the cut, as ``atan2(y + 0.0, x)`` puts it)."""
-    cut = (nx < 0.0) & (ox < 0.0)
-    return (1.0 if cut & (oy >= 0.0) & (ny < 0.0) else 0.0) - (
-        1.0 if cut & (oy < 0.0) & (ny >= 0.0) else 0.0)
-
-
-@kernel
-def note_reversals(W, model, step):
-    """Act on the marks :func:`observe` left in the step that reached step ``step``:
-    the spin's first reversal time, and the heading's reversals, counted, each of which
-    turns the sense the heading is followed in. A lane whose stop rule is
-    STOP_AT_REVERSAL ends at the step where it has both a first reversal time and a
-    heading reversal (whichever came second): its last step becomes ``step``. Returns
-    how many lanes it so ended. A first reversal the heading has not confirmed stays
-    pending until the spin crosses back to its launch side."""
-    numba.literally(model)
-    n = 0
-    for j in range(BLOCK):
-        mark = int(W[at(OFF_K, K_MARK_REVERSAL, j)])
-        if mark & CROSSED:
-            W[at(OFF_K, K_T_CROSS, j)] = W[at(OFF_K, K_T_CAND, j)]
-            W[at(OFF_K, K_PENDING, j)] = 0.0
-        if mark & BEYOND:
-            if math.isnan(W[at(OFF_K, K_FIRST_REV, j)]):
-                W[at(OFF_K, K_FIRST_REV, j)] = W[at(OFF_K, K_T_CROSS, j)]
-                W[at(OFF_K, K_PENDING, j)] = 1.0 if W[at(OFF_K, K_N_REV, j)] == 0.0 else 0.0
-            W[at(OFF_K, K_SIDE, j)] = -W[at(OFF_K, K_SIDE, j)]
-        if mark & TURNED_BACK:
-            W[at(OFF_K, K_N_REV, j)] += 1.0
-            W[at(OFF_K, K_PENDING, j)] = 0.0
-            W[at(OFF_K, K_HEAD_SENSE, j)] = -W[at(OFF_K, K_HEAD_SENSE, j)]
-            hx, hy = models.heading(W, model, j)
-            W[at(OFF_K, K_HEAD_TURNS, j)] += cut_turns(
-                W[at(OFF_K, K_HEAD_EXT_X, j)], W[at(OFF_K, K_HEAD_EXT_Y, j)], hx, hy)
-            W[at(OFF_K, K_HEAD_EXT_X, j)] = hx
-            W[at(OFF_K, K_HEAD_EXT_Y, j)] = hy
-        if (mark != 0 and W[at(OFF_P, STOP_RULE, j)] == STOP_AT_REVERSAL
-                and W[at(OFF_K, K_RUN, j)] > 0.5 and W[at(OFF_K, K_STOP, j)] > step
-                and W[at(OFF_K, K_N_REV, j)] > 0.0
-                and not math.isnan(W[at(OFF_K, K_FIRST_REV, j)])):
-            W[at(OFF_K, K_STOP, j)] = step
-            n += 1
     return n
 
 

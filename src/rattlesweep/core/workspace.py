@@ -253,7 +253,7 @@ TURNED_BACK = 4  # K_MARK_REVERSAL: the heading turned back by HEADING_BAND
 
 HEADING_BAND = 0.1
 """rad: a heading reversal is counted when the heading, having turned one way, turns back
-by more than this from the furthest it reached (:func:`.stepper.observe`). Rocking turns
+by more than this from the furthest it reached (:func:`.reversals.observe`). Rocking turns
 the heading back and forth by a few hundredths of a radian at most, even at tilts of a
 radian; a reversal turns it back by far more."""
 COS2_HEADING_BAND = math.cos(HEADING_BAND) ** 2
