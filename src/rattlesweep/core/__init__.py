@@ -9,6 +9,8 @@ Where things live:
   is built from;
 * ``stepper`` – the one time loop and its entry points, for every model and friction
   level (``workspace.ROLLING``, ``SLIDING``, ``COUPLES``: what a copy compiles);
+* ``levels`` – which right-hand side variant each evaluation runs at each friction level,
+  and the switching a level needs;
 * ``reversals`` – the spin's first reversal and the heading's reversals, observed once
   per step;
 * ``switching`` – the Coulomb stick/slip decisions (MODEL.md section 4);

@@ -30,7 +30,8 @@ every kernel here: each model gets its own compiled copy of this source, with th
 model's right-hand side, checks and records from :mod:`.models`. So is the friction
 level of the entry points (:data:`.workspace.ROLLING`, ``SLIDING`` or ``COUPLES``): a copy
 holds the right-hand side variants up to its level only, and a rolling copy no
-switching at all. The observation of reversals is :mod:`.reversals`.
+switching at all. The levels' dispatch is :mod:`.levels`, the observation of reversals
+:mod:`.reversals`.
 """
 
 from __future__ import annotations
@@ -39,19 +40,15 @@ import math
 
 import numba
 import numpy as np
-from numba import prange, types
-from numba.core.errors import TypingError
-from numba.extending import overload
+from numba import prange
 
 from . import models
-from .jit import OVERLOAD_OPTIONS, allocating_kernel, kernel, parallel_kernel
+from .events import LOCATE_ROWS, located
+from .jit import allocating_kernel, kernel, parallel_kernel
+from .levels import evaluate_state, rk4_step, switch_modes
 from .reversals import note_reversals, observe
-from .events import LOCATE_ROWS, locate_where_located, located, switch_marked
-from .stages import set_mid_stage, set_step_fractions
-from .switching import (
-    LOCATED_STOP_HORIZON, STOP_HORIZON, any_slipping, flag_switches, keep_directions,
-    note_slip, pass_step,
-)
+from .stages import set_step_fractions
+from .switching import any_slipping, note_slip, pass_step
 from .workspace import (
     at, BLOCK, CAPSIZED, COUPLES, DT, ENDS_AS_IS,
     EPS_U, H_HALF_DT, H_SIXTH_DT, K_BAND, K_FIRST_REV, K_HEAD_EXT_X, K_HEAD_EXT_Y,
@@ -60,106 +57,12 @@ from .workspace import (
     K_WIN0, K_WIN_CNT, K_WIN_SUM, LIFTED_OFF, MU_ROLL, MU_S, MU_SPIN, NON_FINITE,
     NOT_MARKED, OFF_H, OFF_K, OFF_P, OFF_S, OFF_X, OK, O_E0, O_E_END, O_FINAL_SPIN,
     O_FIRST_REV, O_MEAN_FINAL_SPIN, O_N_REV, O_SLIP_FRAC, O_SPIN0, O_STATUS, O_STEPS,
-    O_T_END, RK4, ROLLING, SLIDING, STAGE_4, STAGE_FIRST, STAGE_MID, STAGE_START,
-    S_JX, S_JY, S_MODE, S_ROLL, S_ROLL_SENSE, S_SPIN, S_SPIN_SENSE, S_TSTOP,
+    O_T_END, RK4, ROLLING, SLIDING, S_JX, S_JY, S_MODE, S_ROLL, S_ROLL_SENSE, S_SPIN, S_SPIN_SENSE, S_TSTOP,
     S_UHX, X_N, X_ROLL_EVENT, X_SPIN_EVENT, X_UX, X_UY,
 )
 
 __all__ = ["advance_block", "contact_slip_velocity", "integrate_parallel",
            "integrate_serial", "rolling_derivative"]
-
-
-def _literal(value, what):
-    if not isinstance(value, types.IntegerLiteral):
-        raise TypingError(f"the {what} must be a literal integer (numba.literally)")
-    return value.literal_value
-
-
-def evaluate_state(W, model, level, slipping, forces):
-    """First RK stage at the step-start state, with the normal force in region X and,
-    when ``forces`` or ``slipping``, the friction force and slip velocity too.
-    ``slipping``, the friction level of the evaluation decided at run time, is
-    ``COUPLES`` for a block with spin or rolling friction, else ``ROLLING`` only when no
-    lane that is still stepped slips; ``level`` (a literal) is the highest it can be: only
-    the variants of the right-hand side up to it are compiled."""
-
-
-@overload(evaluate_state, prefer_literal=True, jit_options=OVERLOAD_OPTIONS)
-def _evaluate_state(W, model, level, slipping, forces):
-    top = _literal(level, "friction level")
-
-    def rolling(W, model, level, slipping, forces):
-        if forces:
-            models.evaluate(W, model, ROLLING, STAGE_START, False, 0)
-        else:
-            models.evaluate(W, model, ROLLING, STAGE_FIRST, False, 0)
-
-    def sliding(W, model, level, slipping, forces):
-        if slipping != ROLLING:
-            models.evaluate(W, model, SLIDING, STAGE_START, False, 0)
-            keep_directions(W)
-        elif forces:
-            models.evaluate(W, model, ROLLING, STAGE_START, False, 0)
-        else:
-            models.evaluate(W, model, ROLLING, STAGE_FIRST, False, 0)
-
-    def couples(W, model, level, slipping, forces):
-        if slipping == COUPLES:
-            models.evaluate(W, model, COUPLES, STAGE_START, False, 0)
-            keep_directions(W)
-        elif slipping != ROLLING:
-            models.evaluate(W, model, SLIDING, STAGE_START, False, 0)
-            keep_directions(W)
-        elif forces:
-            models.evaluate(W, model, ROLLING, STAGE_START, False, 0)
-        else:
-            models.evaluate(W, model, ROLLING, STAGE_FIRST, False, 0)
-
-    return (rolling, sliding, couples)[top]
-
-
-def rk4_step(W, model, level, slipping):
-    """The three inner stages of classic RK4 (the first ran in :func:`evaluate_state`),
-    leaving the new state in region Y and the old one in region B, at the friction
-    level ``slipping`` (``ROLLING``: every lane sticks, no slip-only work), at most the
-    literal ``level``."""
-
-
-@overload(rk4_step, prefer_literal=True, jit_options=OVERLOAD_OPTIONS)
-def _rk4_step(W, model, level, slipping):
-    top = _literal(level, "friction level")
-
-    def rolling(W, model, level, slipping):
-        inner_stages(W, model, ROLLING)
-
-    def sliding(W, model, level, slipping):
-        if slipping != ROLLING:
-            inner_stages(W, model, SLIDING)
-        else:
-            inner_stages(W, model, ROLLING)
-
-    def couples(W, model, level, slipping):
-        if slipping == COUPLES:
-            inner_stages(W, model, COUPLES)
-        elif slipping != ROLLING:
-            inner_stages(W, model, SLIDING)
-        else:
-            inner_stages(W, model, ROLLING)
-
-    return (rolling, sliding, couples)[top]
-
-
-@kernel
-def inner_stages(W, model, slipping):
-    """The second, third and fourth stages of RK4 at the friction level ``slipping`` (a
-    literal). The second and third share one compiled variant of the right-hand side."""
-    numba.literally(model)
-    numba.literally(slipping)
-    set_mid_stage(W, False, False, 0)
-    models.evaluate(W, model, slipping, STAGE_MID, False, 0)
-    set_mid_stage(W, True, False, 0)
-    models.evaluate(W, model, slipping, STAGE_MID, False, 0)
-    models.evaluate(W, model, slipping, STAGE_4, False, 0)
 
 
 @kernel
@@ -305,43 +208,6 @@ def record_block(W, model, step, REC, i_rec, rec):
         else:
             for k in range(rec.shape[0]):
                 REC[i_rec, k, j] = np.nan
-
-
-@kernel
-def _switch_modes(W, model, level, buf, couples, can_slip, locating, slipping):
-    """Change the contact modes of the lanes whose mode changed over the last step (none
-    when no lane ``can_slip``): with ``locating``, each redoes its last step with the
-    switch located; otherwise the mode changes at the step start, and the block is
-    evaluated again. Returns the friction level of the next step's evaluations."""
-    numba.literally(model)
-    numba.literally(level)
-    if not can_slip:
-        return slipping
-    if locating:
-        if flag_switches(W, True, LOCATED_STOP_HORIZON, couples) > 0:
-            locate_where_located(W, model, level, buf)
-    elif flag_switches(W, True, STOP_HORIZON, couples) > 0:  # modes change now
-        again = COUPLES if couples else SLIDING
-        switch_marked(W, model)
-        evaluate_state(W, model, level, again, True)
-        # re-stuck outside the cone, or a couple stuck beyond its bound
-        if flag_switches(W, False, STOP_HORIZON, couples) > 0:
-            switch_marked(W, model)
-            evaluate_state(W, model, level, again, True)
-    return COUPLES if couples else (SLIDING if any_slipping(W) else ROLLING)
-
-
-def switch_modes(W, model, level, buf, couples, can_slip, locating, slipping):
-    """:func:`_switch_modes` at a friction level (a literal) where lanes can slip; at
-    ``ROLLING`` nothing, and none of the switching is compiled."""
-
-
-@overload(switch_modes, prefer_literal=True, jit_options=OVERLOAD_OPTIONS)
-def _switch_modes_at(W, model, level, buf, couples, can_slip, locating, slipping):
-    if _literal(level, "friction level") == ROLLING:
-        return lambda W, model, level, buf, couples, can_slip, locating, slipping: slipping
-    return lambda W, model, level, buf, couples, can_slip, locating, slipping: _switch_modes(
-        W, model, level, buf, couples, can_slip, locating, slipping)
 
 
 @allocating_kernel
