@@ -35,8 +35,8 @@ import numba
 import numpy as np
 
 import rattlesweep as rs
-from rattlesweep.batch import prepare
-from rattlesweep.engine import execute
+from rattlesweep.rattleback.batch import prepare
+from rattlesweep._run import execute
 
 ROOT = Path(__file__).resolve().parent.parent
 BODY = rs.Body.preset("kane_levinson")

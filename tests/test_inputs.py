@@ -10,13 +10,13 @@ import numpy as np
 import pytest
 
 import rattlesweep as rs
-from rattlesweep.batch import launch_inputs, max_steps
+from rattlesweep.rattleback.batch import launch_inputs, max_steps
 from rattlesweep.core.rattleback import layout as rattleback_layout
 from rattlesweep.core.planar import layout as planar_layout
 from rattlesweep.core.workspace import COMMON_PARAMS
 from rattlesweep.inputs import (BAND, FINITE, HALF_TURN, INPUTS, NONNEG, NONNEG_INF, PLANAR,
                                 POSITIVE, RATTLEBACK)
-from rattlesweep.planar.batch import prepare_planar
+from rattlesweep.planar.batch import prepare as prepare_planar
 
 TOY = rs.Body.preset("toy")
 LAMINA = rs.PlanarBody(0.10, 0.05, 1.0)

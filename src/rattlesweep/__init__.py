@@ -12,11 +12,8 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 from ._version import __version__
-from .body import PRESETS, Body
-from .batch import run_batch
-from .engine import CoarseStepWarning, LongRunWarning
-from .simulate import simulate
-from .launch import UnitsWarning
+from ._steps import CoarseStepWarning, LongRunWarning
+from .rattleback import PRESETS, Body, UnitsWarning, run_batch, simulate
 from .tidy import decode, to_csv, to_table, unstack
 from . import planar
 from .planar import PlanarBody, run_planar_batch, simulate_planar

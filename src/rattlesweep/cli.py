@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ._version import __version__
-from .body import PRESETS, Body
+from .rattleback.body import PRESETS, Body
 from .inputs import RATTLEBACK as INPUTS
 
 if TYPE_CHECKING:
@@ -374,7 +374,7 @@ def _body_from_args(args: argparse.Namespace) -> Body:
 
 
 def _simulate_from_args(args: argparse.Namespace) -> xr.Dataset:
-    from .simulate import simulate
+    from .rattleback.simulate import simulate
 
     return simulate(_body_from_args(args), spin=args.spin,
                     roll_deg=args.roll_deg, pitch_deg=args.pitch_deg,

@@ -16,7 +16,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..body import Body
+from ..rattleback.body import Body
 from .params import BODY_PARAMS, DEFAULTS, PARAMS, result_name, result_values
 
 __all__ = ["NORMAL_CLIP", "Axis", "RandomParam", "batch_inputs", "body_for",

@@ -46,7 +46,7 @@ from typing import Any, Iterator, Mapping
 
 import numpy as np
 
-from ..body import Body
+from ..rattleback.body import Body
 from ..core.workspace import friction_level
 from .corners import check_corners, choose_tile_size, tile_block
 from .grid import Axis, RandomParam, batch_inputs
