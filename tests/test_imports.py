@@ -127,3 +127,14 @@ def test_sweep_errors_and_the_plots_load_on_first_use_only():
         assert callable(rs.plot.time_series) and callable(rs.plot.reversal_map)
     """)
     assert got["matplotlib"] and not got["dask"]
+
+
+def test_python_m_rattlesweep_is_the_command_line():
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [SRC, *filter(None, [os.environ.get("PYTHONPATH")])])}
+    out = subprocess.run([sys.executable, "-m", "rattlesweep", "--version"],
+                         capture_output=True, text=True, env=env, check=True).stdout
+    assert rs.__version__ in out
+    bad = subprocess.run([sys.executable, "-m", "rattlesweep", "no-such-command"],
+                         capture_output=True, text=True, env=env)
+    assert bad.returncode == 2 and "no-such-command" in bad.stderr
