@@ -218,6 +218,17 @@ def test_a_batch_obeys_each_planar_rule(name, spec):
             function(LAMINA, **_launch("planar", name, bad))
 
 
+def test_both_models_check_an_input_as_given_before_broadcasting_it():
+    # mu_roll (2, 1) against a launch input (3,): the bad value is at (1, 0) as given,
+    # at 3 in the flattened (2, 3) broadcast
+    mu_roll = [[0.0], [-1.0]]
+    rule = re.escape(NONNEG.message)
+    with pytest.raises(ValueError, match=rf"^mu_roll {rule}; got -1.0 at index \(1, 0\)$"):
+        launch_inputs(TOY, spin=[1.0, 2.0, 3.0], mu_roll=mu_roll, t_end=T_END)
+    with pytest.raises(ValueError, match=rf"^mu_roll {rule}; got -1.0 at index \(1, 0\)$"):
+        prepare_planar(LAMINA, theta=[0.1, 0.2, 0.3], mu_roll=mu_roll, t_end=T_END)
+
+
 def test_a_run_setting_obeys_its_rule():
     spec = RATTLEBACK["reversal_band"]
     good, bad = EDGES[id(spec.rule)]

@@ -1,6 +1,7 @@
 """The inputs of a batch, checked and broadcast: bodies and per-launch values of either
-model become flat per-trajectory arrays over one ``trajectory`` axis. Refusals name the input, the value and
-the rule (:mod:`rattlesweep.inputs` describes each input), before anything is computed."""
+model become flat per-trajectory arrays over one ``trajectory`` axis. Refusals name the
+input, the value and the rule (:mod:`rattlesweep.inputs` describes each input), before
+anything is computed."""
 
 from __future__ import annotations
 
