@@ -36,8 +36,8 @@ import numba
 import numpy as np
 
 import rattlesweep as rs
-from rattlesweep.batch import prepare
-from rattlesweep.engine import execute
+from rattlesweep.rattleback.batch import prepare
+from rattlesweep._run import execute
 
 ROOT = Path(__file__).resolve().parent.parent
 BODY = rs.Body.preset("kane_levinson")
@@ -178,12 +178,17 @@ def latency():
 
 def tree(name):
     """(Body, prepare, execute) of package `name`: this tree's rattlesweep, or under
-    --compare the other tree's copy, whose execute is in batch before engine.py existed."""
-    pkg, batch = import_module(name), import_module(f"{name}.batch")
-    try:
-        return pkg.Body, batch.prepare, import_module(f"{name}.engine").execute
-    except ModuleNotFoundError:
-        return pkg.Body, batch.prepare, batch.execute
+    --compare the other tree's copy, in its own layout (the 3-D model's batch module in
+    rattleback/ or at the top; execute in _run, engine or that batch module)."""
+    pkg = import_module(name)
+    for batch_name, run_name in ((".rattleback.batch", "._run"), (".batch", ".engine"),
+                                 (".batch", ".batch")):
+        try:
+            batch, run = import_module(name + batch_name), import_module(name + run_name)
+        except ModuleNotFoundError:
+            continue
+        return pkg.Body, batch.prepare, run.execute
+    raise ModuleNotFoundError(f"no batch module with prepare and execute in {name}")
 
 
 def pairs(sizes, args):

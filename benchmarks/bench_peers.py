@@ -53,8 +53,8 @@ import rattlesweep as rs  # noqa: E402
 from bench_kernel import BODY, DT, ROOT, run_kernel, steps_taken  # noqa: E402
 from peers import jax_rolling  # noqa: E402
 from peers import mujoco_rattleback as mj  # noqa: E402
-from rattlesweep.batch import prepare  # noqa: E402
-from rattlesweep.engine import CoarseStepWarning  # noqa: E402
+from rattlesweep.rattleback.batch import prepare  # noqa: E402
+from rattlesweep import CoarseStepWarning  # noqa: E402
 
 sys.path.insert(0, str(ROOT / "tests"))
 from event_reference import rattleback_events  # noqa: E402

@@ -9,7 +9,7 @@ The sweep is the toy rattleback over spin x misalignment x friction (mu = 0.3 an
 launched from a 0.5 degree roll, at its default dt (RK4). Sections:
 
 1. Overhead. For the same N points, in this process:
-   - "kernel": ``rattlesweep.engine.execute`` on the points packed once by ``prepare``,
+   - "kernel": ``rattlesweep._run.execute`` on the points packed once by ``prepare``,
      on ``w`` threads (``parallel=False`` for w = 1; ``parallel=True, threads=w``
      otherwise). This is the raw numba time.
    - "prepare": packing the points (Python/NumPy), timed separately.
@@ -37,8 +37,8 @@ import textwrap
 import time
 
 
-from rattlesweep.batch import prepare
-from rattlesweep.engine import execute
+from rattlesweep.rattleback.batch import prepare
+from rattlesweep._run import execute
 from rattlesweep.sweep import Sweep, run_sweep
 from rattlesweep.core.workspace import RK4
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from rattlesweep.body import PRESETS
+from rattlesweep.rattleback.body import PRESETS
 from rattlesweep.cli import build_parser
 from rattlesweep.sweep.demo import DEMO_TOML
 from rattlesweep.inputs import PLANAR, RATTLEBACK, Input

@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 import rattlesweep as rs
-from rattlesweep.body import rotated_inertia
+from rattlesweep.rattleback.body import rotated_inertia
 
 HEADING_BAND = 0.1  # rad, as documented in docs/model.md
 

@@ -101,7 +101,7 @@ def arbitrary_inertia() -> st.SearchStrategy:
         i1, i2 = draw(finite(1e-7, 1e-2)), draw(finite(1e-7, 1e-2))
         i3 = draw(finite(0.0, 1.2)) * (i1 + i2)
         d = draw(finite(-1.0, 1.0))
-        return rs.body.rotated_inertia(i1, i2, i3, d).tolist()
+        return rs.rattleback.body.rotated_inertia(i1, i2, i3, d).tolist()
 
     return st.one_of(
         physical(),

@@ -148,7 +148,7 @@ def test_an_empty_batch_gives_an_empty_result():
     planar = run_planar_batch(PlanarBody(0.1, 0.05, 1.0), theta=[], t_end=0.1)
     assert planar.sizes["trajectory"] == 0 and planar.max_angle.shape == (0,)
     # counting the steps of an empty batch (what a sweep asks of its corners) is no error
-    assert rs.batch.max_steps(toy, spin=[], t_end=0.1) == 0
+    assert rs.rattleback.batch.max_steps(toy, spin=[], t_end=0.1) == 0
 
 
 def test_a_record_that_cannot_fit_is_refused_before_compute(kl):
@@ -158,7 +158,7 @@ def test_a_record_that_cannot_fit_is_refused_before_compute(kl):
     assert rs.simulate(kl, spin=5.0, t_end=0.5, record_every=50).sizes["time"] > 1
 
 
-@pytest.mark.filterwarnings("ignore::rattlesweep.engine.CoarseStepWarning")  # dt on purpose
+@pytest.mark.filterwarnings("ignore::rattlesweep.CoarseStepWarning")  # dt on purpose
 def test_more_steps_than_the_kernel_can_count_are_refused(kl):
     """t_end / dt beyond 2**53 steps (and beyond int64, where the step count wrapped to
     a negative number and the run came back "ok" with a negative end time) is refused
@@ -171,7 +171,7 @@ def test_more_steps_than_the_kernel_can_count_are_refused(kl):
             rs.run_batch(kl, spin=[1.0, 2.0], t_end=[1.0, t_end], dt=0.0145)
     with pytest.raises(ValueError, match=r"t_end / dt .* at index \(1,\)"):
         run_planar_batch(PlanarBody(0.1, 0.05, 1.0), theta=0.1, t_end=[1.0, 1e300])
-    assert 2**52 < rs.batch.max_steps(kl, spin=1.0, t_end=2.0**53, dt=1.0) <= 2**53
+    assert 2**52 < rs.rattleback.batch.max_steps(kl, spin=1.0, t_end=2.0**53, dt=1.0) <= 2**53
     # the step is the default one of that g, damping and body: the message names them
     with pytest.raises(ValueError, match=r"dt = .* \(the body's default step at g = 1e\+200"):
         rs.run_batch(kl, spin=1.0, t_end=1.0, g=1e200)
@@ -187,7 +187,7 @@ def test_more_steps_than_the_kernel_can_count_are_refused(kl):
 def test_launch_angles_follow_the_documented_rotation_order():
     """R = R_z(yaw) R_y(pitch) R_x(roll), body to world, from hand-built matrices; the
     other order (R_x R_y) differs at second order and is not accepted."""
-    from rattlesweep.launch import quaternion_from_angles, rotation_matrices
+    from rattlesweep.rattleback.launch import quaternion_from_angles, rotation_matrices
 
     def rx(a):
         c, s = math.cos(a), math.sin(a)
@@ -215,7 +215,7 @@ def test_launch_angles_follow_the_documented_rotation_order():
 
 
 def test_a_coarse_time_step_is_flagged_at_the_callers_line():
-    from rattlesweep.engine import CoarseStepWarning
+    from rattlesweep import CoarseStepWarning
     from rattlesweep.planar import PlanarBody, simulate_planar
 
     toy = rs.Body.preset("toy")
@@ -238,7 +238,7 @@ def test_the_default_step_follows_strong_damping():
     much longer than that made RK4 unstable (the energy of a damped run grew 1e5-fold in
     one default step with status ok). The default step is at most I_min / damping, and a
     given step beyond 4 times that warns."""
-    from rattlesweep.engine import CoarseStepWarning
+    from rattlesweep import CoarseStepWarning
 
     body = rs.Body.semi_ellipsoid(0.01, 0.004, 0.003, 0.01)
     i_min = np.linalg.eigvalsh(body.inertia)[0]

@@ -10,8 +10,8 @@ import pytest
 
 import rattlesweep as rs
 from rattlesweep import Body
-from rattlesweep.body import distinct_bodies
-from rattlesweep.validation import as_float_array, fail_where, finite_vector, positive
+from rattlesweep._launches import distinct_bodies
+from rattlesweep._validation import as_float_array, fail_where, finite_vector, positive
 
 
 def _grid_mass_properties(a, b, c, n=120):

@@ -408,7 +408,7 @@ def test_progress_is_shown(not_robust, monkeypatch):
     for line in ("searching 24 placements x 72 launches...", "refining (level 1 of 2)",
                  "reversal map: 41 spins x 9 friction values...", "writing files into"):
         assert line in stderr
-    from rattlesweep.engine import kernels_compiled
+    from rattlesweep._run import kernels_compiled
 
     assert kernels_compiled()  # the kernels ran, so numba cached them
     import rattlesweep.design.api as api

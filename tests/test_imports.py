@@ -144,17 +144,12 @@ def test_the_command_starts_without_numerical_libraries():
     assert json.loads(out.splitlines()[-1]) == []
 
 
-def test_simulate_stays_the_function_when_its_module_is_imported_first():
-    probe = textwrap.dedent("""
-        import rattlesweep.simulate  # what rattlesweep.explore does, among others
-        import rattlesweep as rs
-        from rattlesweep import simulate
-        assert callable(rs.simulate) and rs.simulate is simulate
-        assert rs.simulate.__module__ == "rattlesweep.simulate"
-        print("ok")
-    """)
+def test_python_m_rattlesweep_is_the_command_line():
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(
         [SRC, *filter(None, [os.environ.get("PYTHONPATH")])])}
-    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
-                          env=env)
-    assert done.stdout.strip() == "ok", done.stderr
+    out = subprocess.run([sys.executable, "-m", "rattlesweep", "--version"],
+                         capture_output=True, text=True, env=env, check=True).stdout
+    assert rs.__version__ in out
+    bad = subprocess.run([sys.executable, "-m", "rattlesweep", "no-such-command"],
+                         capture_output=True, text=True, env=env)
+    assert bad.returncode == 2 and "no-such-command" in bad.stderr

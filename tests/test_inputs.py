@@ -10,13 +10,13 @@ import numpy as np
 import pytest
 
 import rattlesweep as rs
-from rattlesweep.batch import launch_inputs, max_steps
+from rattlesweep.rattleback.batch import launch_inputs, max_steps
 from rattlesweep.core.rattleback import layout as rattleback_layout
 from rattlesweep.core.planar import layout as planar_layout
 from rattlesweep.core.workspace import COMMON_PARAMS
 from rattlesweep.inputs import (BAND, FINITE, HALF_TURN, INPUTS, NONNEG, NONNEG_INF, PLANAR,
                                 POSITIVE, RATTLEBACK)
-from rattlesweep.planar.batch import prepare_planar
+from rattlesweep.planar.batch import prepare as prepare_planar
 
 TOY = rs.Body.preset("toy")
 LAMINA = rs.PlanarBody(0.10, 0.05, 1.0)
@@ -216,6 +216,17 @@ def test_a_batch_obeys_each_planar_rule(name, spec):
         with pytest.raises(ValueError,
                            match=rf"^{name} {re.escape(spec.rule.message)}; got"):
             function(LAMINA, **_launch("planar", name, bad))
+
+
+def test_both_models_check_an_input_as_given_before_broadcasting_it():
+    # mu_roll (2, 1) against a launch input (3,): the bad value is at (1, 0) as given,
+    # at 3 in the flattened (2, 3) broadcast
+    mu_roll = [[0.0], [-1.0]]
+    rule = re.escape(NONNEG.message)
+    with pytest.raises(ValueError, match=rf"^mu_roll {rule}; got -1.0 at index \(1, 0\)$"):
+        launch_inputs(TOY, spin=[1.0, 2.0, 3.0], mu_roll=mu_roll, t_end=T_END)
+    with pytest.raises(ValueError, match=rf"^mu_roll {rule}; got -1.0 at index \(1, 0\)$"):
+        prepare_planar(LAMINA, theta=[0.1, 0.2, 0.3], mu_roll=mu_roll, t_end=T_END)
 
 
 def test_a_run_setting_obeys_its_rule():

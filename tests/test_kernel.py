@@ -146,9 +146,9 @@ def test_no_allocation_in_the_time_loop(kl):
     allocates (stick, slip and recording paths, serial and parallel entries)."""
     from numba.core.runtime import _nrt_python, rtsys
 
-    from rattlesweep.batch import prepare
+    from rattlesweep.rattleback.batch import prepare
     from rattlesweep.core.workspace import O_SLIP_FRAC, RK4
-    from rattlesweep.engine import execute
+    from rattlesweep._run import execute
 
     def allocations(t_end, parallel):
         # a rolling block and two that slip (mu = 0.02, 0.01): the stick, slip and
@@ -231,13 +231,13 @@ def test_kernels_compiled_says_whether_a_first_call_compiles(tmp_path):
     import subprocess
     import sys
 
-    from rattlesweep.engine import kernels_compiled
+    from rattlesweep._run import kernels_compiled
 
     from rattlesweep.core.workspace import ROLLING
 
     rs.simulate(rs.Body.preset("toy"), spin=5.0, t_end=0.01)  # rolling: mu = inf
     assert kernels_compiled(parallel=False, level=ROLLING)
-    probe = ("from rattlesweep.engine import kernels_compiled; "
+    probe = ("from rattlesweep._run import kernels_compiled; "
              "print(kernels_compiled(False, level=0), kernels_compiled(True))")
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
                          env={**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}, check=True)

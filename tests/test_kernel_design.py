@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import rattlesweep as rs
-from rattlesweep.batch import prepare
+from rattlesweep.rattleback.batch import prepare
 from rattlesweep.core import models, stepper
 from rattlesweep.core.models import RATTLEBACK
 from rattlesweep.core.rattleback import dynamics, layout, slip

@@ -9,7 +9,7 @@ from matplotlib.collections import PolyCollection
 
 import rattlesweep as rs
 from rattlesweep.cli import main
-from rattlesweep.contact import contact_dataset
+from rattlesweep.rattleback.contact import contact_dataset
 from rattlesweep.planar import PlanarBody, simulate_planar
 from rattlesweep.plot import animate, contact_path, time_series
 

@@ -27,11 +27,11 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 import rattlesweep as rs
-from rattlesweep import batch
+from rattlesweep.rattleback import batch
 from rattlesweep.core.workspace import NON_FINITE, OK
-from rattlesweep.engine import CoarseStepWarning
-from rattlesweep.launch import quaternion_from_angles
-from rattlesweep.planar.batch import prepare_planar
+from rattlesweep import CoarseStepWarning
+from rattlesweep.rattleback.launch import quaternion_from_angles
+from rattlesweep.planar.batch import prepare as prepare_planar
 from strategies import (LAUNCH_ARGS, any_scalar, any_vector, arbitrary_inertia,
                         arbitrary_value, finite, valid_bodies, valid_launch)
 

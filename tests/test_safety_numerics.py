@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import rattlesweep as rs
-from rattlesweep.engine import LongRunWarning
+from rattlesweep import LongRunWarning
 
 TOY = rs.Body.preset("toy")
 

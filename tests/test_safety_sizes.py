@@ -52,7 +52,7 @@ def test_batch_broadcast_too_large_refused():
 
 
 def test_the_check_uses_the_memory_available(monkeypatch):
-    import rattlesweep.validation as validation
+    import rattlesweep._validation as validation
 
     # a batch of 1000 launches (about 1 MB) on a machine with 100 kB available
     monkeypatch.setattr(validation, "available_memory", lambda: 100_000)
@@ -67,7 +67,7 @@ def test_an_axis_is_refused_for_what_building_the_grid_holds(monkeypatch):
     """A billion values of one axis on a machine with 20 GiB available: building the grid
     holds about two copies of its 8 GB (16.7 GB measured), so it is refused before that,
     not after (the values alone would fit)."""
-    import rattlesweep.validation as validation
+    import rattlesweep._validation as validation
 
     monkeypatch.setattr(validation, "available_memory", lambda: 20 * 2**30)
     _refused(r"axes\.spin\.num = 1000000000: 1,000,000,000 axis values " + HUGE,

@@ -8,11 +8,11 @@ import pytest
 
 import rattlesweep as rs
 from rattlesweep import stability as st
-from rattlesweep.batch import prepare
+from rattlesweep.rattleback.batch import prepare
 from rattlesweep.core.models import RATTLEBACK
 from rattlesweep.core.rattleback import layout as L
 from rattlesweep.core.stepper import rolling_derivative
-from rattlesweep.launch import quaternion_from_angles
+from rattlesweep.rattleback.launch import quaternion_from_angles
 
 KL = rs.Body.preset("kane_levinson")
 TOY = rs.Body.preset("toy")

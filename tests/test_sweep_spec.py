@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import rattlesweep as rs
-from rattlesweep import batch
+from rattlesweep.rattleback import batch
 from rattlesweep.sweep import Sweep, corners
 from rattlesweep.sweep.corners import TILE_STEPS, choose_tile_size
 from rattlesweep.sweep.toml_io import format_toml, read_toml

@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import importlib
 import importlib.util
-import sys
-import types
 from typing import TYPE_CHECKING, Any
 
 from ._version import __version__
@@ -22,26 +20,23 @@ __all__ = ["Body", "CoarseStepWarning", "DesignRefused", "LongRunWarning", "PRES
            "run_sweep", "simulate", "simulate_planar", "stability", "sweep", "to_csv",
            "to_table", "unstack", "__version__"]
 
-_FROM = {"Body": ".body", "PRESETS": ".body", "run_batch": ".batch",
-         "simulate": ".simulate", "UnitsWarning": ".launch", "decode": ".tidy",
+_FROM = {"Body": ".rattleback", "PRESETS": ".rattleback", "run_batch": ".rattleback",
+         "simulate": ".rattleback", "UnitsWarning": ".rattleback", "decode": ".tidy",
          "to_csv": ".tidy", "to_table": ".tidy", "unstack": ".tidy",
          "PlanarBody": ".planar", "run_planar_batch": ".planar",
          "simulate_planar": ".planar", "Sweep": ".sweep", "resume": ".sweep.run",
-         "run_sweep": ".sweep.run", "CoarseStepWarning": ".engine",
-         "LongRunWarning": ".engine", "SweepWriteError": ".sweep.store",
+         "run_sweep": ".sweep.run", "CoarseStepWarning": "._steps",
+         "LongRunWarning": "._steps", "SweepWriteError": ".sweep.store",
          "SweepLocked": ".sweep.lock", "DesignRefused": ".design.constraints"}
 """Each name of the package and the module it comes from."""
 
 if TYPE_CHECKING:
     # what __getattr__ imports on first use, seen by type checkers as it is
     from . import design, planar, plot, stability, sweep
-    from .batch import run_batch
-    from .body import PRESETS, Body
     from .design.constraints import DesignRefused
-    from .engine import CoarseStepWarning, LongRunWarning
-    from .launch import UnitsWarning
+    from ._steps import CoarseStepWarning, LongRunWarning
     from .planar import PlanarBody, run_planar_batch, simulate_planar
-    from .simulate import simulate
+    from .rattleback import PRESETS, Body, UnitsWarning, run_batch, simulate
     from .sweep import Sweep
     from .sweep.lock import SweepLocked
     from .sweep.run import resume, run_sweep
@@ -54,7 +49,7 @@ else:
             value = getattr(importlib.import_module(_FROM[name], __name__), name)
         elif not name.startswith("_") and importlib.util.find_spec(
                 f"{__name__}.{name}") is not None:
-            value = importlib.import_module(f".{name}", __name__)  # a module: rs.engine
+            value = importlib.import_module(f".{name}", __name__)  # a module: rs.stability
         else:
             raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
         globals()[name] = value
@@ -63,20 +58,3 @@ else:
 
 def __dir__() -> list[str]:
     return sorted(set(globals()) | set(__all__))
-
-
-class _Package(types.ModuleType):
-    """The package's module: ``rattlesweep.simulate`` stays the function when its module
-    of the same name is imported (the import system binds every submodule to its name
-    in the package, which the function must keep)."""
-
-    def __setattr__(self, name: str, value: Any) -> None:
-        if name in _FUNCTION_MODULES and isinstance(value, types.ModuleType):
-            value = getattr(value, name)
-        super().__setattr__(name, value)
-
-
-_FUNCTION_MODULES = ("simulate",)
-"""Names of the package that are functions of the submodule of the same name."""
-
-sys.modules[__name__].__class__ = _Package

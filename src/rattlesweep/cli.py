@@ -18,7 +18,7 @@ from ._version import __version__
 if TYPE_CHECKING:
     import xarray as xr
 
-    from .body import Body
+    from .rattleback.body import Body
     from .sweep import Sweep
 
 __all__ = ["build_parser", "main"]
@@ -397,7 +397,7 @@ _SHAPE = ("a", "b", "c", "mass", "delta_deg")
 def _body_from_args(args: argparse.Namespace) -> Body:
     """The preset, the body of ``--body FILE``, or a homogeneous semi-ellipsoid whose
     parameters not given are the ``toy`` preset's (as in a sweep file)."""
-    from .body import Body
+    from .rattleback.body import Body
 
     shape = {k: getattr(args, k) for k in _SHAPE if getattr(args, k) is not None}
     given = [o for o, used in (("--preset", args.preset is not None),
@@ -421,7 +421,7 @@ def _body_from_args(args: argparse.Namespace) -> Body:
 
 
 def _simulate_from_args(args: argparse.Namespace) -> xr.Dataset:
-    from .simulate import simulate
+    from .rattleback.simulate import simulate
 
     return simulate(_body_from_args(args), spin=args.spin,
                     roll_deg=args.roll_deg, pitch_deg=args.pitch_deg,
@@ -514,7 +514,7 @@ def _cmd_explore(args: argparse.Namespace, argv: list[str] | None) -> int:
 
 
 def _add_launch_options(p: argparse.ArgumentParser) -> None:
-    from .body import PRESETS
+    from .rattleback.body import PRESETS
     from .inputs import RATTLEBACK as INPUTS
 
     body = p.add_argument_group("body (one of: a preset, a TOML file, a semi-ellipsoid; "

@@ -2,10 +2,10 @@
 whether a sweep can vary it, and one line of documentation.
 
 What is generated from these descriptions: the CF attributes (``units``, ``long_name``)
-that results carry for each input (:mod:`rattlesweep.metadata`,
+that results carry for each input (:mod:`rattlesweep.rattleback.metadata`,
 :mod:`rattlesweep.planar.metadata`), the parameters a sweep can vary
 (:mod:`rattlesweep.sweep.params`), the rules the batch layer checks for every model
-(:func:`rattlesweep.engine.check_common`), the inputs a batch keeps as coordinates, the
+(:func:`rattlesweep._launches.check_common`), the inputs a batch keeps as coordinates, the
 command line's friction options and the documentation's tables of inputs
 (``docs/generate.py``). The kernel's parameter rows (:mod:`rattlesweep.core`) pack an
 input by the name it has here, in the units it has here.
@@ -24,7 +24,7 @@ from typing import Any, Callable, Mapping
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .validation import fail_where
+from ._validation import fail_where
 
 __all__ = ["BAND", "FINITE", "HALF_TURN", "INPUTS", "NONNEG", "NONNEG_INF", "PLANAR",
            "POSITIVE", "RATTLEBACK", "Input", "Rule", "check_rules", "result_attrs"]

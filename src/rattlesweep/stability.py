@@ -40,8 +40,9 @@ import numpy as np
 import xarray as xr
 from numpy.typing import ArrayLike
 
-from .body import Bodies, Body, distinct_bodies
-from .metadata import flag_attrs
+from ._launches import distinct_bodies
+from ._metadata import flag_attrs
+from .rattleback.body import Bodies, Body
 
 if TYPE_CHECKING:
     from .sweep import Sweep

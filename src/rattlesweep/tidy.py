@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any, Hashable, Sequence, TypeVar
 import numpy as np
 import xarray as xr
 
-from .results import VECTOR_COORDS
+from ._results import VECTOR_COORDS
 
 if TYPE_CHECKING:
     import pandas as pd

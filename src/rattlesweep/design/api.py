@@ -12,8 +12,8 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from ..body import Body
-from ..engine import kernels_compiled
+from ..rattleback.body import Body
+from .._run import kernels_compiled
 from .coins import DEFAULT_COIN, Coin, coin_preset
 from .constraints import check_coin_fits, check_margin, check_shell, max_coin_mass
 from .mass import Part, body_of, moments_of

@@ -9,8 +9,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import xarray as xr
 
-from ..batch import run_batch
-from ..body import Body
+from ..rattleback.batch import run_batch
+from ..rattleback.body import Body
 from .search import Launches
 
 if TYPE_CHECKING:

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.polynomial import Polynomial
 
-from ..body import Body
+from ..rattleback.body import Body
 from .coins import Coin
 from .printing import PrintSettings
 

@@ -3,7 +3,7 @@
 numba compiles the engine's kernels on their first call in a fresh installation (one to
 three minutes on a small machine) and caches them on disk; later runs load them. A run
 that says nothing during that minute looks frozen, so :func:`design` says when it
-expects to compile (:func:`rattlesweep.engine.kernels_compiled`).
+expects to compile (:func:`rattlesweep._run.kernels_compiled`).
 """
 
 from __future__ import annotations

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from .._version import __version__
-from ..body import Body
+from ..rattleback.body import Body
 from ..sweep.schema import body_from_table, body_table
 from ..sweep.toml_io import format_toml, read_toml
 

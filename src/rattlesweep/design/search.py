@@ -20,8 +20,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import xarray as xr
 
-from ..batch import run_batch
-from ..body import Body
+from ..rattleback.batch import run_batch
+from ..rattleback.body import Body
 from .constraints import placement_problem
 from .mass import Part, body_of
 from .printing import require

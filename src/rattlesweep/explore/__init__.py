@@ -41,8 +41,8 @@ _NOTEBOOK_SERVER: Server | None = None
 
 def warm() -> float:
     """Compile (or load from numba's cache) the kernels the page uses; seconds taken."""
-    from ..body import Body
-    from ..simulate import simulate
+    from ..rattleback.body import Body
+    from ..rattleback.simulate import simulate
     from ..sweep import Sweep
     from ..sweep.tiles import compute_points
     import numpy as np

@@ -10,8 +10,8 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from ..contact import contact_dataset
-from ..simulate import simulate
+from ..rattleback.contact import contact_dataset
+from ..rattleback.simulate import simulate
 from .caps import Caps
 from .settings import RunSpec, python_code
 

@@ -15,8 +15,8 @@ import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
-from ..batch import launch_inputs
-from ..body import PRESETS, Body
+from ..rattleback.batch import launch_inputs
+from ..rattleback.body import PRESETS, Body
 from .caps import Caps
 
 __all__ = ["CONTROLS", "LABELS", "MAP_AXES", "MAX_SPIN", "RunSpec", "SettingError", "UNITS",

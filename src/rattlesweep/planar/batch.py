@@ -1,5 +1,6 @@
-"""Batches of planar launches through the shared batch layer (:mod:`rattlesweep.engine`):
-validation, packing, results.
+"""Batches of planar launches through the shared batch layer: validation and
+broadcasting (:mod:`rattlesweep._launches`), packing (:mod:`rattlesweep._pack`), the
+kernel run (:mod:`rattlesweep._run`) and results (:mod:`rattlesweep._results`).
 
 :func:`run_planar_batch` broadcasts every per-trajectory input (arrays of bodies too) and
 flattens the batch onto one ``trajectory`` dimension whose coordinates are the inputs, as
@@ -15,19 +16,21 @@ import numpy as np
 import xarray as xr
 from numpy.typing import ArrayLike
 
-from .. import engine, results
-from ..body import distinct_bodies
+from .. import _results as results
+from .._launches import launches
+from .._model import Model, Prepared
+from .._options import check_method, check_record_every, check_single_step
+from .._pack import prepared
+from .._run import execute
+from .._steps import step_counts, time_steps
+from .._validation import fail_where
 from ..core.models import PLANAR
 from ..core.planar import layout
-from ..engine import (
-    Model, Prepared, as_bodies, check_method, check_record_every, check_single_step,
-)
 from ..inputs import PLANAR as INPUTS
-from ..validation import fail_where
 from .body import PlanarBodies, PlanarBody
 from .metadata import attrs_for
 
-__all__ = ["MODEL", "planar_run_attrs", "prepare_planar", "run_planar_batch"]
+__all__ = ["MODEL", "prepare", "run_attrs", "run_planar_batch"]
 
 TITLE = "rattlesweep planar rocking semi-ellipse simulation"
 
@@ -47,11 +50,11 @@ BODY = tuple(s.name for s in INPUTS.values() if s.group == "body")
 """The body's parameters, results' coordinates too."""
 
 
-def prepare_planar(body: PlanarBodies, *, theta: ArrayLike, rate: ArrayLike = 0.0,
-                   velocity: ArrayLike | None = None, mu: ArrayLike = math.inf,
-                   mu_static: ArrayLike | None = None, mu_roll: ArrayLike = 0.0,
-                   g: ArrayLike = 9.81, dt: ArrayLike | None = None, t_end: ArrayLike
-                   ) -> Prepared:
+def prepare(body: PlanarBodies, *, theta: ArrayLike, rate: ArrayLike = 0.0,
+            velocity: ArrayLike | None = None, mu: ArrayLike = math.inf,
+            mu_static: ArrayLike | None = None, mu_roll: ArrayLike = 0.0,
+            g: ArrayLike = 9.81, dt: ArrayLike | None = None, t_end: ArrayLike
+            ) -> Prepared:
     """Check, broadcast and pack planar launches for the kernel.
 
     See :func:`run_planar_batch` for the arguments. Raises ValueError naming the parameter,
@@ -62,24 +65,17 @@ def prepare_planar(body: PlanarBodies, *, theta: ArrayLike, rate: ArrayLike = 0.
         raise ValueError("theta (rad) is required")
     if t_end is None:
         raise ValueError("t_end (s) is required")
-    inputs = {"theta": theta, "rate": rate, "mu": mu,
-              "mu_static": mu if mu_static is None else mu_static, "mu_roll": mu_roll,
-              "mu_spin": 0.0, "g": g, "t_end": t_end}
+    scalars = {"theta": theta, "rate": rate, "mu": mu,
+               "mu_static": mu if mu_static is None else mu_static, "mu_roll": mu_roll,
+               "mu_spin": 0.0, "g": g, "t_end": t_end}
     if velocity is not None:
-        inputs["velocity"] = velocity
+        scalars["velocity"] = velocity
     if dt is not None:
-        inputs["dt"] = dt
-    shape, n, flat_bodies, flat, _ = engine.broadcast_inputs(as_bodies(body, PlanarBody),
-                                                             inputs)
-    engine.check_common(flat, INPUTS)
-    table, index = distinct_bodies(flat_bodies)
-    default_from = None  # the inputs a default step comes from, for messages
-    if "dt" not in flat:
-        default_from = {"g": flat["g"]}
-        flat["dt"] = engine.default_dts(table, index, flat["g"])
-    else:
-        # warn at the user's call: run_planar_batch or simulate_planar -> prepare_planar
-        engine.warn_coarse_dt(table, index, flat["g"], flat["dt"], stacklevel=3)
+        scalars["dt"] = dt
+    launch = launches(body, PlanarBody, scalars, INPUTS)
+    flat, table, index, n = launch.flat, launch.bodies, launch.index, launch.n
+    # warn at the user's call: run_planar_batch or simulate_planar -> prepare
+    flat["dt"], default_from = time_steps(table, index, flat, stacklevel=3)
     columns = {k: np.array([getattr(b, k) for b in table], dtype=float)[index]
                for k in BODY}
 
@@ -99,12 +95,13 @@ def prepare_planar(body: PlanarBodies, *, theta: ArrayLike, rate: ArrayLike = 0.
     used = {**flat, "velocity": v0, **columns}  # the velocity actually used
     coords = {INPUTS[k].result_name: used[k] for k in (*LAUNCH, *BODY)}
     coords["body_name"] = np.array([b.name for b in table])[index]
-    steps = engine.steps_for(flat["t_end"], flat["dt"], default_from, (table, index))
-    return engine.prepared(MODEL, {**columns, **flat}, engine.pack(layout.STATE, state, n),
-                           steps, n, shape, {k: (dim, v) for k, v in coords.items()})
+    steps = step_counts(flat["t_end"], flat["dt"], default_from, (table, index),
+                        announce=False, stacklevel=3)
+    return prepared(MODEL, {**columns, **flat}, state, steps, n, launch.shape,
+                    {k: (dim, v) for k, v in coords.items()})
 
 
-def planar_run_attrs(method: str, record_every: int | None) -> dict[str, Any]:
+def run_attrs(method: str, record_every: int | None) -> dict[str, Any]:
     """Global attributes of a planar result."""
     attrs = results.run_attrs(method, record_every, None)
     attrs["title"] = TITLE
@@ -179,11 +176,11 @@ def run_planar_batch(
     """
     m = check_method(method)
     rec_every = check_record_every(record_every)
-    prep = prepare_planar(body, theta=theta, rate=rate, velocity=velocity, mu=mu,
-                          mu_static=mu_static, mu_roll=mu_roll, g=g, dt=dt, t_end=t_end)
+    prep = prepare(body, theta=theta, rate=rate, velocity=velocity, mu=mu,
+                   mu_static=mu_static, mu_roll=mu_roll, g=g, dt=dt, t_end=t_end)
     if rec_every is not None:
         check_single_step(prep)
-    raw = engine.execute(prep, method=m, record_every=rec_every, parallel=parallel,
-                         threads=threads)
+    raw = execute(prep, method=m, record_every=rec_every, parallel=parallel,
+                  threads=threads)
     return results.batch_dataset(prep, raw, rec_every, attrs_for,
-                                planar_run_attrs(method, rec_every))
+                                 run_attrs(method, rec_every))

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple, Sequence, TypeAlias, Union
 import numpy as np
 import numpy.typing as npt
 
-from ..validation import positive
+from .._validation import positive
 
 __all__ = ["ContactPoint", "PlanarBodies", "PlanarBody"]
 

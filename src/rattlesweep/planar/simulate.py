@@ -8,9 +8,10 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from .. import engine, results
-from ..engine import check_method, check_record_every
-from .batch import planar_run_attrs, prepare_planar
+from .. import _results as results
+from .._options import check_method, check_record_every
+from .._run import execute
+from .batch import prepare, run_attrs
 from .body import PlanarBody
 from .metadata import attrs_for
 
@@ -67,9 +68,9 @@ def simulate_planar(
         if value is not None and np.ndim(value) != 0:
             raise ValueError(f"{name} must be a scalar for simulate_planar(); "
                              f"use run_planar_batch for arrays")
-    prep = prepare_planar(body, **inputs)
+    prep = prepare(body, **inputs)
     rec_every = results.default_record_every(prep, rec_every)
-    raw = engine.execute(prep, method=m, record_every=rec_every, parallel=False)
+    raw = execute(prep, method=m, record_every=rec_every, parallel=False)
     config = {
         "body": body.describe(),
         "launch": {k: (None if v is None else float(v)) for k, v in inputs.items()},
@@ -77,4 +78,4 @@ def simulate_planar(
         "record_every": rec_every,
     }
     return results.run_dataset(prep, raw, rec_every, attrs_for,
-                              planar_run_attrs(method, rec_every), config)
+                              run_attrs(method, rec_every), config)

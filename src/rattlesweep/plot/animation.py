@@ -64,7 +64,7 @@ def _scene(run: xr.Dataset, frames: int, dpi: float, elev: float, azim: float,
         _check_planar(run)
         _check_frames(run, frames, 1.0)
         return _planar_scene(run, frames, dpi)
-    from ..contact import check_run
+    from ..rattleback.contact import check_run
 
     check_run(run)
     _check_frames(run, frames, 1.0)
@@ -78,8 +78,8 @@ def _frames(run: xr.Dataset, frames: int) -> np.ndarray:
 
 def _rattleback_scene(run: xr.Dataset, frames: int, dpi: float, elev: float, azim: float,
                       z_stretch: float | None) -> tuple[Figure, Draw]:
-    from ..contact import body_geometry, contact_dataset
-    from ..launch import rotation_matrices
+    from ..rattleback.contact import body_geometry, contact_dataset
+    from ..rattleback.launch import rotation_matrices
 
     (a, b, c), com, _ = body_geometry(run)
     full = bool(run.attrs.get("full_ellipsoid", False))

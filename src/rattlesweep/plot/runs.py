@@ -71,7 +71,7 @@ def time_series(run: xr.Dataset, variables: Sequence[str] | None = None, *,
     ----------
     run : xarray.Dataset
         A :func:`rattlesweep.simulate` or :func:`rattlesweep.planar.simulate_planar`
-        result, possibly merged with :func:`rattlesweep.contact.contact_dataset`.
+        result, possibly merged with :func:`rattlesweep.rattleback.contact.contact_dataset`.
     variables : sequence of str, optional
         Names of series over ``time``; default ``spin``, ``heading``, ``tilt``, ``energy``,
         ``slip_speed``, ``normal_force`` for a rattleback and ``angle``, ``rate``,
@@ -164,7 +164,7 @@ def contact_path(runs: xr.Dataset | Iterable[xr.Dataset],
     """
     from matplotlib.collections import LineCollection
 
-    from ..contact import contact_dataset
+    from ..rattleback.contact import contact_dataset
 
     if frame not in ("body", "floor"):
         raise ValueError(f"frame must be 'body' or 'floor', got {frame!r}")

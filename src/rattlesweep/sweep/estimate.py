@@ -21,8 +21,10 @@ import time
 
 import numpy as np
 
-from .. import engine, results
-from ..batch import MODEL, prepare
+from .. import _results as results
+from .. import _run as engine
+from .._options import check_method
+from ..rattleback.batch import MODEL, prepare
 from .spec import Sweep
 from .tiles import result_dtypes
 
@@ -98,7 +100,7 @@ def _calibrate(sweep: Sweep, index: np.ndarray, most: int) -> tuple[float, int, 
     prep = prepare(bodies, stop=sweep.stop, announce=False, **kwargs)
     bounded = dataclasses.replace(prep, nsteps=np.minimum(prep.nsteps, most))
     t0 = time.perf_counter()
-    raw = engine.execute(bounded, method=engine.check_method(sweep.method),
+    raw = engine.execute(bounded, method=check_method(sweep.method),
                          record_every=None, band=sweep.reversal_band, parallel=False)
     seconds = time.perf_counter() - t0
     ran = results.observables_dataset(MODEL, raw.observables, "point")["steps"].values

@@ -1,5 +1,5 @@
 """The points of a sweep: parameter values at flat grid indices, seeded random draws, and
-the bodies they describe, packed as keyword arguments for :func:`rattlesweep.batch.prepare`.
+the bodies they describe, packed as keyword arguments for :func:`rattlesweep.rattleback.batch.prepare`.
 
 Random draws are a counter-based hash of (seed, parameter name, flat point index), so a
 point's draw does not depend on how the grid is cut into tiles, on the order tiles run, or
@@ -16,7 +16,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..body import Body
+from ..rattleback.body import Body
 from .params import BODY_PARAMS, DEFAULTS, PARAMS, result_name, result_values
 
 __all__ = ["NORMAL_CLIP", "Axis", "RandomParam", "batch_inputs", "body_for",

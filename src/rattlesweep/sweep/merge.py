@@ -15,7 +15,7 @@ import numpy as np
 import xarray as xr
 
 from .. import __version__
-from ..results import run_attrs
+from .._results import run_attrs
 from .params import resolve, result_name, result_values
 from .spec import Sweep, fixed_value
 from .tiles import variable_attrs

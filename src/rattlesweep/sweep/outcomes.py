@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core import workspace as _status
-from ..metadata import flag_attrs
+from .._metadata import flag_attrs
 
 __all__ = ["CAPSIZED", "FAILED", "LIFTED_OFF", "NO_REVERSAL", "OUTCOME_ATTRS",
            "OUTCOME_NAMES", "REVERSED", "SEVERAL", "STOPPED", "at_first_reversal", "classify"]

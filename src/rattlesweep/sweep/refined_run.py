@@ -20,8 +20,8 @@ import netCDF4
 import numpy as np
 import xarray as xr
 
-from .. import batch
-from ..engine import kernels_compiled
+from ..rattleback import batch
+from .._run import kernels_compiled
 from ..io import NETCDF_LOCK
 from .directory import CONFIG_NAME, RESULT_NAME, TileDirectory, write_text_atomic
 from .execute import run_tiles

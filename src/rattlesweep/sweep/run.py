@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any, Iterator, Mapping
 import numpy as np
 import xarray as xr
 
-from ..engine import kernels_compiled
+from .._run import kernels_compiled
 from .directory import CONFIG_NAME, RESULT_NAME, TILES_DIR, TileDirectory, read_config
 from .execute import run_tiles
 from .progress import Progress
@@ -159,7 +159,7 @@ def check_size(sweep: Sweep) -> None:
     """Refuse, before anything is written or computed, a sweep whose result would not
     fit in the memory available: a netCDF sweep merges the whole grid in memory, a
     refined one holds its finest grid, a zarr one a flag per tile."""
-    from ..validation import check_memory
+    from .._validation import check_memory
     from .tiles import result_dtypes
 
     if sweep.refine is not None:
@@ -180,11 +180,11 @@ def check_size(sweep: Sweep) -> None:
 
 def announce(sweep: Sweep) -> None:
     """Warn (:class:`~rattlesweep.LongRunWarning`) before a sweep of more than
-    :data:`~rattlesweep.engine.LONG_RUN_STEPS` steps at most, with the count. A refined
+    :data:`~rattlesweep._steps.LONG_RUN_STEPS` steps at most, with the count. A refined
     sweep simulates an unknown part of its finest grid; its first level is counted."""
     import warnings
 
-    from ..engine import LONG_RUN_STEPS, LongRunWarning
+    from .._steps import LONG_RUN_STEPS, LongRunWarning
 
     total = float(sweep.size) * sweep.max_steps
     if total > LONG_RUN_STEPS:

@@ -19,9 +19,9 @@ from typing import Any, Mapping, TypeGuard
 import numpy as np
 
 from ..core.workspace import METHODS
-from ..engine import check_band
-from ..body import PRESETS, Body
-from ..validation import check_memory, is_real
+from .._options import check_band
+from ..rattleback.body import PRESETS, Body
+from .._validation import check_memory, is_real
 from .grid import RandomParam
 from .params import BODY_PARAMS, DEFAULTS, PARAMS, check_values, resolve
 

@@ -46,7 +46,7 @@ from typing import Any, Iterator, Mapping
 
 import numpy as np
 
-from ..body import Body
+from ..rattleback.body import Body
 from ..core.workspace import friction_level
 from .corners import check_corners, choose_tile_size, tile_block
 from .grid import Axis, RandomParam, batch_inputs
@@ -324,7 +324,7 @@ class Sweep:
         return start, start + _size(tuple(r.stop - r.start for r in region))
 
     def points(self, start: int, stop: int) -> tuple[np.ndarray, dict[str, Any]]:
-        """Bodies and :func:`rattlesweep.batch.prepare` keyword arguments (SI) for the
+        """Bodies and :func:`rattlesweep.rattleback.batch.prepare` keyword arguments (SI) for the
         flat point indices [start, stop)."""
         return self.points_at(np.arange(start, stop, dtype=np.int64))
 

@@ -11,9 +11,10 @@ from typing import Any
 
 import numpy as np
 
-from .. import engine, results
-from ..batch import MODEL, prepare
-from ..engine import check_method
+from .. import _results as results
+from .. import _run as engine
+from ..rattleback.batch import MODEL, prepare
+from .._options import check_method
 from ..inputs import RATTLEBACK
 from .outcomes import OUTCOME_ATTRS, classify
 from .spec import Sweep

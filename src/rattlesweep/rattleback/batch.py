@@ -3,9 +3,11 @@
 :func:`run_batch` is the array entry point. Every per-trajectory input (the body, the
 launch, the friction, the numerics) may be an array; all are broadcast together and the
 batch is flattened onto one ``trajectory`` dimension whose coordinates are the inputs.
-The steps are :func:`launch_inputs` (checks and broadcasting, no kernel),
-:func:`prepare` (the launch state and kernel blocks) and the shared batch layer
-(:mod:`rattlesweep.engine`).
+The steps go down the shared batch layer: :func:`launch_inputs` (checks and
+broadcasting, :mod:`rattlesweep._launches`; no kernel), :func:`prepare` (the launch
+state, packed into kernel blocks by :mod:`rattlesweep._pack`) and :func:`run_batch` (the
+kernel run by :mod:`rattlesweep._run`, its results labelled by
+:mod:`rattlesweep._results`).
 """
 
 from __future__ import annotations
@@ -19,24 +21,30 @@ import numpy as np
 import xarray as xr
 from numpy.typing import ArrayLike
 
-from . import engine, results
-from .body import Bodies, Body, distinct_bodies
-from .core.models import RATTLEBACK
-from .core.rattleback import layout
-from .engine import (
-    Model, Prepared, as_bodies, check_band, check_method, check_record_every,
-    check_single_step, check_stop,
+from .. import _results as results
+from .._launches import as_bodies, launches
+from .._model import Model, Prepared
+from .._options import (
+    check_band, check_method, check_record_every, check_single_step, check_stop,
 )
-from .inputs import RATTLEBACK as INPUTS
+from .._pack import blocked, prepared
+from .._run import contact_slip_velocity, execute
+from .._steps import step_counts, time_steps
+from .._validation import as_float_array, fail_where
+from ..core.models import RATTLEBACK
+from ..core.rattleback import layout
+from ..inputs import RATTLEBACK as INPUTS
+from .body import Bodies, Body
 from .launch import (
     angles_in_radians, check_unit_quaternion, quaternion_from_angles, tilt_limit_error,
     up_vector,
 )
 from .metadata import attrs_for
-from .validation import as_float_array, fail_where
 
 __all__ = ["MODEL", "Inputs", "damping_dts", "launch_inputs", "max_steps", "prepare",
-           "radian_angles", "run_batch"]
+           "radian_angles", "run_attrs", "run_batch"]
+
+TITLE = "rattlesweep rattleback simulation"
 
 MODEL = Model(
     RATTLEBACK, layout,
@@ -95,7 +103,7 @@ def launch_inputs(
     the rule for any invalid input. Non-finite launch values (spin, omega, angles,
     orientation, velocity) are not errors: those trajectories get the status
     ``non_finite``. ``announce`` warns (:class:`~rattlesweep.LongRunWarning`) of
-    a batch of more than :data:`~rattlesweep.engine.LONG_RUN_STEPS` steps."""
+    a batch of more than :data:`~rattlesweep._steps.LONG_RUN_STEPS` steps."""
     if spin is not None and omega is not None:
         raise ValueError("give either spin (about the vertical) or omega (body frame), not both")
     angles = {"roll": roll, "pitch": pitch, "yaw": yaw}
@@ -122,24 +130,13 @@ def launch_inputs(
                 raise ValueError(f"{name} must have a last axis of length {width}, "
                                  f"got shape {arr.shape}")
             vectors[name] = arr
-    arrays = {k: as_float_array(k, v) for k, v in scalars.items()}
-    engine.check_common(arrays, INPUTS)
-    shape, n, flat_bodies, flat, flat_vec = engine.broadcast_inputs(as_bodies(body, Body), arrays,
-                                                                    vectors)
-    table, index = distinct_bodies(flat_bodies)
-    default = np.minimum(engine.default_dts(table, index, flat["g"]),
-                         damping_dts(table, index, flat["damping"]))
-    default_from = None  # the inputs a default step comes from, for messages
-    if "dt" not in flat:
-        default_from = {"g": flat["g"], "damping": flat["damping"]}
-        flat["dt"] = default
-    else:
-        fail_where("dt", flat["dt"], flat["dt"] > flat["t_end"],
-                   "must be at most t_end (a launch takes whole steps, so one step of dt "
-                   "would run it past t_end)")
-        # warn at the user's call: run_batch or simulate -> prepare -> launch_inputs
-        engine.warn_coarse_dt(table, index, flat["g"], flat["dt"], stacklevel=4,
-                              default=default)
+    launch = launches(body, Body, scalars, INPUTS, vectors)
+    flat, flat_vec, table, index = launch.flat, launch.vectors, launch.bodies, launch.index
+    # warnings at the user's call: run_batch or simulate -> prepare -> launch_inputs
+    longest = damping_dts(table, index, flat["damping"])
+    flat["dt"], default_from = time_steps(table, index, flat,
+                                          longest=(longest, ("damping",)),
+                                          dt_at_most_t_end=True, stacklevel=4)
     if "orientation" in flat_vec:
         q = flat_vec["orientation"].copy()
         check_unit_quaternion(q)
@@ -147,17 +144,15 @@ def launch_inputs(
         q = quaternion_from_angles(flat["roll"], flat["pitch"], flat["yaw"])
     full = np.array([b.full_ellipsoid for b in table], dtype=bool)[index]
     tilt_limit_error(up_vector(q)[:, 2], full)
-    steps = engine.steps_for(flat["t_end"], flat["dt"], default_from, (table, index))
-    if announce:
-        engine.announce_long_run(steps, flat["t_end"], flat["dt"], default_from,
-                                 stacklevel=4)
-    return Inputs(shape, n, table, index, flat, flat_vec, steps, q)
+    steps = step_counts(flat["t_end"], flat["dt"], default_from, (table, index),
+                        announce=announce, stacklevel=4)
+    return Inputs(launch.shape, launch.n, table, index, flat, flat_vec, steps, q)
 
 
 def radian_angles(body: Bodies, given: dict[str, Any]) -> dict[str, Any]:
     """roll, pitch, yaw (rad) from the radian or degree keyword arguments of
     :func:`run_batch` or :func:`rattlesweep.simulate` (see
-    :func:`rattlesweep.launch.angles_in_radians`; warns at the caller's caller)."""
+    :func:`rattlesweep.rattleback.launch.angles_in_radians`; warns at the caller's caller)."""
     bodies = as_bodies(body, Body)
     full = all(b.full_ellipsoid for b in bodies.flat)
     return angles_in_radians(given, full_ellipsoid=full, stacklevel=4)
@@ -172,6 +167,7 @@ def damping_dts(table: list[Body], index: np.ndarray, damping: np.ndarray) -> np
     i_min = np.array([np.linalg.eigvalsh(b.inertia)[0] for b in table])[index]
     with np.errstate(divide="ignore"):
         return np.where(damping > 0, i_min / damping, np.inf)
+
 
 
 def max_steps(body: Bodies, **kwargs: Any) -> int:
@@ -231,10 +227,10 @@ def prepare(body: Bodies, *, stop: str | None = None,
     inputs = launch_inputs(body, announce=announce, **kwargs)
     n = inputs.n
     columns = {**inputs.body_columns(), **inputs.flat, "stop_rule": np.full(n, rule)}
-    Y = engine.pack(layout.STATE, _launch_state(inputs), n)
-    prep = engine.prepared(MODEL, columns, Y, inputs.nsteps, n, inputs.shape, {})
+    prep = prepared(MODEL, columns, _launch_state(inputs), inputs.nsteps, n, inputs.shape,
+                    {})
     # G's velocity: rolling (material contact point at rest) unless given
-    rolling = -engine.contact_slip_velocity(MODEL, prep.P, Y)[:, :n]
+    rolling = -contact_slip_velocity(MODEL, prep.P, prep.Y)[:, :n]
     given = inputs.vectors.get("velocity")
     if given is not None:
         v = given.T
@@ -243,7 +239,7 @@ def prepare(body: Bodies, *, stop: str | None = None,
                    "makes a sliding launch, which needs a finite mu_static")
     else:
         v = rolling
-    Y[:, layout.STATE.slice("velocity"), :] = engine.blocked(v, n)
+    prep.Y[:, layout.STATE.slice("velocity"), :] = blocked(v, n)
     return dataclasses.replace(prep, coords=_coords(inputs, columns, given, degrees or {}))
 
 
@@ -379,7 +375,15 @@ def run_batch(
                    t_end=t_end, stop=stop)
     if rec_every is not None:
         check_single_step(prep)
-    raw = engine.execute(prep, method=m, record_every=rec_every, band=band,
-                         parallel=parallel, threads=threads)
+    raw = execute(prep, method=m, record_every=rec_every, band=band, parallel=parallel,
+                  threads=threads)
     return results.batch_dataset(prep, raw, rec_every, attrs_for,
-                                results.run_attrs(method, rec_every, band, stop))
+                                 run_attrs(method, rec_every, band, stop))
+
+
+def run_attrs(method: str, record_every: int | None, band: float,
+              stop: str | None = None) -> dict[str, Any]:
+    """Global attributes of a rattleback result."""
+    attrs = results.run_attrs(method, record_every, band, stop)
+    attrs["title"] = TITLE
+    return attrs

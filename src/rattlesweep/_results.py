@@ -1,5 +1,5 @@
 """Results as labelled data: what the kernel returns for a batch or a single run, as an
-xarray Dataset with CF attributes from the model's row tables (:mod:`rattlesweep.engine`
+xarray Dataset with CF attributes from the model's row tables (:mod:`rattlesweep._run`
 runs the kernel)."""
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import xarray as xr
 
 from ._version import __version__
 from .core.workspace import O_STATUS, O_T_END, OK, STATUS_NAMES
-from .engine import Model, Prepared, Raw
+from ._model import Model, Prepared, Raw
 
 __all__ = [
     "MAX_DEFAULT_SAMPLES", "VECTOR_COORDS", "batch_dataset", "default_record_every",

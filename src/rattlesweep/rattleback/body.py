@@ -17,9 +17,9 @@ from typing import TYPE_CHECKING, Any, Iterable, Sequence, TypeAlias, Union
 import numpy as np
 import numpy.typing as npt
 
-from .validation import as_float_array, check_boolean, finite_vector, positive
+from .._validation import as_float_array, check_boolean, finite_vector, positive
 
-__all__ = ["Bodies", "Body", "PRESETS", "distinct_bodies", "rotated_inertia"]
+__all__ = ["Bodies", "Body", "PRESETS", "rotated_inertia"]
 
 _REL_TOL = 1e-9
 
@@ -365,20 +365,6 @@ def _default_dt(body: Body, g: float) -> float:
 
 Bodies: TypeAlias = Union[Body, "npt.NDArray[np.object_]", Sequence["Bodies"]]
 """A body, or an array of bodies: an object array, or sequences nested to any depth."""
-
-
-def distinct_bodies(bodies: Sequence[Body] | np.ndarray) -> tuple[list[Body], np.ndarray]:
-    """The distinct bodies of a flat sequence, in first-seen order, and each item's index
-    into them (an int array of the sequence's length).
-
-    Bodies are told apart by value and by name: results label each trajectory with the
-    name from this table, so equal bodies with different names stay apart. The table
-    holds the first item seen of each.
-    """
-    seen: dict[tuple[Body, str], int] = {}
-    index = np.fromiter((seen.setdefault((b, b.name), len(seen)) for b in bodies),
-                        dtype=np.intp, count=len(bodies))
-    return [body for body, _ in seen], index
 
 
 def _kane_levinson() -> Body:

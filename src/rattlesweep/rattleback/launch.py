@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .validation import as_float_array
+from .._validation import as_float_array
 
 __all__ = [
     "quaternion_from_angles", "rotation_matrices", "up_vector", "check_unit_quaternion",

@@ -9,11 +9,12 @@ import numpy as np
 import xarray as xr
 from numpy.typing import ArrayLike
 
-from . import engine, results
-from .batch import prepare, radian_angles
+from .. import _results as results
+from .._options import check_band, check_method, check_record_every
+from .._run import execute
+from ..inputs import RATTLEBACK as INPUTS
+from .batch import prepare, radian_angles, run_attrs
 from .body import Body
-from .engine import check_band, check_method, check_record_every
-from .inputs import RATTLEBACK as INPUTS
 from .metadata import attrs_for
 
 __all__ = ["simulate"]
@@ -89,7 +90,7 @@ def simulate(
                if v is not None}
     prep = prepare(body, degrees=degrees, **inputs)
     rec_every = results.default_record_every(prep, rec_every)
-    raw = engine.execute(prep, method=m, record_every=rec_every, band=band, parallel=False)
+    raw = execute(prep, method=m, record_every=rec_every, band=band, parallel=False)
     config = {
         "body": body.describe(),
         "launch": {k: (np.asarray(v).tolist() if v is not None else None)
@@ -98,4 +99,4 @@ def simulate(
         "record_every": rec_every, "reversal_band": band,
     }
     return results.run_dataset(prep, raw, rec_every, attrs_for,
-                              results.run_attrs(method, rec_every, band), config)
+                              run_attrs(method, rec_every, band), config)
