@@ -36,7 +36,8 @@ if TYPE_CHECKING:
     from .design.constraints import DesignRefused
     from ._steps import CoarseStepWarning, LongRunWarning
     from .planar import PlanarBody, run_planar_batch, simulate_planar
-    from .rattleback import PRESETS, Body, UnitsWarning, run_batch, simulate
+    from .rattleback import PRESETS, Body, UnitsWarning, run_batch
+    from .rattleback.simulate import simulate
     from .sweep import Sweep
     from .sweep.lock import SweepLocked
     from .sweep.run import resume, run_sweep
