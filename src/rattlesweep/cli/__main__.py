@@ -1,0 +1,5 @@
+"""``python -m rattlesweep.cli``: the command line."""
+
+from . import run
+
+run()

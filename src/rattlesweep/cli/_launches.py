@@ -1,0 +1,302 @@
+"""The commands of one launch or one body: simulate, animate, design, explore, and
+the options they share."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from typing import TYPE_CHECKING
+
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+    from ..rattleback.body import Body
+
+_SHAPE = ("a", "b", "c", "mass", "delta_deg")
+
+
+def _body_from_args(args: argparse.Namespace) -> Body:
+    """The preset, the body of ``--body FILE``, or a homogeneous semi-ellipsoid whose
+    parameters not given are the ``toy`` preset's (as in a sweep file)."""
+    from ..rattleback.body import Body
+
+    shape = {k: getattr(args, k) for k in _SHAPE if getattr(args, k) is not None}
+    given = [
+        o
+        for o, used in (
+            ("--preset", args.preset is not None),
+            ("--body", args.body is not None),
+            ("--a/--b/--c/--mass/--delta-deg", bool(shape)),
+        )
+        if used
+    ]
+    if len(given) > 1:
+        raise ValueError(f"{' and '.join(given)} each choose the body; give one of them")
+    if args.body is not None:
+        from ..sweep.body_file import body_from_toml
+
+        return body_from_toml(args.body)
+    if shape:
+        from ..sweep.grid import semi_ellipsoid_defaults
+
+        si = {
+            **semi_ellipsoid_defaults(),
+            **{k: v for k, v in shape.items() if k != "delta_deg"},
+        }
+        if "delta_deg" in shape:
+            si["delta"] = math.radians(shape["delta_deg"])
+        return Body.semi_ellipsoid(si["a"], si["b"], si["c"], si["mass"], si["delta"])
+    return Body.preset(args.preset or "kane_levinson")
+
+
+def _simulate_from_args(args: argparse.Namespace) -> xr.Dataset:
+    from ..rattleback.simulate import simulate
+
+    return simulate(
+        _body_from_args(args),
+        spin=args.spin,
+        roll_deg=args.roll_deg,
+        pitch_deg=args.pitch_deg,
+        yaw_deg=args.yaw_deg,
+        velocity=args.velocity,
+        mu=args.mu,
+        mu_static=args.mu_static,
+        mu_spin=args.mu_spin,
+        mu_roll=args.mu_roll,
+        damping=args.damping,
+        g=args.g,
+        t_end=args.t_end,
+        dt=args.dt,
+        method=args.method,
+    )
+
+
+def _cmd_simulate(args: argparse.Namespace, argv: list[str] | None) -> int:
+    from ..io import write_netcdf
+
+    ds = _simulate_from_args(args)
+    if args.out:
+        write_netcdf(ds, args.out)
+        print(f"wrote {args.out}")
+    if args.png:
+        from ..plot import spin_history
+
+        spin_history(
+            [ds],
+            [f"spin {args.spin:+g} rad/s"],
+            title=f"{ds.attrs.get('body_name', 'body')}, mu={args.mu:g}",
+        ).savefig(args.png, dpi=120)
+        print(f"wrote {args.png}")
+    t_rev = float(ds.first_reversal_time)
+    print(
+        f"first reversal: {'none' if t_rev != t_rev else f'{t_rev:.4f} s'}; "
+        f"reversals: {int(ds.n_reversals)}; final spin {float(ds.final_spin):+.4f} rad/s; "
+        f"status: {ds.status.attrs['flag_meanings'].split()[int(ds.status)]}"
+    )
+    return 0
+
+
+def _cmd_animate(args: argparse.Namespace, argv: list[str] | None) -> int:
+    import xarray as xr
+
+    from ..plot import animate
+
+    if args.run is not None:
+        with xr.open_dataset(args.run) as ds:
+            run = ds.load()
+    else:
+        run = _simulate_from_args(args)
+    t0 = time.perf_counter()
+    animate(
+        run,
+        args.out,
+        frames=args.frames,
+        fps=args.fps,
+        dpi=args.dpi,
+        z_stretch=args.z_stretch,
+    )
+    print(
+        f"wrote {args.out}: {args.frames} frames at {args.fps:g} fps "
+        f"({time.perf_counter() - t0:.1f} s)"
+    )
+    return 0
+
+
+NOT_ROBUST_STATUS = 3
+"""Exit status of ``rattlesweep design`` for a design that is not robust (without
+``--accept-not-robust``); its files are written all the same."""
+
+
+def _cmd_design(args: argparse.Namespace, argv: list[str] | None) -> int:
+    from ..design import design
+
+    def say(line: str) -> None:
+        print(line, file=sys.stderr, flush=True)
+
+    t0 = time.perf_counter()
+    d = design(
+        args.a,
+        args.b,
+        args.c,
+        coin=args.coin,
+        coin_mass=args.coin_mass,
+        coin_diameter=args.coin_diameter,
+        coin_thickness=args.coin_thickness,
+        infill=args.infill,
+        material=args.material,
+        density=args.density,
+        wall=args.wall,
+        clearance=args.clearance,
+        rim=args.rim,
+        mu=tuple(args.mu),
+        margin=args.margin,
+        prefer=args.prefer,
+        out=args.out,
+        overwrite=args.force,
+        progress=None if args.quiet else say,
+    )
+    print(d.summary())
+    print(
+        f"wrote {', '.join(str(p) for p in d.files.values())} "
+        f"({time.perf_counter() - t0:.1f} s)"
+    )
+    if d.robust:
+        return 0
+    if args.accept_not_robust:
+        print("the design is NOT ROBUST; accepted (--accept-not-robust)")
+        return 0
+    print(
+        f"rattlesweep: the design is NOT ROBUST (see above); its files are written, "
+        f"marked so, for you to inspect. Exit status {NOT_ROBUST_STATUS}; give "
+        "--accept-not-robust to accept it.",
+        file=sys.stderr,
+    )
+    return NOT_ROBUST_STATUS
+
+
+def _cmd_explore(args: argparse.Namespace, argv: list[str] | None) -> int:
+    from ..explore import PortInUse, serve
+
+    try:
+        serve(args.host, args.port, open_browser=not args.no_browser)
+    except PortInUse as exc:
+        print(f"rattlesweep explore: {exc.strerror}", file=sys.stderr)
+        return 2
+    return 0
+
+
+def _add_launch_options(p: argparse.ArgumentParser) -> None:
+    from ..rattleback.body import PRESETS
+    from ..inputs import RATTLEBACK as INPUTS
+
+    body = p.add_argument_group(
+        "body (one of: a preset, a TOML file, a semi-ellipsoid; "
+        "default: the kane_levinson preset)"
+    )
+    body.add_argument(
+        "--preset",
+        default=None,
+        choices=sorted(PRESETS),
+        help="a preset body (default: kane_levinson, unless --body or a "
+        "semi-ellipsoid option is given)",
+    )
+    body.add_argument(
+        "--body",
+        default=None,
+        metavar="FILE.toml",
+        help="the body of the file's [body] table: a, b, c, mass, com, "
+        "inertia[, full_ellipsoid, name] in SI units, as in a sweep file "
+        "(a sweep file's fixed.body works too); default: none",
+    )
+    for name, what in (
+        ("a", "long semi-axis (m)"),
+        ("b", "short semi-axis (m)"),
+        ("c", "depth semi-axis (m)"),
+        ("mass", "mass (kg)"),
+    ):
+        body.add_argument(
+            f"--{name}",
+            type=float,
+            default=None,
+            help=f"homogeneous semi-ellipsoid: {what} (default: the toy preset's)",
+        )
+    body.add_argument(
+        "--delta-deg",
+        type=float,
+        default=None,
+        help="homogeneous semi-ellipsoid: misalignment of the inertia axes "
+        "(degrees; default: the toy preset's)",
+    )
+    launch = p.add_argument_group("launch")
+    launch.add_argument(
+        "--spin",
+        type=float,
+        default=5.0,
+        help="rad/s about the vertical, positive counter-clockwise from above",
+    )
+    launch.add_argument(
+        "--roll-deg",
+        type=float,
+        default=0.5,
+        help="initial roll (degrees; raises the body's +y side)",
+    )
+    launch.add_argument(
+        "--pitch-deg",
+        type=float,
+        default=0.0,
+        help="initial pitch (degrees; lowers the body's +x end)",
+    )
+    launch.add_argument(
+        "--yaw-deg",
+        type=float,
+        default=0.0,
+        help="initial heading (degrees about the vertical)",
+    )
+    launch.add_argument(
+        "--velocity",
+        type=float,
+        nargs=2,
+        default=None,
+        metavar=("VX", "VY"),
+        help="horizontal velocity of G (m/s), a "
+        "sliding launch (default: the velocity at which the contact rolls)",
+    )
+    friction = p.add_argument_group("friction and numerics")
+    for name in ("mu", "mu_static", "mu_spin", "mu_roll", "damping", "g", "t_end", "dt"):
+        spec = INPUTS[name]
+        default = spec.default if isinstance(spec.default, float) else None
+        text = spec.long_name + ("" if spec.units == "1" else f" ({spec.units})")
+        if name == "t_end":  # required by run_batch; here a quick look from the terminal
+            default = 10.0
+        elif spec.default_doc:
+            text += f"; default: {spec.default_doc.replace('`', '')}"
+        friction.add_argument(
+            f"--{name.replace('_', '-')}", type=float, default=default, help=text
+        )
+    friction.add_argument(
+        "--method",
+        choices=["rk4", "euler"],
+        default="rk4",
+        help="integrator: RK4, or first-order semi-implicit Euler",
+    )
+
+
+def _add_run_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="address of a running dask.distributed scheduler (default: none, "
+        "local threads)",
+    )
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="local threads (default: all usable cores)",
+    )
+    p.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -1,0 +1,264 @@
+"""The commands that read results: plot and info, with the damage checks they share."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+from ._sweeps import _summary
+
+
+def _open_netcdf(path: str) -> xr.Dataset:
+    """A result file, or a ValueError saying it is none (not xarray's list of
+    backends)."""
+    import xarray as xr
+
+    try:
+        return xr.open_dataset(path)
+    except (OSError, ValueError) as exc:
+        reason = str(exc).splitlines()[0] if str(exc).strip() else type(exc).__name__
+        if "did not find a match" in reason:
+            reason = "it is not a netCDF file"
+        raise ValueError(
+            f"cannot read {path}: expected a rattlesweep result file "
+            f"(netCDF; a zarr store: `rattlesweep export` it first); "
+            f"{reason}"
+        ) from None
+
+
+def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
+    import xarray as xr
+
+    from ..plot import reversal_map, reversal_vs_growth
+
+    select = {}
+    for item in args.select or []:
+        key, _, value = item.partition("=")
+        if not _:
+            raise ValueError(f"--select takes DIM=VALUE, got {item!r}")
+        try:
+            select[key] = float(value)
+        except ValueError:
+            select[key] = value
+    for path in (*args.files, *filter(None, (args.overlay, args.versus))):
+        _warn_damaged(Path(path), "plot")
+    overlay = _open_netcdf(args.overlay) if args.overlay else None
+    for path in args.files:
+        with _open_netcdf(path) as ds:
+            if args.versus:
+                with xr.open_dataset(args.versus) as sweep:
+                    fig = reversal_vs_growth(ds, sweep, color_by=args.facet)
+                name = "reversal_vs_growth"
+            else:
+                var = args.var or ("outcome" if "outcome" in ds else "growth_rate")
+                dims = [d for d in ds.attrs.get("sweep_dims", list(ds.dims))]
+                x = args.x or dims[0]
+                y = args.y or next((d for d in dims if d != x), None)
+                if y is None:
+                    raise ValueError(f"{path}: a map needs two dimensions, found {dims}")
+                fig = reversal_map(
+                    ds,
+                    x=x,
+                    y=y,
+                    var=var,
+                    facet=args.facet,
+                    select=select or None,
+                    reduce=args.reduce,
+                    overlay=overlay,
+                )
+                name = var
+            png = (
+                Path(args.out)
+                if args.out and len(args.files) == 1
+                else Path(path).with_name(f"{Path(path).stem}_{name}.png")
+            )
+            fig.savefig(png, dpi=args.dpi)
+            print(f"wrote {png}")
+    if overlay is not None:
+        overlay.close()
+    return 0
+
+
+def _sweep_output(path: Path) -> Path | None:
+    """The sweep output ``path`` is or belongs to: a zarr store, a sweep directory, or
+    the directory of a merged ``sweep.nc``; None for a file of no sweep directory."""
+    from ..sweep.directory import CONFIG_NAME, RESULT_NAME
+    from ..sweep.zarr_store import is_zarr_store
+
+    if is_zarr_store(path) or (path / CONFIG_NAME).is_file():
+        return path
+    if path.name == RESULT_NAME and (path.parent / CONFIG_NAME).is_file():
+        return path.parent
+    return None
+
+
+def _warn_damaged(path: Path, command: str) -> Path | None:
+    """Verify the sweep output ``path`` is or belongs to (what ``rattlesweep verify``
+    does) and warn on stderr about any tile or merged file damaged or lost; tiles of an
+    unfinished output not computed yet are no damage. Returns the output warned
+    about."""
+    from ..sweep.verify import verify
+
+    out = _sweep_output(path)
+    if out is None:
+        return None
+    try:
+        found = verify(out)
+    except ValueError as exc:
+        print(
+            f"rattlesweep {command}: warning: {out} cannot be verified: {exc}",
+            file=sys.stderr,
+        )
+        return out
+    if not (found.damaged or found.problems or (found.missing and found.finished)):
+        return None
+    head, *lines = found.report().splitlines()
+    print(
+        f"rattlesweep {command}: warning: {out} is damaged ({head.split(': ', 1)[1]}; "
+        f"`rattlesweep verify {out}` lists the same):",
+        *lines,
+        sep="\n",
+        file=sys.stderr,
+    )
+    return out
+
+
+def _info_directory(path: Path) -> Path | None:
+    """The merged result of a sweep directory, or None after printing the progress of an
+    unfinished one; ValueError when ``path`` is no sweep directory."""
+    from ..sweep.zarr_store import is_zarr_store
+
+    if is_zarr_store(path):
+        return path
+    if (path / "sweep.nc").is_file():
+        return path / "sweep.nc"
+    if not (path / "sweep.toml").is_file():
+        raise ValueError(
+            f"{path} is a directory without sweep.nc or sweep.toml: expected a "
+            "sweep directory (what 'rattlesweep sweep --out DIR' writes)"
+        )
+    from ..sweep.directory import read_config
+
+    sweep = read_config(path / "sweep.toml")
+    print(f"{path} (unfinished sweep: no sweep.nc yet)")
+    print(f"  name: {sweep.name}")
+    print(
+        "  dimensions: " + ", ".join(f"{d} ({n})" for d, n in zip(sweep.dims, sweep.shape))
+    )
+    if sweep.refine is not None:
+        levels = sorted(path.glob("levels/level-*"))
+        done = len(list(path.glob("levels/level-*/tile-*.nc")))
+        fine = sweep.finest()
+        print(
+            "  refined to: "
+            + ", ".join(f"{d} ({n})" for d, n in zip(fine.dims, fine.shape))
+        )
+        print(
+            f"  levels started: {len(levels)} of {sweep.refine['levels'] + 1}, {done} tiles "
+            f"written; 'rattlesweep resume {path}' completes it"
+        )
+        return None
+    from ..sweep.verify import verify
+
+    found = verify(path)
+    done = sweep.n_tiles - len(found.missing) - len(found.damaged)
+    damaged = f", {len(found.damaged)} damaged" if found.damaged else ""
+    print(
+        f"  tiles written: {done} of {sweep.n_tiles} (complete and readable){damaged}; "
+        f"'rattlesweep resume {path}' completes it"
+    )
+    return None
+
+
+def _open_result(path: Path) -> xr.Dataset:
+    import xarray as xr
+
+    from ..sweep.zarr_store import is_zarr_store, open_result, stored_sweep, tiles_done
+
+    if not is_zarr_store(path):
+        return xr.open_dataset(path)
+    sweep = stored_sweep(str(path))
+    done = tiles_done(str(path), sweep.n_tiles)
+    if done is not None and not done.all():
+        print(
+            f"{path} (unfinished zarr store: {int(done.sum())} of {sweep.n_tiles} tiles "
+            f"written; 'rattlesweep resume {path}' completes it)"
+        )
+    return open_result(str(path))
+
+
+def _cmd_info(args: argparse.Namespace, argv: list[str] | None) -> int:
+    failed = 0
+    for name in args.files:
+        path = Path(name)
+        damaged = _warn_damaged(path, "info")
+        try:
+            if path.is_dir():
+                result = _info_directory(path)
+                if result is None:
+                    continue
+                path = result
+        except ValueError as exc:
+            print(f"rattlesweep info: {exc}", file=sys.stderr)
+            failed += 1
+            continue
+        try:
+            ds = _open_result(path)
+        except (OSError, ValueError) as exc:
+            reason = str(exc).splitlines()[0]
+            if "did not find a match" in reason:
+                reason = "it is not a netCDF file"
+            if damaged is not None:
+                print(
+                    f"rattlesweep info: cannot read {path} ({reason}): it is damaged; "
+                    f"`rattlesweep resume {damaged}` writes it again",
+                    file=sys.stderr,
+                )
+            else:
+                print(
+                    f"rattlesweep info: cannot read {path}: expected a rattlesweep "
+                    f"result file (netCDF) or a sweep directory; {reason}",
+                    file=sys.stderr,
+                )
+            failed += 1
+            continue
+        with ds:
+            print(f"{path}")
+            print(f"  title: {ds.attrs.get('title', '')}")
+            print("  dimensions: " + ", ".join(f"{d} ({n})" for d, n in ds.sizes.items()))
+            for name in ds.dims:
+                if name in ds.coords:
+                    c = ds[name]
+                    units = c.attrs.get("units", "")
+                    units = "" if units == "1" else units  # CF's dimensionless
+                    vals = c.values
+                    span = (
+                        f"{vals[0]} .. {vals[-1]}"
+                        if vals.dtype.kind in "fiu"
+                        else ", ".join(map(str, vals))
+                    )
+                    print(f"    {name}: {span} {units}  ({c.attrs.get('long_name', '')})")
+            scalars = [f"{c}={ds[c].values.item()}" for c in ds.coords if ds[c].ndim == 0]
+            if scalars:
+                print("  fixed: " + ", ".join(scalars))
+            print("  variables: " + ", ".join(map(str, ds.data_vars)))
+            if "outcome" in ds:
+                print(f"  outcomes: {_summary(ds)}")
+            if "computed" in ds:
+                simulated, n = int(ds.computed.sum()), int(ds.computed.size)
+                print(
+                    f"  simulated: {simulated} of {n} points ({simulated / n:.1%}); the "
+                    "others are filled from their refinement cell's corners (computed = 0)"
+                )
+            for key in ("rattlesweep_version", "history"):
+                if key in ds.attrs:
+                    print(f"  {key}: {ds.attrs[key]}")
+            if args.config and "sweep_config" in ds.attrs:
+                print(ds.attrs["sweep_config"])
+    return 2 if failed else 0

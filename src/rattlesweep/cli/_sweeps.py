@@ -1,0 +1,195 @@
+"""The sweep commands: sweep, resume, demo, export, verify, stability."""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+import sys
+import time
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+    from ..sweep import Sweep
+
+
+def _command(argv: list[str] | None) -> str:
+    return "rattlesweep " + shlex.join(sys.argv[1:] if argv is None else argv)
+
+
+def _save_map(ds: xr.Dataset, png: Path, var: str = "outcome") -> Path:
+    from ..plot import reversal_map
+
+    dims = [d for d in ds.attrs.get("sweep_dims", list(ds.dims)) if d in ds[var].dims]
+    if len(dims) < 2:
+        raise ValueError(f"a map needs two sweep dimensions; this sweep has {dims}")
+    facet = dims[2] if len(dims) > 2 else None
+    select = {d: ds[d].values[0] for d in dims[3:]}
+    fig = reversal_map(
+        ds, x=dims[0], y=dims[1], var=var, facet=facet, select=select or None
+    )
+    fig.savefig(png, dpi=120)
+    return png
+
+
+def _summary(ds: xr.Dataset) -> str:
+    import numpy as np
+
+    flags = list(ds.outcome.attrs["flag_values"])
+    names = ds.outcome.attrs["flag_meanings"].split()
+    values, counts = np.unique(np.asarray(ds.outcome.values).ravel(), return_counts=True)
+    found = dict(zip(values.tolist(), counts.tolist()))
+    return ", ".join(
+        f"{n.replace('_', ' ')} {found[f]}" for f, n in zip(flags, names) if found.get(f)
+    )
+
+
+def _sweep_args(args: argparse.Namespace) -> dict[str, Any]:
+    if args.scheduler and args.workers:
+        raise ValueError(
+            "--workers sets local threads; with --scheduler the cluster's size "
+            "is set where it was started"
+        )
+    return {
+        "scheduler": args.scheduler,
+        "workers": args.workers,
+        "progress": not args.quiet,
+    }
+
+
+def _points(ds: xr.Dataset) -> str:
+    """How many points a result holds, and how many of them were simulated."""
+    n = int(ds.outcome.size)
+    if "points_simulated" not in ds.attrs:
+        return f"{n} launches"
+    simulated = int(ds.attrs["points_simulated"])
+    return f"{n} points ({simulated} simulated, {simulated / n:.1%})"
+
+
+def _run(sweep: Sweep, out: str, args: argparse.Namespace, argv: list[str] | None) -> int:
+    from ..sweep.run import RESULT_NAME, run_sweep
+
+    try:
+        ds = run_sweep(sweep, out, command=_command(argv), **_sweep_args(args))
+    except KeyboardInterrupt:
+        return 130
+    written = out if sweep.output == "zarr" else Path(out) / RESULT_NAME
+    print(f"wrote {written}: {_points(ds)}; {_summary(ds)}")
+    return 0
+
+
+def _cmd_sweep(args: argparse.Namespace, argv: list[str] | None) -> int:
+    from ..sweep import Sweep
+
+    sweep = Sweep.from_toml(Path(args.config))
+    changes = {}
+    if args.output is not None and args.output != sweep.output:
+        changes["output"] = args.output
+    if args.stop is not None:
+        changes["stop"] = None if args.stop == "t_end" else args.stop
+    if args.refine is not None and args.refine < 0:
+        raise ValueError(
+            f"--refine must be an integer >= 0 (levels of refinement; 0: "
+            f"none), got {args.refine}"
+        )
+    if args.refine is not None:
+        changes["refine"] = (
+            {**(sweep.refine or {}), "levels": args.refine} if (args.refine > 0) else None
+        )
+    if changes:
+        sweep = Sweep(**{**sweep.to_dict(), **changes})
+    if args.dry_run:
+        return _dry_run(sweep, args)
+    if args.out is None:
+        raise ValueError("--out is required to run a sweep (only --dry-run goes without)")
+    return _run(sweep, args.out, args, argv)
+
+
+def _dry_run(sweep: Sweep, args: argparse.Namespace) -> int:
+    from ..sweep.estimate import estimate, format_estimate
+    from ..sweep.run import _cores
+
+    _sweep_args(args)  # the same checks of the options as a run
+    if args.scheduler:
+        workers, where = (
+            1,
+            (
+                f"one worker of the cluster at {args.scheduler} (divide by "
+                "its number of single-threaded workers)"
+            ),
+        )
+    else:
+        workers = args.workers or _cores()
+        where = f"{workers} local thread{'s' if workers > 1 else ''}"
+    print(format_estimate(sweep, estimate(sweep, workers), where))
+    return 0
+
+
+def _cmd_resume(args: argparse.Namespace, argv: list[str] | None) -> int:
+    from ..sweep.run import stored_sweep
+
+    return _run(stored_sweep(args.dir), args.dir, args, argv)
+
+
+def _cmd_export(args: argparse.Namespace, argv: list[str] | None) -> int:
+    from ..sweep.run import export
+
+    path = export(args.store, args.out)
+    print(f"wrote {path}")
+    return 0
+
+
+def _cmd_verify(args: argparse.Namespace, argv: list[str] | None) -> int:
+    from ..sweep.verify import verify
+
+    failed = 0
+    for out in args.outputs:
+        found = verify(out)
+        print(found.report())
+        failed += not found.ok
+    return 1 if failed else 0
+
+
+def _cmd_demo(args: argparse.Namespace, argv: list[str] | None) -> int:
+    from ..sweep import Sweep
+    from ..sweep.demo import DEMO_TOML
+    from ..sweep.run import RESULT_NAME, run_sweep
+
+    if args.print_config:
+        print(DEMO_TOML, end="")
+        return 0
+    out = Path(args.out)
+    t0 = time.perf_counter()
+    try:
+        ds = run_sweep(
+            Sweep.from_toml(DEMO_TOML), out, command=_command(argv), **_sweep_args(args)
+        )
+    except KeyboardInterrupt:
+        return 130
+    png = _save_map(ds, out / "reversal_map.png")
+    print(
+        f"{ds.attrs['sweep_name']}: {_points(ds)} in {time.perf_counter() - t0:.1f} s; "
+        f"{_summary(ds)}"
+    )
+    print(f"wrote {out / RESULT_NAME} and {png}")
+    return 0
+
+
+def _cmd_stability(args: argparse.Namespace, argv: list[str] | None) -> int:
+    from ..io import write_netcdf
+    from ..stability import stability_dataset
+    from ..sweep import Sweep
+
+    t0 = time.perf_counter()
+    ds = stability_dataset(Sweep.from_toml(Path(args.config)), command=_command(argv))
+    path = write_netcdf(ds, args.out)
+    unstable = float((ds.growth_rate > 0).mean())
+    print(
+        f"wrote {path}: {int(ds.growth_rate.size)} grid points in "
+        f"{time.perf_counter() - t0:.2f} s; {unstable:.0%} unstable, largest growth rate "
+        f"{float(ds.growth_rate.max()):.4g} s-1"
+    )
+    return 0
