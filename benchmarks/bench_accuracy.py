@@ -59,6 +59,7 @@ def demo_map(rs, num):
 
     def body(delta):
         return rs.Body.semi_ellipsoid(toy.a, toy.b, toy.c, toy.mass, delta=delta)
+
     for k in (1, 16):
         spin = np.linspace(-30, 30, num[0])[:, None]
         delta = np.radians(np.linspace(-8, 8, num[1]))
@@ -66,45 +67,63 @@ def demo_map(rs, num):
         bodies[0, :] = [body(float(d)) for d in delta]
         dt = None if k == 1 else body(0.0).default_dt() / k
         t0 = time.perf_counter()
-        ds = rs.run_batch(bodies, spin=spin, roll=PITCH, mu=0.3, t_end=5.0,
-                          **({} if dt is None else {"dt": dt}))
-        out[str(k)] = {"wall": time.perf_counter() - t0,
-                  "reversal": ds.first_reversal_time.values.ravel().tolist()}
+        ds = rs.run_batch(
+            bodies,
+            spin=spin,
+            roll=PITCH,
+            mu=0.3,
+            t_end=5.0,
+            **({} if dt is None else {"dt": dt}),
+        )
+        out[str(k)] = {
+            "wall": time.perf_counter() - t0,
+            "reversal": ds.first_reversal_time.values.ravel().tolist(),
+        }
     return out
 
 
 def measure(package, quick):
     rs = import_module(package)
     divisors = (1, 2, 4) if quick else (1, 2, 4, 8, 16)
-    return {"fast": fast_launch(rs, divisors, 64 if quick else 256),
-            "demo": demo_map(rs, (21, 17) if quick else (41, 33))}
+    return {
+        "fast": fast_launch(rs, divisors, 64 if quick else 256),
+        "demo": demo_map(rs, (21, 17) if quick else (41, 33)),
+    }
 
 
 def report(label, result, reference, tolerance):
     print(f"\n{label}")
-    print(f"{'dt/k':>5} {'dt (ms)':>8} {'first reversal (s)':>19} {'error (ms)':>11} "
-          f"{'wall/launch (ms)':>17}")
+    print(
+        f"{'dt/k':>5} {'dt (ms)':>8} {'first reversal (s)':>19} {'error (ms)':>11} "
+        f"{'wall/launch (ms)':>17}"
+    )
     within = None
     for k, dt, rev, wall in result["fast"]:
         err = rev - reference
-        print(f"{k:>5d} {dt * 1e3:>8.4f} {rev:>19.6f} {err * 1e3:>+11.3f} {wall * 1e3:>17.3f}")
+        print(
+            f"{k:>5d} {dt * 1e3:>8.4f} {rev:>19.6f} {err * 1e3:>+11.3f} {wall * 1e3:>17.3f}"
+        )
         if within is None and abs(err) <= tolerance:
             within = (k, wall)
     if within:
-        print(f"within {tolerance * 1e3:g} ms from dt/{within[0]}: {within[1] * 1e3:.3f} ms "
-              "per launch")
+        print(
+            f"within {tolerance * 1e3:g} ms from dt/{within[0]}: {within[1] * 1e3:.3f} ms "
+            "per launch"
+        )
     else:
         print(f"not within {tolerance * 1e3:g} ms at any dt tried")
     a = np.array(result["demo"]["1"]["reversal"])
     b = np.array(result["demo"]["16"]["reversal"])
     both = np.isfinite(a) & np.isfinite(b)
     d = np.abs(a[both] - b[both]) * 1e3
-    print(f"demo map (mu = 0.3, {a.size} launches), default dt against dt/16: outcome "
-          f"(reverses or not) differs at {np.count_nonzero(np.isfinite(a) != np.isfinite(b))};"
-          f" |difference| of first reversal times where both reversed ({both.sum()}): "
-          f"median {np.median(d):.3f} ms, 95th percentile {np.percentile(d, 95):.3f} ms, "
-          f"max {d.max():.3f} ms; wall {result['demo']['1']['wall']:.2f} s (dt) and "
-          f"{result['demo']['16']['wall']:.2f} s (dt/16)")
+    print(
+        f"demo map (mu = 0.3, {a.size} launches), default dt against dt/16: outcome "
+        f"(reverses or not) differs at {np.count_nonzero(np.isfinite(a) != np.isfinite(b))};"
+        f" |difference| of first reversal times where both reversed ({both.sum()}): "
+        f"median {np.median(d):.3f} ms, 95th percentile {np.percentile(d, 95):.3f} ms, "
+        f"max {d.max():.3f} ms; wall {result['demo']['1']['wall']:.2f} s (dt) and "
+        f"{result['demo']['16']['wall']:.2f} s (dt/16)"
+    )
     return within
 
 
@@ -123,22 +142,35 @@ def main(argv=None):
     results = {}
     if args.compare:
         with tempfile.TemporaryDirectory() as tmp:
-            shutil.copytree(Path(args.compare) / "rattlesweep",
-                            Path(tmp) / "rattlesweep_baseline",
-                            ignore=shutil.ignore_patterns("__pycache__"))
+            shutil.copytree(
+                Path(args.compare) / "rattlesweep",
+                Path(tmp) / "rattlesweep_baseline",
+                ignore=shutil.ignore_patterns("__pycache__"),
+            )
             env = {**os.environ, "PYTHONPATH": tmp}
-            out = subprocess.run([sys.executable, __file__, "--child", "rattlesweep_baseline"]
-                                 + (["--quick"] if args.quick else []), env=env, check=True,
-                                 text=True, stdout=subprocess.PIPE).stdout
+            out = subprocess.run(
+                [sys.executable, __file__, "--child", "rattlesweep_baseline"]
+                + (["--quick"] if args.quick else []),
+                env=env,
+                check=True,
+                text=True,
+                stdout=subprocess.PIPE,
+            ).stdout
             results["old"] = json.loads(out.splitlines()[-1])
     results["new"] = measure("rattlesweep", args.quick)
     within = {}
     for label, result in results.items():
-        within[label] = report(f"{label}: {'this tree' if label == 'new' else args.compare}",
-                               result, reference, args.tolerance)
+        within[label] = report(
+            f"{label}: {'this tree' if label == 'new' else args.compare}",
+            result,
+            reference,
+            args.tolerance,
+        )
     if within.get("old") and within.get("new"):
-        print(f"\nwall time to {args.tolerance * 1e3:g} ms: old/new = "
-              f"{within['old'][1] / within['new'][1]:.1f}")
+        print(
+            f"\nwall time to {args.tolerance * 1e3:g} ms: old/new = "
+            f"{within['old'][1] / within['new'][1]:.1f}"
+        )
 
 
 if __name__ == "__main__":

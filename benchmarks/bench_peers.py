@@ -43,8 +43,9 @@ from importlib.metadata import version
 from pathlib import Path
 
 THREADS = 2  # the machine's cores; JAX gets as many host devices (set before it loads)
-os.environ["XLA_FLAGS"] = (os.environ.get("XLA_FLAGS", "")
-                           + f" --xla_force_host_platform_device_count={THREADS}").strip()
+os.environ["XLA_FLAGS"] = (
+    os.environ.get("XLA_FLAGS", "") + f" --xla_force_host_platform_device_count={THREADS}"
+).strip()
 
 import numpy as np  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
@@ -79,7 +80,9 @@ def _busy_seconds():
             ticks = [int(x) for x in f.readline().split()[1:]]
     except OSError:
         return None
-    return (sum(ticks) - ticks[3] - ticks[4]) / os.sysconf("SC_CLK_TCK")  # less idle, iowait
+    return (sum(ticks) - ticks[3] - ticks[4]) / os.sysconf(
+        "SC_CLK_TCK"
+    )  # less idle, iowait
 
 
 @dataclass
@@ -114,14 +117,21 @@ class Meter:
 # launches and references
 def launch(spins, mu=math.inf):
     """rattlesweep's t = 0 state of the launches, over ``trajectory``."""
-    return rs.run_batch(BODY, spin=np.atleast_1d(spins), pitch=PITCH, mu=mu, t_end=DT,
-                        record_every=1).isel(time=0)
+    return rs.run_batch(
+        BODY, spin=np.atleast_1d(spins), pitch=PITCH, mu=mu, t_end=DT, record_every=1
+    ).isel(time=0)
 
 
 def oracle_state(start, i=0) -> np.ndarray:
     """(11,) state of launch i in the layout of tests/numpy_oracle.py."""
-    return np.concatenate([start.quaternion.values[i], start.omega.values[i],
-                           start.position.values[i, :2], start.velocity.values[i, :2]])
+    return np.concatenate(
+        [
+            start.quaternion.values[i],
+            start.omega.values[i],
+            start.position.values[i, :2],
+            start.velocity.values[i, :2],
+        ]
+    )
 
 
 def jax_states(start) -> np.ndarray:
@@ -150,9 +160,17 @@ def solve_rolling(spin, t_end, rtol):
     """solve_ivp DOP853 of the rolling equations: (Run, spin at any t). The timed part
     is the integration; the first reversal is read off the dense output every GRID s."""
     model, y0, meter = NumpyRolling(BODY), oracle_state(launch(spin)), Meter()
-    sol, wall = meter.time(lambda: solve_ivp(
-        lambda t, y: model.rhs(y[:, None])[:, 0], (0.0, t_end), y0, method="DOP853",
-        rtol=rtol, atol=rtol * 1e-3, dense_output=True))
+    sol, wall = meter.time(
+        lambda: solve_ivp(
+            lambda t, y: model.rhs(y[:, None])[:, 0],
+            (0.0, t_end),
+            y0,
+            method="DOP853",
+            rtol=rtol,
+            atol=rtol * 1e-3,
+            dense_output=True,
+        )
+    )
     grid = np.arange(0.0, t_end + GRID / 2, GRID)
     n = model.spin(sol.sol(grid))
     run = Run(grid, n, first_reversal(grid, n), wall, meter.others())
@@ -164,8 +182,11 @@ def solve_coulomb(spin, mu, t_end, rtol, samples=601):
     any t). Its first reversal comes from located zeros of the spin; the timed part
     includes the evaluation of its (few) samples."""
     y0, meter = oracle_state(launch(spin, mu)), Meter()
-    ev, wall = meter.time(lambda: rattleback_events(
-        BODY, y0, mu=mu, t_end=t_end, rtol=rtol, atol=rtol * 1e-2, samples=samples))
+    ev, wall = meter.time(
+        lambda: rattleback_events(
+            BODY, y0, mu=mu, t_end=t_end, rtol=rtol, atol=rtol * 1e-2, samples=samples
+        )
+    )
     return Run(ev.t, ev.spin, ev.first_reversal_time, wall, meter.others()), ev.spin_at
 
 
@@ -176,6 +197,7 @@ def run_rattlesweep(spin, mu, t_end, dt) -> Run:
         def go():
             run = rs.simulate(BODY, spin=spin, pitch=PITCH, mu=mu, t_end=t_end, dt=dt)
             return run.time.values, run.spin.values, float(run.first_reversal_time)
+
         return metered(go)
 
 
@@ -189,28 +211,44 @@ def run_mujoco(spin, mu, t_end, contact) -> Run:
         t = np.arange(nstep + 1) * contact.dt
         n = mj.spin_histories(model, state, nstep)[0]
         return t, n, first_reversal(t, n)
+
     return metered(go)
 
 
 def same_start():
     """Section 1: MuJoCo's launch against rattlesweep's, for both spins and frictions."""
-    print("\n1. SAME START (MuJoCo against rattlesweep's t = 0 state; largest discrepancy "
-          "over +-5 rad/s, mu = 0.3 and 5)")
+    print(
+        "\n1. SAME START (MuJoCo against rattlesweep's t = 0 state; largest discrepancy "
+        "over +-5 rad/s, mu = 0.3 and 5)"
+    )
     worst = {}
     for spin in (FAST, SLOW):
         for mu in (0.3, MU_MUJOCO_ROLLING):
             start = launch(spin)
             model, _ = mj.build(BODY, mu, STIFF)
             state = mj.launch_states(model, start)[0]
-            found = mj.check_same_start(model, BODY, state, start.contact_point.values[0],
-                                        spin)
+            found = mj.check_same_start(
+                model, BODY, state, start.contact_point.values[0], spin
+            )
             for key, value in found.items():
                 worst[key] = max(worst.get(key, 0), value)
-    units = dict(mass="relative", com="m", inertia="relative", contacts="",
-                 contact_distance="m", contact_point="m", contact_velocity="m/s",
-                 spin="rad/s")
-    print("  " + ", ".join(f"{k} {v:.1e} {units[k]}".strip() if k != "contacts"
-                           else f"contacts {v}" for k, v in worst.items()))
+    units = dict(
+        mass="relative",
+        com="m",
+        inertia="relative",
+        contacts="",
+        contact_distance="m",
+        contact_point="m",
+        contact_velocity="m/s",
+        spin="rad/s",
+    )
+    print(
+        "  "
+        + ", ".join(
+            f"{k} {v:.1e} {units[k]}".strip() if k != "contacts" else f"contacts {v}"
+            for k, v in worst.items()
+        )
+    )
     print("  JAX: the same quaternion and body omega, number for number")
 
 
@@ -230,58 +268,120 @@ class Row:
 
 def score(engine, setting, mu, spin, run, ref, key) -> Row:
     t_ref = ref[0].first_reversal
-    error = abs(run.first_reversal / t_ref - 1.0) if math.isfinite(run.first_reversal) \
+    error = (
+        abs(run.first_reversal / t_ref - 1.0)
+        if math.isfinite(run.first_reversal)
         else math.inf
+    )
     spin_error = float(np.max(np.abs(run.spin - ref[1](run.t))))
     return Row(engine, setting, mu, spin, run, error, spin_error, key)
 
 
 def accuracy(quick, refs):
     """Section 3; returns the rows."""
-    print("\n3. ACCURACY (first reversal of the launch against the reference; spin error: "
-          "largest |n - n_ref| over the run;\n   wall: that one launch alone, one thread; "
-          "others: CPU cores the rest of the machine used meanwhile)")
-    print(f"{'engine':<12} {'setting':<38} {'mu':>4} {'spin':>5} {'reversal s':>11} "
-          f"{'error':>9} {'spin err':>9} {'wall s':>8} {'others':>6}")
+    print(
+        "\n3. ACCURACY (first reversal of the launch against the reference; spin error: "
+        "largest |n - n_ref| over the run;\n   wall: that one launch alone, one thread; "
+        "others: CPU cores the rest of the machine used meanwhile)"
+    )
+    print(
+        f"{'engine':<12} {'setting':<38} {'mu':>4} {'spin':>5} {'reversal s':>11} "
+        f"{'error':>9} {'spin err':>9} {'wall s':>8} {'others':>6}"
+    )
     rows = []
 
     def add(row):
         rows.append(row)
         r = row.run
-        print(f"{row.engine:<12} {row.setting:<38} {row.mu:>4g} {row.spin:>+5g} "
-              f"{r.first_reversal:>11.6f} {row.error:>9.2e} {row.spin_error:>9.2e} "
-              f"{r.wall:>8.2f} {r.others:>6.2f}", flush=True)
+        print(
+            f"{row.engine:<12} {row.setting:<38} {row.mu:>4g} {row.spin:>+5g} "
+            f"{r.first_reversal:>11.6f} {row.error:>9.2e} {row.spin_error:>9.2e} "
+            f"{r.wall:>8.2f} {r.others:>6.2f}",
+            flush=True,
+        )
 
     # from 2 x the default dt: rattlesweep warns of coarse steps above 4 x
     factors = [2, 1, 1 / 2, 1 / 4, 1 / 8, 1 / 16] + ([] if quick else [1 / 32])
     rtols = [1e-4, 1e-6, 1e-8] + ([] if quick else [1e-10])
-    contacts = [mj.DEFAULT, STIFF_IMPLICIT, STIFF, mj.Contact(1e-4, 2e-5),
-                mj.Contact(2e-5, 1e-5), FINE] + ([] if quick else [mj.Contact(5e-6, 2.5e-6)])
+    contacts = [
+        mj.DEFAULT,
+        STIFF_IMPLICIT,
+        STIFF,
+        mj.Contact(1e-4, 2e-5),
+        mj.Contact(2e-5, 1e-5),
+        FINE,
+    ] + ([] if quick else [mj.Contact(5e-6, 2.5e-6)])
     for mu in (math.inf, 0.3):
         ref = refs[mu, FAST]
         for f in factors:
-            add(score("rattlesweep", f"RK4, dt default x {f:g}", mu, FAST,
-                      run_rattlesweep(FAST, mu, T_FAST, DT * f), ref, DT * f))
+            add(
+                score(
+                    "rattlesweep",
+                    f"RK4, dt default x {f:g}",
+                    mu,
+                    FAST,
+                    run_rattlesweep(FAST, mu, T_FAST, DT * f),
+                    ref,
+                    DT * f,
+                )
+            )
         mu_mj = MU_MUJOCO_ROLLING if mu == math.inf else mu
         for c in contacts:
             run = run_mujoco(FAST, mu_mj, T_FAST, c)
             add(score("MuJoCo", c.label(), mu_mj, FAST, run, ref, c))
         if mu == math.inf:
             for rtol in rtols:
-                add(score("solve_ivp", f"DOP853, rtol {rtol:g}", mu, FAST,
-                          solve_rolling(FAST, T_FAST, rtol)[0], ref, rtol))
+                add(
+                    score(
+                        "solve_ivp",
+                        f"DOP853, rtol {rtol:g}",
+                        mu,
+                        FAST,
+                        solve_rolling(FAST, T_FAST, rtol)[0],
+                        ref,
+                        rtol,
+                    )
+                )
         else:
             for rtol in [1e-8] + ([] if quick else [1e-9]):
-                add(score("solve_ivp", f"events, LSODA, rtol {rtol:g}", mu, FAST,
-                          solve_coulomb(FAST, mu, T_FAST, rtol)[0], ref, rtol))
+                add(
+                    score(
+                        "solve_ivp",
+                        f"events, LSODA, rtol {rtol:g}",
+                        mu,
+                        FAST,
+                        solve_coulomb(FAST, mu, T_FAST, rtol)[0],
+                        ref,
+                        rtol,
+                    )
+                )
     ref = refs[math.inf, SLOW]
-    add(score("rattlesweep", "RK4, dt default x 1", math.inf, SLOW,
-              run_rattlesweep(SLOW, math.inf, T_SLOW, DT), ref, DT))
+    add(
+        score(
+            "rattlesweep",
+            "RK4, dt default x 1",
+            math.inf,
+            SLOW,
+            run_rattlesweep(SLOW, math.inf, T_SLOW, DT),
+            ref,
+            DT,
+        )
+    )
     slow = [STIFF, STIFF_IMPLICIT, mj.Contact(5e-4, 1e-4, noslip=10)] + (
-        [] if quick else [mj.Contact(1e-4, 2e-5), mj.Contact(2e-5, 1e-5)])
+        [] if quick else [mj.Contact(1e-4, 2e-5), mj.Contact(2e-5, 1e-5)]
+    )
     for c in slow:
-        add(score("MuJoCo", c.label(), MU_MUJOCO_ROLLING, SLOW,
-                  run_mujoco(SLOW, MU_MUJOCO_ROLLING, T_SLOW, c), ref, c))
+        add(
+            score(
+                "MuJoCo",
+                c.label(),
+                MU_MUJOCO_ROLLING,
+                SLOW,
+                run_mujoco(SLOW, MU_MUJOCO_ROLLING, T_SLOW, c),
+                ref,
+                c,
+            )
+        )
     return rows
 
 
@@ -316,8 +416,15 @@ def spins_of(n):
 def rattlesweep_engine(n, mu, target):
     nsteps = max(100, int(target * 5e7 / n))
     prep = prepare(BODY, spin=spins_of(n), pitch=PITCH, mu=mu, t_end=nsteps * DT)
-    e = Engine("rattlesweep", f"RK4, dt {DT * 1e3:.3f} ms", mu, n,
-               lambda: run_kernel(prep, THREADS), 0, DT)
+    e = Engine(
+        "rattlesweep",
+        f"RK4, dt {DT * 1e3:.3f} ms",
+        mu,
+        n,
+        lambda: run_kernel(prep, THREADS),
+        0,
+        DT,
+    )
     e.steps = steps_taken(None, prep)
     return e
 
@@ -328,9 +435,11 @@ def jax_engines(n, target):
     spins, start = spins_of(n), launch(spins_of(n))
     y0 = jax_states(start)
     out = []
-    for name, make, nominal in (("JAX SoA", jax_rolling.soa_runner, 1e7),
-                                ("JAX vmap", jax_rolling.vmap_runner, 1e6),
-                                ("diffrax", jax_rolling.diffrax_runner, 1e6)):
+    for name, make, nominal in (
+        ("JAX SoA", jax_rolling.soa_runner, 1e7),
+        ("JAX vmap", jax_rolling.vmap_runner, 1e6),
+        ("diffrax", jax_rolling.diffrax_runner, 1e6),
+    ):
         nsteps = max(100, int(target * nominal / n))
         fn = make(BODY, DT, nsteps)
 
@@ -338,10 +447,12 @@ def jax_engines(n, target):
             res = fn(y0)
             res = res if isinstance(res, tuple) else (res, None)
             return [None if r is None else np.asarray(r) for r in res]
+
         t0 = time.perf_counter()
         final, t_rev = call()
-        e = Engine(name, f"RK4, dt {DT * 1e3:.3f} ms, float64", math.inf, n, call,
-                   n * nsteps, DT)
+        e = Engine(
+            name, f"RK4, dt {DT * 1e3:.3f} ms, float64", math.inf, n, call, n * nsteps, DT
+        )
         e.compile_s = time.perf_counter() - t0
         ref = rs.run_batch(BODY, spin=spins, pitch=PITCH, t_end=nsteps * DT)
         assert int(ref.steps.max()) == nsteps, (int(ref.steps.max()), nsteps)
@@ -350,10 +461,12 @@ def jax_engines(n, target):
         if t_rev is not None:
             both = np.isfinite(t_rev) & np.isfinite(ref.first_reversal_time.values)
             same = np.array_equal(np.isfinite(t_rev), np.isfinite(ref.first_reversal_time))
-            dt_rev = np.max(np.abs(t_rev - ref.first_reversal_time.values)[both],
-                            initial=0.0)
-            e.agreement += (f", first reversals within {dt_rev:.1e} s"
-                            + ("" if same else " (NOT the same launches reverse)"))
+            dt_rev = np.max(
+                np.abs(t_rev - ref.first_reversal_time.values)[both], initial=0.0
+            )
+            e.agreement += f", first reversals within {dt_rev:.1e} s" + (
+                "" if same else " (NOT the same launches reverse)"
+            )
         out.append(e)
     return out
 
@@ -363,9 +476,16 @@ def mujoco_engine(n, mu, contact, target):
     states = mj.launch_states(model, launch(spins_of(n)))
     nominal = 1e5 if contact.integrator == "RK4" else 3e5
     nsteps = max(100, int(target * nominal / n))
-    return Engine("MuJoCo", contact.label(), mu, n,
-                  lambda: mj.spin_histories(model, states, nsteps, threads=THREADS,
-                                            chunk=nsteps), n * nsteps, contact.dt, key=contact)
+    return Engine(
+        "MuJoCo",
+        contact.label(),
+        mu,
+        n,
+        lambda: mj.spin_histories(model, states, nsteps, threads=THREADS, chunk=nsteps),
+        n * nsteps,
+        contact.dt,
+        key=contact,
+    )
 
 
 def throughput(engines, rounds, solve_rows):
@@ -375,31 +495,47 @@ def throughput(engines, rounds, solve_rows):
     for _ in range(rounds):
         for e in engines:
             e.best = min(e.best, e.meter.time(e.call)[1])
-    print(f"\n4. THROUGHPUT ({rounds} interleaved rounds, best round; {THREADS} threads or "
-          "host devices; launch-s/s: simulated seconds x launches per wall second;\n"
-          "   cores: CPU this process used per wall second; others: CPU cores the rest of "
-          "the machine used meanwhile;\n   load: 1-minute load average, this process "
-          "included)")
-    print(f"{'engine':<12} {'setting':<38} {'mu':>4} {'batch':>6} {'M steps/s':>10} "
-          f"{'launch-s/s':>11} {'cores':>5} {'others':>6} {'load':>5}  notes")
+    print(
+        f"\n4. THROUGHPUT ({rounds} interleaved rounds, best round; {THREADS} threads or "
+        "host devices; launch-s/s: simulated seconds x launches per wall second;\n"
+        "   cores: CPU this process used per wall second; others: CPU cores the rest of "
+        "the machine used meanwhile;\n   load: 1-minute load average, this process "
+        "included)"
+    )
+    print(
+        f"{'engine':<12} {'setting':<38} {'mu':>4} {'batch':>6} {'M steps/s':>10} "
+        f"{'launch-s/s':>11} {'cores':>5} {'others':>6} {'load':>5}  notes"
+    )
     for e in engines:
-        note = e.agreement + (f"; first call (compile + run) {e.compile_s:.1f} s"
-                              if math.isfinite(e.compile_s) else "")
-        print(f"{e.name:<12} {e.setting:<38} {e.mu:>4g} {e.batch:>6d} {e.rate / 1e6:>10.3f} "
-              f"{e.rate * e.dt:>11.4g} {e.meter.cores():>5.2f} {e.meter.others():>6.2f} "
-              f"{np.mean(e.meter.loads):>5.2f}  {note}")
+        note = e.agreement + (
+            f"; first call (compile + run) {e.compile_s:.1f} s"
+            if math.isfinite(e.compile_s)
+            else ""
+        )
+        print(
+            f"{e.name:<12} {e.setting:<38} {e.mu:>4g} {e.batch:>6d} {e.rate / 1e6:>10.3f} "
+            f"{e.rate * e.dt:>11.4g} {e.meter.cores():>5.2f} {e.meter.others():>6.2f} "
+            f"{np.mean(e.meter.loads):>5.2f}  {note}"
+        )
     for row in solve_rows:  # adaptive steps: no steps per second to compare
-        print(f"{'solve_ivp':<12} {row.setting:<38} {row.mu:>4g} {1:>6d} {'-':>10} "
-              f"{row.run.t[-1] / row.run.wall:>11.4g} {'':>5} {row.run.others:>6.2f} "
-              f"{'':>5}  one launch at a time (its run in 3.)")
+        print(
+            f"{'solve_ivp':<12} {row.setting:<38} {row.mu:>4g} {1:>6d} {'-':>10} "
+            f"{row.run.t[-1] / row.run.wall:>11.4g} {'':>5} {row.run.others:>6.2f} "
+            f"{'':>5}  one launch at a time (its run in 3.)"
+        )
 
 
 # --------------------------------------------------------------------------------------
 # 5. to a stated accuracy
 def scan(rows, engine, mu):
     """An engine's rows of the +5 rad/s launch at friction mu, coarse to fine."""
-    return [r for r in rows if r.engine == engine and r.spin == FAST and
-            (r.mu == mu or (mu == math.inf and r.mu == MU_MUJOCO_ROLLING))]
+    return [
+        r
+        for r in rows
+        if r.engine == engine
+        and r.spin == FAST
+        and (r.mu == mu or (mu == math.inf and r.mu == MU_MUJOCO_ROLLING))
+    ]
 
 
 def cheapest(rows, engine, mu, tol):
@@ -416,22 +552,30 @@ def cheapest(rows, engine, mu, tol):
 def stated_accuracy(rows, tolerances, rates):
     """Section 5. `rates[engine, mu, key]`: trajectory-steps per second of the batch
     engines in 4. (key: the MuJoCo Contact, None for the others)."""
-    print(f"\n5. TO A STATED ACCURACY (first reversal of the +{FAST:g} rad/s launch within "
-          f"the tolerance; wall: per launch simulated to {T_FAST:g} s,\n   batches at their "
-          "throughput in 4.; x: against rattlesweep)")
-    print(f"{'tolerance':>9} {'mu':>4} {'engine':<12} {'setting':<38} {'error':>9} "
-          f"{'wall s/launch':>14} {'x':>9}")
+    print(
+        f"\n5. TO A STATED ACCURACY (first reversal of the +{FAST:g} rad/s launch within "
+        f"the tolerance; wall: per launch simulated to {T_FAST:g} s,\n   batches at their "
+        "throughput in 4.; x: against rattlesweep)"
+    )
+    print(
+        f"{'tolerance':>9} {'mu':>4} {'engine':<12} {'setting':<38} {'error':>9} "
+        f"{'wall s/launch':>14} {'x':>9}"
+    )
     for tol in tolerances:
         for mu in (math.inf, 0.3):
             base = None
             for engine in ("rattlesweep", "JAX SoA", "MuJoCo", "solve_ivp"):
                 if engine == "JAX SoA" and mu != math.inf:
                     continue
-                row = cheapest(rows, "rattlesweep" if engine == "JAX SoA" else engine, mu, tol)
+                row = cheapest(
+                    rows, "rattlesweep" if engine == "JAX SoA" else engine, mu, tol
+                )
                 if row is None:
                     best = min(scan(rows, engine, mu), key=lambda r: r.error)
-                    print(f"{tol:>9.1%} {mu:>4g} {engine:<12} not reached; best "
-                          f"{best.error:.2%} ({best.setting})")
+                    print(
+                        f"{tol:>9.1%} {mu:>4g} {engine:<12} not reached; best "
+                        f"{best.error:.2%} ({best.setting})"
+                    )
                     continue
                 if engine in ("rattlesweep", "JAX SoA"):
                     wall = T_FAST / (rates[engine, mu, None] * row.key)  # steps/s x dt
@@ -440,9 +584,15 @@ def stated_accuracy(rows, tolerances, rates):
                 else:
                     wall = row.run.wall * T_FAST / row.run.t[-1]
                 base = wall if engine == "rattlesweep" else base
-                setting = row.setting if engine != "JAX SoA" else row.setting + " (as rattlesweep)"
-                print(f"{tol:>9.1%} {mu:>4g} {engine:<12} {setting:<38} {row.error:>9.2e} "
-                      f"{wall:>14.3g} {wall / base:>9.3g}")
+                setting = (
+                    row.setting
+                    if engine != "JAX SoA"
+                    else row.setting + " (as rattlesweep)"
+                )
+                print(
+                    f"{tol:>9.1%} {mu:>4g} {engine:<12} {setting:<38} {row.error:>9.2e} "
+                    f"{wall:>14.3g} {wall / base:>9.3g}"
+                )
 
 
 # --------------------------------------------------------------------------------------
@@ -452,31 +602,51 @@ def plot(path, refs, rows, jax_spin):
 
     fig = Figure(figsize=(9.0, 4.0), layout="constrained")
     axes = fig.subplots(1, 2, sharey=True)
-    pick = [("rattlesweep", "RK4, dt default x 1", "rattlesweep (RK4, default dt)", "C0", "-"),
-            ("MuJoCo", mj.DEFAULT.label(), "MuJoCo, default contact", "C3", ":"),
-            ("MuJoCo", STIFF.label(), "MuJoCo, solref 5e-4, dt 1e-4", "C1", "-"),
-            ("MuJoCo", FINE.label(), "MuJoCo, solref 1e-5, dt 5e-6", "C2", "--")]
-    for ax, mu, title in zip(axes, (math.inf, 0.3), ("rolling (MuJoCo: mu = 5)",
-                                                     "Coulomb friction, mu = 0.3")):
+    pick = [
+        ("rattlesweep", "RK4, dt default x 1", "rattlesweep (RK4, default dt)", "C0", "-"),
+        ("MuJoCo", mj.DEFAULT.label(), "MuJoCo, default contact", "C3", ":"),
+        ("MuJoCo", STIFF.label(), "MuJoCo, solref 5e-4, dt 1e-4", "C1", "-"),
+        ("MuJoCo", FINE.label(), "MuJoCo, solref 1e-5, dt 5e-6", "C2", "--"),
+    ]
+    for ax, mu, title in zip(
+        axes, (math.inf, 0.3), ("rolling (MuJoCo: mu = 5)", "Coulomb friction, mu = 0.3")
+    ):
         ref = refs[mu, FAST][0]
-        ax.plot(ref.t, ref.spin, color="k", lw=3, alpha=0.3,
-                label="reference (solve_ivp, tight)")
+        ax.plot(
+            ref.t,
+            ref.spin,
+            color="k",
+            lw=3,
+            alpha=0.3,
+            label="reference (solve_ivp, tight)",
+        )
         if mu == math.inf and jax_spin is not None:
             ax.plot(*jax_spin, color="C4", lw=1, ls="--", label="JAX (RK4, default dt)")
         for engine, setting, label, color, ls in pick:
             for r in rows:
-                if r.engine == engine and r.setting == setting and r.spin == FAST and (
-                        r.mu == mu or (mu == math.inf and r.mu == MU_MUJOCO_ROLLING)):
+                if (
+                    r.engine == engine
+                    and r.setting == setting
+                    and r.spin == FAST
+                    and (r.mu == mu or (mu == math.inf and r.mu == MU_MUJOCO_ROLLING))
+                ):
                     ax.plot(r.run.t, r.run.spin, color=color, ls=ls, lw=1, label=label)
         ax.axhline(0.0, color="0.6", lw=0.5)
         ax.set_title(title, fontsize=10)
         ax.set_xlabel("time (s)")
         ax.set_xlim(0.0, T_FAST)
     axes[0].set_ylabel("spin n = ω·Z (rad/s)")
-    fig.legend(*axes[0].get_legend_handles_labels(), loc="outside lower center", ncols=3,
-               fontsize=8, frameon=False)
-    fig.suptitle(f"kane_levinson, +{FAST:g} rad/s, pitch 0.5°: the same launch in each "
-                 "engine", fontsize=10)
+    fig.legend(
+        *axes[0].get_legend_handles_labels(),
+        loc="outside lower center",
+        ncols=3,
+        fontsize=8,
+        frameon=False,
+    )
+    fig.suptitle(
+        f"kane_levinson, +{FAST:g} rad/s, pitch 0.5°: the same launch in each engine",
+        fontsize=10,
+    )
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=90)
     print(f"\nwrote {path}")
@@ -487,27 +657,36 @@ def main(argv=None):
     ap.add_argument("--quick", action="store_true", help="fewer settings, shorter runs")
     ap.add_argument("--rounds", type=int, help="interleaved timing rounds (3; quick 2)")
     ap.add_argument("--target", type=float, help="about this many s per timed call")
-    ap.add_argument("--tolerances", default="0.02,0.01,0.001",
-                    help="relative errors of the first reversal for section 5")
+    ap.add_argument(
+        "--tolerances",
+        default="0.02,0.01,0.001",
+        help="relative errors of the first reversal for section 5",
+    )
     ap.add_argument("--plot", metavar="PNG", help="write the spin-history picture here")
     args = ap.parse_args(argv)
     rounds = args.rounds or (2 if args.quick else 3)
     target = args.target or (0.5 if args.quick else 1.5)
     tolerances = [float(x) for x in args.tolerances.split(",")]
-    print(f"rattlesweep {rs.__version__}, numba {version('numba')}, numpy {np.__version__}, "
-          f"scipy {version('scipy')}, mujoco {version('mujoco')}, jax {version('jax')}, "
-          f"jaxlib {version('jaxlib')}, diffrax {version('diffrax')}; {os.cpu_count()} CPUs; "
-          f"load {os.getloadavg()[0]:.2f}; {'quick' if args.quick else 'full'}")
+    print(
+        f"rattlesweep {rs.__version__}, numba {version('numba')}, numpy {np.__version__}, "
+        f"scipy {version('scipy')}, mujoco {version('mujoco')}, jax {version('jax')}, "
+        f"jaxlib {version('jaxlib')}, diffrax {version('diffrax')}; {os.cpu_count()} CPUs; "
+        f"load {os.getloadavg()[0]:.2f}; {'quick' if args.quick else 'full'}"
+    )
     print(f"kane_levinson, pitch 0.5 deg, spin +-5 rad/s; default dt {DT * 1e3:.4f} ms")
     same_start()
 
     print("\n2. REFERENCES")
-    refs = {(math.inf, FAST): solve_rolling(FAST, T_FAST, 1e-12),
-            (math.inf, SLOW): solve_rolling(SLOW, T_SLOW, 1e-10 if args.quick else 1e-12),
-            (0.3, FAST): solve_coulomb(FAST, 0.3, T_FAST, 1e-10, samples=3001)}
+    refs = {
+        (math.inf, FAST): solve_rolling(FAST, T_FAST, 1e-12),
+        (math.inf, SLOW): solve_rolling(SLOW, T_SLOW, 1e-10 if args.quick else 1e-12),
+        (0.3, FAST): solve_coulomb(FAST, 0.3, T_FAST, 1e-10, samples=3001),
+    }
     for (mu, spin), (run, _) in refs.items():
-        print(f"  mu {mu:g}, spin {spin:+g} rad/s: first reversal {run.first_reversal:.6f} s "
-              f"({run.wall:.1f} s wall)")
+        print(
+            f"  mu {mu:g}, spin {spin:+g} rad/s: first reversal {run.first_reversal:.6f} s "
+            f"({run.wall:.1f} s wall)"
+        )
 
     rows = accuracy(args.quick, refs)
 
@@ -523,8 +702,11 @@ def main(argv=None):
     for c in sorted(chosen, key=lambda c: (c.integrator, -c.dt)):
         for mu in (MU_MUJOCO_ROLLING, 0.3):
             engines.append(mujoco_engine(n_mujoco, mu, c, target))
-    solve_rows = [r for r in rows if r.engine == "solve_ivp" and r.spin == FAST
-                  and r.error <= max(tolerances)]
+    solve_rows = [
+        r
+        for r in rows
+        if r.engine == "solve_ivp" and r.spin == FAST and r.error <= max(tolerances)
+    ]
     throughput(engines, rounds, solve_rows)
 
     rates = {(e.name, e.mu, e.key): e.rate for e in engines}
@@ -533,8 +715,10 @@ def main(argv=None):
     if args.plot:
         nsteps = int(round(T_FAST / DT))
         state = jax_states(launch(FAST))[0]
-        jax_spin = (np.arange(nsteps + 1) * DT,
-                    jax_rolling.spin_history(BODY, DT, nsteps, state))
+        jax_spin = (
+            np.arange(nsteps + 1) * DT,
+            jax_rolling.spin_history(BODY, DT, nsteps, state),
+        )
         plot(args.plot, refs, rows, jax_spin)
 
 

@@ -81,16 +81,19 @@ def variants(toml: str) -> dict[str, Sweep]:
     adaptive = Sweep(**base, refine=refine)
     # the full grid with its own automatic tile size, as a user would run it
     full = {**adaptive.finest().to_dict(), "tile_size": None}
-    return {"full": Sweep(**full), "adaptive": adaptive,
-            "adaptive+stop": Sweep(**base, refine=refine, stop="first_reversal"),
-            "full+stop": Sweep(**full, stop="first_reversal")}
+    return {
+        "full": Sweep(**full),
+        "adaptive": adaptive,
+        "adaptive+stop": Sweep(**base, refine=refine, stop="first_reversal"),
+        "full+stop": Sweep(**full, stop="first_reversal"),
+    }
 
 
 def block_efficiency(steps_in_task_order: list[np.ndarray]) -> float:
     used = paid = 0
     for steps in steps_in_task_order:
         for a in range(0, len(steps), BLOCK):
-            block = steps[a:a + BLOCK]
+            block = steps[a : a + BLOCK]
             used += int(block.sum())
             paid += BLOCK * int(block.max())
     return used / paid
@@ -98,7 +101,9 @@ def block_efficiency(steps_in_task_order: list[np.ndarray]) -> float:
 
 def task_steps(out: Path) -> list[np.ndarray]:
     """The steps of every task's points in the order the task ran them."""
-    files = sorted(out.glob("levels/level-*/tile-*.nc")) or sorted(out.glob("tiles/tile-*.nc"))
+    files = sorted(out.glob("levels/level-*/tile-*.nc")) or sorted(
+        out.glob("tiles/tile-*.nc")
+    )
     steps = []
     for path in files:
         with xr.open_dataset(path) as ds:
@@ -110,8 +115,10 @@ def distribution(d: np.ndarray) -> str:
     if d.size == 0:
         return "none"
     q = np.quantile(d, [0.5, 0.9, 0.99])
-    return (f"n={d.size}, exact {np.mean(d == 0):.1%}, median {q[0]:.2g} s, 90% {q[1]:.2g} s, "
-            f"99% {q[2]:.2g} s, max {d.max():.2g} s")
+    return (
+        f"n={d.size}, exact {np.mean(d == 0):.1%}, median {q[0]:.2g} s, 90% {q[1]:.2g} s, "
+        f"99% {q[2]:.2g} s, max {d.max():.2g} s"
+    )
 
 
 def stopped_lanes() -> None:
@@ -124,8 +131,9 @@ def stopped_lanes() -> None:
         best = math.inf
         for _ in range(3):
             t0 = time.perf_counter()
-            run_batch(toy, spin=spin.ravel(), mu=0.3, roll=math.radians(0.5), t_end=2.0,
-                      threads=1)
+            run_batch(
+                toy, spin=spin.ravel(), mu=0.3, roll=math.radians(0.5), t_end=2.0, threads=1
+            )
             best = min(best, time.perf_counter() - t0)
         return best
 
@@ -139,8 +147,10 @@ def run_problem(name: str, root: Path, workers: int, full_stop: bool) -> None:
     print(f"\n=== {name} ===")
     sweeps = variants(PROBLEMS[name])
     fine = sweeps["full"]
-    print(f"declared {sweeps['adaptive'].shape}, finest {fine.shape} = {fine.size:,} points, "
-          f"{workers} workers")
+    print(
+        f"declared {sweeps['adaptive'].shape}, finest {fine.shape} = {fine.size:,} points, "
+        f"{workers} workers"
+    )
     results, times = {}, {}
     for label, sweep in sweeps.items():
         if label == "full+stop" and not full_stop:
@@ -151,29 +161,44 @@ def run_problem(name: str, root: Path, workers: int, full_stop: bool) -> None:
         results[label] = run_sweep(sweep, out, workers=workers, progress=False)
         times[label] = time.perf_counter() - t0
         eff = block_efficiency(task_steps(out)) if "stop" in label else None
-        print(f"{label:>14}: {times[label]:7.1f} s  x{times['full'] / times[label]:5.2f}"
-              + (f"  simulated {results[label].attrs['points_simulated'] / fine.size:.1%}"
-                 if "points_simulated" in results[label].attrs else "")
-              + (f"  block efficiency {eff:.3f}" if eff is not None else ""), flush=True)
+        print(
+            f"{label:>14}: {times[label]:7.1f} s  x{times['full'] / times[label]:5.2f}"
+            + (
+                f"  simulated {results[label].attrs['points_simulated'] / fine.size:.1%}"
+                if "points_simulated" in results[label].attrs
+                else ""
+            )
+            + (f"  block efficiency {eff:.3f}" if eff is not None else ""),
+            flush=True,
+        )
     full = results["full"]
     for label in ("adaptive", "adaptive+stop"):
         c = compare_with_full(results[label], full)
-        print(f"{label}: outcome mismatch {c['mismatch']:.3%} ({round(c['mismatch'] * c['points'])}"
-              f" points, {c['mismatch_filled']} of them filled), simulated {c['simulated']:.1%}")
+        print(
+            f"{label}: outcome mismatch {c['mismatch']:.3%} ({round(c['mismatch'] * c['points'])}"
+            f" points, {c['mismatch_filled']} of them filled), simulated {c['simulated']:.1%}"
+        )
         for (a, b), n in c["misses"].items():
             print(f"    full {a} -> adaptive {b}: {n}")
-        print(f"  |first_reversal_time difference| where both reversed: "
-              f"{distribution(c['time_difference'])}")
+        print(
+            f"  |first_reversal_time difference| where both reversed: "
+            f"{distribution(c['time_difference'])}"
+        )
         print(f"    filled points only: {distribution(c['time_difference_filled'])}")
     if "full+stop" in results:
         fs = results["full+stop"]
-        same_t = np.array_equal(fs.first_reversal_time.values,
-                                full.first_reversal_time.values, equal_nan=True)
-        same_o = np.array_equal(fs.outcome.values, at_first_reversal(
-            full.outcome.values, full.n_reversals.values))
+        same_t = np.array_equal(
+            fs.first_reversal_time.values, full.first_reversal_time.values, equal_nan=True
+        )
+        same_o = np.array_equal(
+            fs.outcome.values,
+            at_first_reversal(full.outcome.values, full.n_reversals.values),
+        )
         steps = float(fs.steps.sum() / full.steps.sum())
-        print(f"full+stop against full: first_reversal_time identical {same_t}, outcome at "
-              f"the first reversal identical {same_o}; lane-steps {steps:.1%} of full")
+        print(
+            f"full+stop against full: first_reversal_time identical {same_t}, outcome at "
+            f"the first reversal identical {same_o}; lane-steps {steps:.1%} of full"
+        )
 
 
 def main() -> None:
@@ -181,8 +206,9 @@ def main() -> None:
     parser.add_argument("--problem", choices=[*PROBLEMS, "all"], default="all")
     parser.add_argument("--workers", type=int, default=len(os.sched_getaffinity(0)))
     parser.add_argument("--keep", default=None, help="directory for the outputs (kept)")
-    parser.add_argument("--no-full-stop", action="store_true",
-                        help="skip the full grid with the stop rule")
+    parser.add_argument(
+        "--no-full-stop", action="store_true", help="skip the full grid with the stop rule"
+    )
     args = parser.parse_args()
     root = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix="bench_refine_"))
     root.mkdir(parents=True, exist_ok=True)
@@ -191,7 +217,7 @@ def main() -> None:
     run_sweep(warm, root / "warm-up", workers=1, progress=False)
     try:
         stopped_lanes()
-        for name in (PROBLEMS if args.problem == "all" else [args.problem]):
+        for name in PROBLEMS if args.problem == "all" else [args.problem]:
             run_problem(name, root, args.workers, not args.no_full_stop)
     finally:
         if not args.keep:

@@ -19,8 +19,12 @@ def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--n", type=int, default=500)
     args = parser.parse_args()
-    sweep = Sweep(axes={"spin": {"start": -30, "stop": 30, "num": args.n},
-                        "delta_deg": {"start": -8, "stop": 8, "num": args.n}})
+    sweep = Sweep(
+        axes={
+            "spin": {"start": -30, "stop": 30, "num": args.n},
+            "delta_deg": {"start": -8, "stop": 8, "num": args.n},
+        }
+    )
     stability_dataset(sweep)
     times = []
     for _ in range(3):
@@ -28,9 +32,11 @@ def main() -> None:
         ds = stability_dataset(sweep)
         times.append(time.perf_counter() - t0)
     n = ds.growth_rate.size
-    print(f"stability map {args.n} x {args.n} = {n} points: best {min(times):.2f} s "
-          f"({n / min(times):,.0f} points/s); unstable fraction "
-          f"{float((ds.growth_rate > 0).mean()):.3f}")
+    print(
+        f"stability map {args.n} x {args.n} = {n} points: best {min(times):.2f} s "
+        f"({n / min(times):,.0f} points/s); unstable fraction "
+        f"{float((ds.growth_rate > 0).mean()):.3f}"
+    )
 
 
 if __name__ == "__main__":

@@ -46,10 +46,15 @@ from rattlesweep.core.workspace import RK4
 def grid_sweep(n_target: int, t_end: float, tile_size: int | None = None) -> Sweep:
     """About n_target points: spin x delta x mu(2)."""
     side = max(2, int(round((n_target / 2) ** 0.5)))
-    return Sweep(axes={"spin": {"start": -30.0, "stop": 30.0, "num": side},
-                       "delta_deg": {"start": -8.0, "stop": 8.0, "num": side},
-                       "mu": [0.3, float("inf")]},
-                 fixed={"t_end": t_end, "roll_deg": 0.5}, tile_size=tile_size)
+    return Sweep(
+        axes={
+            "spin": {"start": -30.0, "stop": 30.0, "num": side},
+            "delta_deg": {"start": -8.0, "stop": 8.0, "num": side},
+            "mu": [0.3, float("inf")],
+        },
+        fixed={"t_end": t_end, "roll_deg": 0.5},
+        tile_size=tile_size,
+    )
 
 
 def best_of(fn, repeats: int) -> float:
@@ -70,8 +75,14 @@ def overhead(n: int, t_end: float, workers: int, repeats: int) -> dict:
     steps = int(prep.nsteps.sum())
 
     def kernel():
-        execute(prep, method=RK4, record_every=None, band=sweep.reversal_band,
-                parallel=workers > 1, threads=workers if workers > 1 else None)
+        execute(
+            prep,
+            method=RK4,
+            record_every=None,
+            band=sweep.reversal_band,
+            parallel=workers > 1,
+            threads=workers if workers > 1 else None,
+        )
 
     kernel()
     t_kernel = best_of(kernel, repeats)
@@ -84,8 +95,14 @@ def overhead(n: int, t_end: float, workers: int, repeats: int) -> dict:
     sweep_once()
     t_sweep = best_of(sweep_once, repeats)
     shutil.rmtree(tmp, ignore_errors=True)
-    return {"n": sweep.size, "tiles": sweep.n_tiles, "steps": steps, "prepare": t_prepare,
-            "kernel": t_kernel, "sweep": t_sweep}
+    return {
+        "n": sweep.size,
+        "tiles": sweep.n_tiles,
+        "steps": steps,
+        "prepare": t_prepare,
+        "kernel": t_kernel,
+        "sweep": t_sweep,
+    }
 
 
 PEAK_SCRIPT = textwrap.dedent("""
@@ -104,10 +121,12 @@ PEAK_SCRIPT = textwrap.dedent("""
 
 
 def peak_memory(n: int, t_end: float) -> tuple[int, int, float, int]:
-    script = PEAK_SCRIPT.format(bench_dir=os.path.dirname(os.path.abspath(__file__)), n=n,
-                                t_end=t_end)
-    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
-                         check=True).stdout.split()
+    script = PEAK_SCRIPT.format(
+        bench_dir=os.path.dirname(os.path.abspath(__file__)), n=n, t_end=t_end
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, check=True
+    ).stdout.split()
     return int(out[0]), int(out[1]), float(out[2]), int(out[3])
 
 
@@ -118,32 +137,42 @@ def main() -> None:
     parser.add_argument("--t-end", type=float, default=2.0, help="s, for sections 1-2")
     args = parser.parse_args()
     cores = len(os.sched_getaffinity(0))
-    print(f"bench_sweep: {cores} cores, load {os.getloadavg()[0]:.2f}, toy body, RK4, "
-          f"t_end {args.t_end} s, automatic tile size")
+    print(
+        f"bench_sweep: {cores} cores, load {os.getloadavg()[0]:.2f}, toy body, RK4, "
+        f"t_end {args.t_end} s, automatic tile size"
+    )
 
     print("\n1-2. overhead and scaling (best of %d)" % args.repeats)
-    print(f"{'points':>8} {'tiles':>5} {'workers':>7} {'prepare s':>9} {'kernel s':>9} "
-          f"{'sweep s':>8} {'overhead':>8} {'kernel Msteps/s':>15} {'sweep Msteps/s':>14}")
+    print(
+        f"{'points':>8} {'tiles':>5} {'workers':>7} {'prepare s':>9} {'kernel s':>9} "
+        f"{'sweep s':>8} {'overhead':>8} {'kernel Msteps/s':>15} {'sweep Msteps/s':>14}"
+    )
     sizes = [20_000, 100_000] if args.quick else [100_000]
     for n in sizes:
         by_workers = {}
         for w in sorted({1, min(2, cores)}):
             r = overhead(n, args.t_end, w, args.repeats)
             by_workers[w] = r
-            print(f"{r['n']:>8} {r['tiles']:>5} {w:>7} {r['prepare']:>9.2f} "
-                  f"{r['kernel']:>9.2f} {r['sweep']:>8.2f} "
-                  f"{r['sweep'] / r['kernel'] - 1:>8.1%} {r['steps'] / r['kernel'] / 1e6:>15.2f} "
-                  f"{r['steps'] / r['sweep'] / 1e6:>14.2f}")
+            print(
+                f"{r['n']:>8} {r['tiles']:>5} {w:>7} {r['prepare']:>9.2f} "
+                f"{r['kernel']:>9.2f} {r['sweep']:>8.2f} "
+                f"{r['sweep'] / r['kernel'] - 1:>8.1%} {r['steps'] / r['kernel'] / 1e6:>15.2f} "
+                f"{r['steps'] / r['sweep'] / 1e6:>14.2f}"
+            )
         if 2 in by_workers:
-            print(f"{'':>8} scaling 1 -> 2 workers: sweep {by_workers[1]['sweep'] / by_workers[2]['sweep']:.2f}x, "
-                  f"kernel {by_workers[1]['kernel'] / by_workers[2]['kernel']:.2f}x")
+            print(
+                f"{'':>8} scaling 1 -> 2 workers: sweep {by_workers[1]['sweep'] / by_workers[2]['sweep']:.2f}x, "
+                f"kernel {by_workers[1]['kernel'] / by_workers[2]['kernel']:.2f}x"
+            )
 
     print("\n3. peak resident memory of a fresh process running a sweep (t_end 0.05 s)")
     print(f"{'points':>9} {'peak RSS MB':>11} {'B/point':>8} {'wall s':>7} {'files MB':>8}")
-    for n in ([10_000, 100_000] if args.quick else [10_000, 100_000, 1_000_000]):
+    for n in [10_000, 100_000] if args.quick else [10_000, 100_000, 1_000_000]:
         size, rss, wall, files = peak_memory(n, 0.05)
-        print(f"{size:>9} {rss / 2**20:>11.0f} {rss / size:>8.0f} {wall:>7.1f} "
-              f"{files / 2**20:>8.1f}")
+        print(
+            f"{size:>9} {rss / 2**20:>11.0f} {rss / size:>8.0f} {wall:>7.1f} "
+            f"{files / 2**20:>8.1f}"
+        )
     print(f"\nload at end {os.getloadavg()[0]:.2f}")
 
 

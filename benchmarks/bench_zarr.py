@@ -51,8 +51,12 @@ SCRIPT = textwrap.dedent("""
 
 
 def run(n: int, output: str, t_end: float) -> list[float]:
-    out = subprocess.run([sys.executable, "-c", SCRIPT, str(n), output, str(t_end)],
-                         capture_output=True, text=True, check=True).stdout.split()
+    out = subprocess.run(
+        [sys.executable, "-c", SCRIPT, str(n), output, str(t_end)],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.split()
     return [float(x) for x in out]
 
 
@@ -62,22 +66,29 @@ def main() -> None:
     parser.add_argument("--t-end", type=float, default=0.05)
     args = parser.parse_args()
     cores = len(os.sched_getaffinity(0))
-    print(f"bench_zarr: {cores} cores, load {os.getloadavg()[0]:.2f}, toy body, RK4, "
-          f"t_end {args.t_end} s, automatic tile size, local threads")
+    print(
+        f"bench_zarr: {cores} cores, load {os.getloadavg()[0]:.2f}, toy body, RK4, "
+        f"t_end {args.t_end} s, automatic tile size, local threads"
+    )
     run(10_000, "zarr", args.t_end)  # fills numba's cache outside the timed runs
-    print(f"{'output':>6} {'points':>10} {'tiles':>5} {'tile':>6} {'wall s':>7} "
-          f"{'points/s':>10} {'peak RSS MB':>11} {'B/point':>8} {'store MB':>8} "
-          f"{'on disk MB':>10} {'files':>6}")
+    print(
+        f"{'output':>6} {'points':>10} {'tiles':>5} {'tile':>6} {'wall s':>7} "
+        f"{'points/s':>10} {'peak RSS MB':>11} {'B/point':>8} {'store MB':>8} "
+        f"{'on disk MB':>10} {'files':>6}"
+    )
     sizes = [100_000, 1_000_000] + ([] if args.quick else [10_000_000])
     for n in sizes:
         for output in ("zarr", "netcdf"):
             if output == "netcdf" and n > 1_000_000:
                 continue
-            size, tiles, tile, wall, rss, apparent, disk, files, _ = run(n, output,
-                                                                         args.t_end)
-            print(f"{output:>6} {size:>10.0f} {tiles:>5.0f} {tile:>6.0f} {wall:>7.1f} "
-                  f"{size / wall:>10,.0f} {rss / 2**20:>11.0f} {rss / size:>8.0f} "
-                  f"{apparent / 2**20:>8.1f} {disk / 2**20:>10.1f} {files:>6.0f}")
+            size, tiles, tile, wall, rss, apparent, disk, files, _ = run(
+                n, output, args.t_end
+            )
+            print(
+                f"{output:>6} {size:>10.0f} {tiles:>5.0f} {tile:>6.0f} {wall:>7.1f} "
+                f"{size / wall:>10,.0f} {rss / 2**20:>11.0f} {rss / size:>8.0f} "
+                f"{apparent / 2**20:>8.1f} {disk / 2**20:>10.1f} {files:>6.0f}"
+            )
     print(f"load at end {os.getloadavg()[0]:.2f}")
 
 

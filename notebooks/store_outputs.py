@@ -37,8 +37,12 @@ def _strip_paths(output: dict) -> None:
 def store(path: Path) -> None:
     nb = nbformat.read(path, as_version=4)
     with tempfile.TemporaryDirectory() as scratch:
-        client = nbclient.NotebookClient(nb, timeout=600, kernel_name="python3",
-                                         resources={"metadata": {"path": scratch}})
+        client = nbclient.NotebookClient(
+            nb,
+            timeout=600,
+            kernel_name="python3",
+            resources={"metadata": {"path": scratch}},
+        )
         client.execute()
     for cell in nb.cells:
         cell.metadata.pop("execution", None)
@@ -54,15 +58,19 @@ def store(path: Path) -> None:
 
 def main(prefixes: list[str]) -> None:
     if os.environ.get("RATTLESWEEP_NOTEBOOK_SIZE", "full") != "full":
-        sys.exit("RATTLESWEEP_NOTEBOOK_SIZE is set: the stored outputs are the full-size ones")
+        sys.exit(
+            "RATTLESWEEP_NOTEBOOK_SIZE is set: the stored outputs are the full-size ones"
+        )
     os.environ.pop("MPLBACKEND", None)  # the kernel draws inline
     for path in sorted(HERE.glob("*.ipynb")):
         if prefixes and not any(path.name.startswith(p) for p in prefixes):
             continue
         t0 = time.perf_counter()
         store(path)
-        print(f"{path.name}: {time.perf_counter() - t0:.0f} s, "
-              f"{path.stat().st_size / 1e3:.0f} kB")
+        print(
+            f"{path.name}: {time.perf_counter() - t0:.0f} s, "
+            f"{path.stat().st_size / 1e3:.0f} kB"
+        )
 
 
 if __name__ == "__main__":

@@ -14,17 +14,28 @@ if settings is not None:
     # Examples per property: "ci" keeps the default run short (the property tests add
     # about 40 s on 2 cores); "long" is the thorough run, e.g.
     # HYPOTHESIS_PROFILE=long .venv/bin/python -m pytest tests/test_properties*.py
-    _common = dict(deadline=None, print_blob=True,
-                   suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
-                                          HealthCheck.filter_too_much])
+    _common = dict(
+        deadline=None,
+        print_blob=True,
+        suppress_health_check=[
+            HealthCheck.too_slow,
+            HealthCheck.data_too_large,
+            HealthCheck.filter_too_much,
+        ],
+    )
     # the same examples every run, so that CI is reproducible; the other profiles draw
     # new ones
-    settings.register_profile("ci", max_examples=100, derandomize=True, database=None,
-                              **_common)
+    settings.register_profile(
+        "ci", max_examples=100, derandomize=True, database=None, **_common
+    )
     settings.register_profile("long", max_examples=2000, **_common)
     # "explore": many examples, no shrinking, to find failures fast while working
-    settings.register_profile("explore", max_examples=300, phases=[
-        Phase.explicit, Phase.reuse, Phase.generate], **_common)
+    settings.register_profile(
+        "explore",
+        max_examples=300,
+        phases=[Phase.explicit, Phase.reuse, Phase.generate],
+        **_common,
+    )
     settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 

@@ -59,8 +59,16 @@ import numpy as np
 import scipy
 from scipy.integrate import solve_ivp
 
-__all__ = ["EventSolution", "PlanarEventSolution", "rattleback_events", "planar_events",
-           "rattleback_regularized", "launch_state", "first_reversal_from_events", "SCIPY_VERSION"]
+__all__ = [
+    "EventSolution",
+    "PlanarEventSolution",
+    "rattleback_events",
+    "planar_events",
+    "rattleback_regularized",
+    "launch_state",
+    "first_reversal_from_events",
+    "SCIPY_VERSION",
+]
 
 SCIPY_VERSION = scipy.__version__
 ONSET_SPEED = 1e-7  # m/s: slip speed below which the consistent onset direction is used
@@ -73,8 +81,9 @@ STICK, SLIP, ONSET, FREE = "stick", "slip", "onset", "free"
 # --------------------------------------------------------------------------------------
 # small vector helpers (3-vectors as numpy arrays)
 def _cross(a, b):
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                     a[0] * b[1] - a[1] * b[0]])
+    return np.array(
+        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    )
 
 
 def _event(fun, terminal, direction):
@@ -199,7 +208,7 @@ class _Rattleback:
     def __init__(self, body, mu, mu_static, g, damping):
         self.m = float(body.mass)
         self.g = float(g)
-        self.A = np.array([body.a ** 2, body.b ** 2, body.c ** 2], dtype=float)
+        self.A = np.array([body.a**2, body.b**2, body.c**2], dtype=float)
         self.G = np.asarray(body.com, dtype=float).copy()
         self.I = np.asarray(body.inertia, dtype=float).copy()
         self.I_inv = np.linalg.inv(self.I)
@@ -216,11 +225,25 @@ class _Rattleback:
     def rotation(q):
         q0, q1, q2, q3 = q
         s = 2.0 / (q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
-        return np.array([
-            [1 - s * (q2 * q2 + q3 * q3), s * (q1 * q2 - q0 * q3), s * (q1 * q3 + q0 * q2)],
-            [s * (q1 * q2 + q0 * q3), 1 - s * (q1 * q1 + q3 * q3), s * (q2 * q3 - q0 * q1)],
-            [s * (q1 * q3 - q0 * q2), s * (q2 * q3 + q0 * q1), 1 - s * (q1 * q1 + q2 * q2)],
-        ])
+        return np.array(
+            [
+                [
+                    1 - s * (q2 * q2 + q3 * q3),
+                    s * (q1 * q2 - q0 * q3),
+                    s * (q1 * q3 + q0 * q2),
+                ],
+                [
+                    s * (q1 * q2 + q0 * q3),
+                    1 - s * (q1 * q1 + q3 * q3),
+                    s * (q2 * q3 - q0 * q1),
+                ],
+                [
+                    s * (q1 * q3 - q0 * q2),
+                    s * (q2 * q3 + q0 * q1),
+                    1 - s * (q1 * q1 + q2 * q2),
+                ],
+            ]
+        )
 
     def kin(self, y):
         """R, n_hat, rho, w = omega x (omega x rho + ds_P/dt), omega x rho, horizontal u."""
@@ -231,7 +254,7 @@ class _Rattleback:
         sigma = math.sqrt(up @ an)
         rho = -an / sigma - self.G
         dup = _cross(up, w)
-        dsp = -self.A * dup / sigma + an * ((an @ dup) / sigma ** 3)
+        dsp = -self.A * dup / sigma + an * ((an @ dup) / sigma**3)
         wxr = _cross(w, rho)
         wv = _cross(w, wxr + dsp)
         vrel = R @ wxr
@@ -242,16 +265,20 @@ class _Rattleback:
         """n = omega . n_hat for a state (11+,) or states (11+, k)."""
         q0, q1, q2, q3 = y[0:4]
         s = 2.0 / (q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
-        up = np.array([s * (q1 * q3 - q0 * q2), s * (q2 * q3 + q0 * q1),
-                       1 - s * (q1 * q1 + q2 * q2)])
+        up = np.array(
+            [s * (q1 * q3 - q0 * q2), s * (q2 * q3 + q0 * q1), 1 - s * (q1 * q1 + q2 * q2)]
+        )
         return (y[4:7] * up).sum(0)
 
     def energy(self, y):
         R, up, rho, wv, wxr, u = self.kin(y)
         w = y[4:7]
         vz = -(up @ wxr)
-        return (0.5 * self.m * (y[9] ** 2 + y[10] ** 2 + vz ** 2) + 0.5 * w @ (self.I @ w)
-                - self.m * self.g * (rho @ up))
+        return (
+            0.5 * self.m * (y[9] ** 2 + y[10] ** 2 + vz**2)
+            + 0.5 * w @ (self.I @ w)
+            - self.m * self.g * (rho @ up)
+        )
 
     # dynamics ----------------------------------------------------------------------
     def stick(self, y, k):
@@ -308,6 +335,7 @@ class _Rattleback:
             d = np.array([math.cos(p), math.sin(p)])
             a = self.slip_acceleration(y, k, d, mu)
             return a[0] * d[1] - a[1] * d[0]
+
         g0 = cross(phi)
         for _ in range(12):
             h = 1e-7
@@ -328,20 +356,31 @@ class _Rattleback:
     def assemble(self, y, wdot, a_h, dwork):
         q0, q1, q2, q3 = y[0:4]
         w0, w1, w2 = y[4:7]
-        return np.array([
-            -0.5 * (q1 * w0 + q2 * w1 + q3 * w2),
-            0.5 * (q0 * w0 + q2 * w2 - q3 * w1),
-            0.5 * (q0 * w1 + q3 * w0 - q1 * w2),
-            0.5 * (q0 * w2 + q1 * w1 - q2 * w0),
-            wdot[0], wdot[1], wdot[2], y[9], y[10], a_h[0], a_h[1], dwork])
+        return np.array(
+            [
+                -0.5 * (q1 * w0 + q2 * w1 + q3 * w2),
+                0.5 * (q0 * w0 + q2 * w2 - q3 * w1),
+                0.5 * (q0 * w1 + q3 * w0 - q1 * w2),
+                0.5 * (q0 * w2 + q1 * w1 - q2 * w0),
+                wdot[0],
+                wdot[1],
+                wdot[2],
+                y[9],
+                y[10],
+                a_h[0],
+                a_h[1],
+                dwork,
+            ]
+        )
 
     def impulse(self, y):
         """The plastic contact impulse J = -K^-1 u that brings the material contact point
         to rest (MODEL.md section 4); returns the new state."""
         R, up, rho, wv, wxr, u = self.kin(y)
         ub = R[0] * u[0] + R[1] * u[1]
-        X = np.array([[0.0, -rho[2], rho[1]], [rho[2], 0.0, -rho[0]],
-                      [-rho[1], rho[0], 0.0]])  # X v = rho x v
+        X = np.array(
+            [[0.0, -rho[2], rho[1]], [rho[2], 0.0, -rho[0]], [-rho[1], rho[0], 0.0]]
+        )  # X v = rho x v
         K = np.eye(3) / self.m - X @ self.I_inv @ X
         J = -np.linalg.solve(K, ub)
         z = np.array(y, dtype=float)
@@ -363,6 +402,7 @@ class _Rattleback:
             return p
 
         if mode == STICK:
+
             def rhs(t, y):
                 k = self.kin(y)
                 wdot, a_g, N, Ft = self.stick(y, k)
@@ -370,13 +410,17 @@ class _Rattleback:
 
             def normal(t, y):
                 return self.stick(y, self.kin(y))[2]
+
             terminal = [("lifted_off", _event(normal, True, -1))]
             if math.isfinite(self.mu_s):
+
                 def cone(t, y):
                     _, _, N, Ft = self.stick(y, self.kin(y))
                     return self.mu_s * N - math.hypot(*Ft)
+
                 terminal.append(("stick->slip", _event(cone, True, -1)))
         else:
+
             def direction(y, k):
                 if mode == FREE:
                     return dref
@@ -399,14 +443,19 @@ class _Rattleback:
             def normal(t, y):
                 k = self.kin(y)
                 return self.slip(y, k, direction(y, k), mu_mode)[2]
+
             terminal = [("lifted_off", _event(normal, True, -1))]
             if mode in (SLIP, ONSET):
+
                 def stop(t, y):
                     return self.kin(y)[5] @ dref
+
                 terminal.append(("stop", _event(stop, True, -1)))
             if mode == ONSET:
+
                 def grown(t, y):
                     return math.hypot(*self.kin(y)[5]) - ONSET_SPEED
+
                 terminal.append(("grown", _event(grown, True, 1)))
             if mode == SLIP:
                 cos_max = math.cos(REFRESH_ANGLE)
@@ -415,17 +464,24 @@ class _Rattleback:
                     u = self.kin(y)[5]
                     speed = math.hypot(*u)
                     return 1.0 if speed == 0.0 else abs(u @ dref) / speed - cos_max
+
                 terminal.append(("turned", _event(turned, True, -1)))
         if not self.full:
+
             def rim(t, y):
                 return self.rotation(y[0:4])[2, 2]
+
             terminal.append(("capsized", _event(rim, True, -1)))
         sgn = math.copysign(1.0, n0) if n0 != 0 else 0.0
         observe = []  # n(0) = 0: no reversal by definition, and n may stay 0 to rounding
         if sgn != 0:
             observe.append(("spin_zero", _event(lambda t, y: self.spin(y), False, 0)))
-            observe.append(("band", _event(lambda t, y: sgn * self.spin(y) + band * abs(n0),
-                                           False, -1)))
+            observe.append(
+                (
+                    "band",
+                    _event(lambda t, y: sgn * self.spin(y) + band * abs(n0), False, -1),
+                )
+            )
         return rhs, terminal, observe
 
     def choose_mode(self, y):
@@ -470,7 +526,7 @@ class _Planar:
         """h, h', h'' (MODEL.md section 8), derived here: sigma' = (a^2-b^2) s c/sigma,
         sigma'' = ((a^2-b^2)(c^2-s^2) - sigma'^2)/sigma."""
         s, c = math.sin(th), math.cos(th)
-        a2, b2 = self.a ** 2, self.b ** 2
+        a2, b2 = self.a**2, self.b**2
         sig = math.sqrt(a2 * s * s + b2 * c * c)
         sp = (a2 - b2) * s * c / sig
         spp = ((a2 - b2) * (c * c - s * s) - sp * sp) / sig
@@ -481,8 +537,11 @@ class _Planar:
 
     def energy(self, y):
         h, hp, _ = self.h(y[0])
-        return (0.5 * self.m * (y[3] ** 2 + (hp * y[1]) ** 2) + 0.5 * self.I * y[1] ** 2
-                + self.m * self.g * h)
+        return (
+            0.5 * self.m * (y[3] ** 2 + (hp * y[1]) ** 2)
+            + 0.5 * self.I * y[1] ** 2
+            + self.m * self.g * h
+        )
 
     def stick(self, y):
         """theta_ddot, x_ddot, N, F (friction needed)."""
@@ -501,7 +560,9 @@ class _Planar:
         lever = hp + mu * s * h
         den = self.I + m * hp * lever
         if den <= 0.0:
-            raise RuntimeError("Painleve: slip equations singular (I + m h'(h' + mu s h) <= 0)")
+            raise RuntimeError(
+                "Painleve: slip equations singular (I + m h'(h' + mu s h) <= 0)"
+            )
         acc = -m * (g + hpp * r * r) * lever / den
         N = m * (g + hp * acc + hpp * r * r)
         return acc, -mu * N * s / m, N
@@ -519,26 +580,35 @@ class _Planar:
     def mode_functions(self, mode, s, n0, band):
         mu = self.mu_k
         if mode == STICK:
+
             def rhs(t, y):
                 acc, xdd, N, F = self.stick(y)
                 return np.array([y[1], acc, y[3], xdd, 0.0])
+
             terminal = [("lifted_off", _event(lambda t, y: self.stick(y)[2], True, -1))]
             if math.isfinite(self.mu_s):
+
                 def cone(t, y):
                     _, _, N, F = self.stick(y)
                     return self.mu_s * N - abs(F)
+
                 terminal.append(("stick->slip", _event(cone, True, -1)))
         else:
             mu_mode = 0.0 if mode == FREE else mu
 
             def rhs(t, y):
                 acc, xdd, N = self.slip(y, s, mu_mode)
-                return np.array([y[1], acc, y[3], xdd, mu_mode * N * abs(self.slip_velocity(y))])
-            terminal = [("lifted_off",
-                         _event(lambda t, y: self.slip(y, s, mu_mode)[2], True, -1))]
+                return np.array(
+                    [y[1], acc, y[3], xdd, mu_mode * N * abs(self.slip_velocity(y))]
+                )
+
+            terminal = [
+                ("lifted_off", _event(lambda t, y: self.slip(y, s, mu_mode)[2], True, -1))
+            ]
             if mode != FREE:
-                terminal.append(("stop", _event(lambda t, y: s * self.slip_velocity(y),
-                                                True, -1)))
+                terminal.append(
+                    ("stop", _event(lambda t, y: s * self.slip_velocity(y), True, -1))
+                )
         terminal.append(("capsized", _event(lambda t, y: math.cos(y[0]), True, -1)))
         return rhs, terminal, []
 
@@ -576,8 +646,17 @@ def _drive(model, z0, t_end, n0, band, *, rtol, atol, max_step, method, planar=F
             mode = SLIP  # the planar slip direction is known: no held onset phase
         rhs, terminal, observe = model.mode_functions(mode, dref, n0, band)
         events = [f for _, f in terminal] + [f for _, f in observe]
-        sol = solve_ivp(rhs, (t, t_end), z, method=method, dense_output=True,
-                        events=events, rtol=rtol, atol=atol, max_step=max_step)
+        sol = solve_ivp(
+            rhs,
+            (t, t_end),
+            z,
+            method=method,
+            dense_output=True,
+            events=events,
+            rtol=rtol,
+            atol=atol,
+            max_step=max_step,
+        )
         if sol.status < 0:
             raise RuntimeError(f"solve_ivp failed at t = {t}: {sol.message}")
         nfev += sol.nfev
@@ -627,19 +706,39 @@ def _drive(model, z0, t_end, n0, band, *, rtol, atol, max_step, method, planar=F
         else:  # pragma: no cover
             raise AssertionError(why)
     slip_time = sum(s.t1 - s.t0 for s in segments if s.mode != STICK)
-    return dict(segments=segments, switch_times=switches, reslips=reslips,
-                initial_mode=initial_mode,
-                status=status, t_final=t, nfev=nfev,
-                slip_fraction=slip_time / t if t > 0 else 0.0,
-                spin_zeros=np.array(observed["spin_zero"]),
-                band_crossings=np.array(observed["band"]))
+    return dict(
+        segments=segments,
+        switch_times=switches,
+        reslips=reslips,
+        initial_mode=initial_mode,
+        status=status,
+        t_final=t,
+        nfev=nfev,
+        slip_fraction=slip_time / t if t > 0 else 0.0,
+        spin_zeros=np.array(observed["spin_zero"]),
+        band_crossings=np.array(observed["band"]),
+    )
 
 
 # --------------------------------------------------------------------------------------
 # public entry points
-def rattleback_events(body, y0, *, mu, mu_static=None, g=9.81, damping=0.0, t_end,
-                      rtol=1e-10, atol=1e-12, max_step=np.inf, t_eval=None,
-                      samples=3001, band=0.05, method="LSODA") -> EventSolution:
+def rattleback_events(
+    body,
+    y0,
+    *,
+    mu,
+    mu_static=None,
+    g=9.81,
+    damping=0.0,
+    t_end,
+    rtol=1e-10,
+    atol=1e-12,
+    max_step=np.inf,
+    t_eval=None,
+    samples=3001,
+    band=0.05,
+    method="LSODA",
+) -> EventSolution:
     """Event-driven Coulomb stick/slip solution of a rattleback (MODEL.md sections 3-4).
 
     Parameters
@@ -670,19 +769,49 @@ def rattleback_events(body, y0, *, mu, mu_static=None, g=9.81, damping=0.0, t_en
     if y0.shape != (11,):
         raise ValueError(f"y0 must have shape (11,), got {y0.shape}")
     n0 = float(model.spin(y0))
-    out = _drive(model, np.append(y0, 0.0), float(t_end), n0, band, rtol=rtol, atol=atol,
-                 max_step=max_step, method=method)
-    res = EventSolution(t=None, slipping=None, switch_times=out["switch_times"],
-                        slip_fraction=out["slip_fraction"], energy=None, work=None,
-                        status=out["status"], t_final=out["t_final"], t_end=float(t_end),
-                        segments=out["segments"], reslips=out["reslips"], nfev=out["nfev"],
-                        initial_mode=out["initial_mode"],
-                        options=dict(rtol=rtol, atol=atol, method=method, mu=mu,
-                                     mu_static=mu_static, g=g, damping=damping),
-                        spin_zeros=out["spin_zeros"], band_crossings=out["band_crossings"],
-                        model=model)
-    t = (np.linspace(0.0, out["t_final"], samples) if t_eval is None
-         else np.asarray(t_eval, dtype=float))
+    out = _drive(
+        model,
+        np.append(y0, 0.0),
+        float(t_end),
+        n0,
+        band,
+        rtol=rtol,
+        atol=atol,
+        max_step=max_step,
+        method=method,
+    )
+    res = EventSolution(
+        t=None,
+        slipping=None,
+        switch_times=out["switch_times"],
+        slip_fraction=out["slip_fraction"],
+        energy=None,
+        work=None,
+        status=out["status"],
+        t_final=out["t_final"],
+        t_end=float(t_end),
+        segments=out["segments"],
+        reslips=out["reslips"],
+        nfev=out["nfev"],
+        initial_mode=out["initial_mode"],
+        options=dict(
+            rtol=rtol,
+            atol=atol,
+            method=method,
+            mu=mu,
+            mu_static=mu_static,
+            g=g,
+            damping=damping,
+        ),
+        spin_zeros=out["spin_zeros"],
+        band_crossings=out["band_crossings"],
+        model=model,
+    )
+    t = (
+        np.linspace(0.0, out["t_final"], samples)
+        if t_eval is None
+        else np.asarray(t_eval, dtype=float)
+    )
     z = res.state(t)
     res.t = t
     res.y = z[:, :11]
@@ -692,18 +821,21 @@ def rattleback_events(body, y0, *, mu, mu_static=None, g=9.81, damping=0.0, t_en
     res.energy = np.array([model.energy(s) for s in res.y])
     res.slip_speed = np.array([math.hypot(*model.kin(s)[5]) for s in res.y])
     res.normal_force = np.array([_normal_at(res, model, tt, s) for tt, s in zip(t, res.y)])
-    res.first_zero_of_spin = (float(out["spin_zeros"][0]) if len(out["spin_zeros"])
-                              else math.nan)
-    res.first_reversal_time = first_reversal_from_events(n0, out["spin_zeros"],
-                                                         out["band_crossings"])
+    res.first_zero_of_spin = (
+        float(out["spin_zeros"][0]) if len(out["spin_zeros"]) else math.nan
+    )
+    res.first_reversal_time = first_reversal_from_events(
+        n0, out["spin_zeros"], out["band_crossings"]
+    )
     res.onset_fallbacks = model.onset_fallbacks
     return res
 
 
 def _normal_at(res, model, t, y):
     starts = np.array([s.t0 for s in res.segments])
-    seg = res.segments[max(0, min(len(starts) - 1,
-                                  int(np.searchsorted(starts, t, side="right")) - 1))]
+    seg = res.segments[
+        max(0, min(len(starts) - 1, int(np.searchsorted(starts, t, side="right")) - 1))
+    ]
     if seg.mode == STICK:
         return model.normal_force(y, STICK, None)
     if seg.mode == FREE:
@@ -714,9 +846,23 @@ def _normal_at(res, model, t, y):
     return model.normal_force(y, SLIP, d)
 
 
-def planar_events(body, theta0, rate0=0.0, vx0=None, *, mu, mu_static=None, g=9.81,
-                  t_end, rtol=1e-10, atol=1e-12, max_step=np.inf, t_eval=None,
-                  samples=3001, method="LSODA") -> PlanarEventSolution:
+def planar_events(
+    body,
+    theta0,
+    rate0=0.0,
+    vx0=None,
+    *,
+    mu,
+    mu_static=None,
+    g=9.81,
+    t_end,
+    rtol=1e-10,
+    atol=1e-12,
+    max_step=np.inf,
+    t_eval=None,
+    samples=3001,
+    method="LSODA",
+) -> PlanarEventSolution:
     """Event-driven Coulomb stick/slip solution of the planar rocking semi-ellipse
     (MODEL.md section 8). State (theta, theta_dot, x_G, x_G_dot); ``vx0`` defaults to the
     rolling launch -rate0 h(theta0).
@@ -730,19 +876,40 @@ def planar_events(body, theta0, rate0=0.0, vx0=None, *, mu, mu_static=None, g=9.
     if vx0 is None:
         vx0 = -rate0 * model.h(theta0)[0]
     z0 = np.array([theta0, rate0, 0.0, vx0, 0.0], dtype=float)
-    out = _drive(model, z0, float(t_end), 0.0, 0.0, rtol=rtol, atol=atol,
-                 max_step=max_step, method=method, planar=True)
-    res = PlanarEventSolution(t=None, slipping=None, switch_times=out["switch_times"],
-                              slip_fraction=out["slip_fraction"], energy=None, work=None,
-                              status=out["status"], t_final=out["t_final"],
-                              t_end=float(t_end), segments=out["segments"],
-                              reslips=out["reslips"], nfev=out["nfev"],
-                              initial_mode=out["initial_mode"],
-                              options=dict(rtol=rtol, atol=atol, method=method, mu=mu,
-                                           mu_static=mu_static, g=g),
-                              model=model)
-    t = (np.linspace(0.0, out["t_final"], samples) if t_eval is None
-         else np.asarray(t_eval, dtype=float))
+    out = _drive(
+        model,
+        z0,
+        float(t_end),
+        0.0,
+        0.0,
+        rtol=rtol,
+        atol=atol,
+        max_step=max_step,
+        method=method,
+        planar=True,
+    )
+    res = PlanarEventSolution(
+        t=None,
+        slipping=None,
+        switch_times=out["switch_times"],
+        slip_fraction=out["slip_fraction"],
+        energy=None,
+        work=None,
+        status=out["status"],
+        t_final=out["t_final"],
+        t_end=float(t_end),
+        segments=out["segments"],
+        reslips=out["reslips"],
+        nfev=out["nfev"],
+        initial_mode=out["initial_mode"],
+        options=dict(rtol=rtol, atol=atol, method=method, mu=mu, mu_static=mu_static, g=g),
+        model=model,
+    )
+    t = (
+        np.linspace(0.0, out["t_final"], samples)
+        if t_eval is None
+        else np.asarray(t_eval, dtype=float)
+    )
     z = res.state(t)
     res.t = t
     res.theta, res.rate, res.x_G, res.vx, res.work = z.T
@@ -760,9 +927,21 @@ def planar_events(body, theta0, rate0=0.0, vx0=None, *, mu, mu_static=None, g=9.
     return res
 
 
-def rattleback_regularized(body, y0, *, mu, delta, g=9.81, damping=0.0, t_end,
-                           rtol=1e-10, atol=1e-12, method="LSODA", t_eval=None,
-                           samples=3001):
+def rattleback_regularized(
+    body,
+    y0,
+    *,
+    mu,
+    delta,
+    g=9.81,
+    damping=0.0,
+    t_end,
+    rtol=1e-10,
+    atol=1e-12,
+    method="LSODA",
+    t_eval=None,
+    samples=3001,
+):
     """Cross-check without events: Coulomb friction regularised to
     F_t = -mu N u / sqrt(|u|^2 + delta^2) (delta in m/s), one stiff integration.
 
@@ -779,10 +958,19 @@ def rattleback_regularized(body, y0, *, mu, delta, g=9.81, damping=0.0, t_end,
         u = k[5]
         d = u / math.sqrt(u @ u + delta * delta)
         wdot, a_h, N = model.slip(y, k, d, model.mu_k)
-        return model.assemble(y, wdot, a_h, model.mu_k * N * (u @ d)
-                              + model.cv * (y[4:7] @ y[4:7]))
-    sol = solve_ivp(rhs, (0.0, t_end), np.append(np.asarray(y0, dtype=float), 0.0),
-                    method=method, rtol=rtol, atol=atol, dense_output=True)
+        return model.assemble(
+            y, wdot, a_h, model.mu_k * N * (u @ d) + model.cv * (y[4:7] @ y[4:7])
+        )
+
+    sol = solve_ivp(
+        rhs,
+        (0.0, t_end),
+        np.append(np.asarray(y0, dtype=float), 0.0),
+        method=method,
+        rtol=rtol,
+        atol=atol,
+        dense_output=True,
+    )
     if sol.status != 0:
         raise RuntimeError(sol.message)
     t = np.linspace(0.0, t_end, samples) if t_eval is None else np.asarray(t_eval, float)
@@ -797,8 +985,20 @@ def launch_state(run):
     (theta, theta_dot, x_G, x_G_dot) for ``rattlesweep.planar.simulate_planar``
     (variables angle, rate, x_G, velocity_x)."""
     if "quaternion" in run:
-        return np.concatenate([run.quaternion.values[0], run.omega.values[0],
-                               run.position.values[0, :2], run.velocity.values[0, :2]]
-                              ).astype(float)
-    return np.array([run.angle.values[0], run.rate.values[0], run.x_G.values[0],
-                     run.velocity_x.values[0]], dtype=float)
+        return np.concatenate(
+            [
+                run.quaternion.values[0],
+                run.omega.values[0],
+                run.position.values[0, :2],
+                run.velocity.values[0, :2],
+            ]
+        ).astype(float)
+    return np.array(
+        [
+            run.angle.values[0],
+            run.rate.values[0],
+            run.x_G.values[0],
+            run.velocity_x.values[0],
+        ],
+        dtype=float,
+    )

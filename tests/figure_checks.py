@@ -15,8 +15,13 @@ def layout_problems(fig, dpi: float = 100.0, tolerance: float = 1.0) -> list[str
     renderer = fig.canvas.get_renderer()
     legends = [a for a in fig.findobj(Legend) if a.get_visible()]
     in_legend = {id(t) for leg in legends for t in leg.findobj(Text)}
-    items = [(f"legend {[t.get_text() for t in leg.get_texts()][:3]}",
-              leg.get_window_extent(renderer)) for leg in legends]
+    items = [
+        (
+            f"legend {[t.get_text() for t in leg.get_texts()][:3]}",
+            leg.get_window_extent(renderer),
+        )
+        for leg in legends
+    ]
     # tick labels: only those of ticks inside the view (matplotlib keeps, but does not
     # draw, labels of the ticks its locator gives beyond the limits)
     tick_labels: set[int] = set()
@@ -33,19 +38,29 @@ def layout_problems(fig, dpi: float = 100.0, tolerance: float = 1.0) -> list[str
                     shown += [t for t in labels if t.get_visible()]
     shown_ids = {id(t) for t in shown}
     for t in {id(t): t for t in [*fig.findobj(Text), *shown]}.values():
-        if (id(t) in in_legend or (id(t) in tick_labels and id(t) not in shown_ids)
-                or not t.get_visible() or not t.get_text().strip()):
+        if (
+            id(t) in in_legend
+            or (id(t) in tick_labels and id(t) not in shown_ids)
+            or not t.get_visible()
+            or not t.get_text().strip()
+        ):
             continue
         items.append((repr(t.get_text()), t.get_window_extent(renderer)))
     problems = []
     box = fig.bbox
     for name, b in items:
-        if (b.x0 < box.x0 - tolerance or b.y0 < box.y0 - tolerance
-                or b.x1 > box.x1 + tolerance or b.y1 > box.y1 + tolerance):
-            problems.append(f"{name} sticks out of the figure at dpi {dpi}: {b.bounds} "
-                            f"outside {box.bounds}")
+        if (
+            b.x0 < box.x0 - tolerance
+            or b.y0 < box.y0 - tolerance
+            or b.x1 > box.x1 + tolerance
+            or b.y1 > box.y1 + tolerance
+        ):
+            problems.append(
+                f"{name} sticks out of the figure at dpi {dpi}: {b.bounds} "
+                f"outside {box.bounds}"
+            )
     for i, (n1, b1) in enumerate(items):
-        for n2, b2 in items[i + 1:]:
+        for n2, b2 in items[i + 1 :]:
             w = min(b1.x1, b2.x1) - max(b1.x0, b2.x0)
             h = min(b1.y1, b2.y1) - max(b1.y0, b2.y0)
             if w > tolerance and h > tolerance:

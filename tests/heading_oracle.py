@@ -58,8 +58,9 @@ def reversal_count(q, spin, band=0.05):
     side = np.sign(spin[0])
     count = len(heading_reversal_steps(q, side))
     beyond = np.flatnonzero(side * spin < -band * abs(spin[0]))
-    pending = (count == 0 and beyond.size > 0
-               and bool(np.all(side * spin[beyond[0]:] < 0.0)))
+    pending = (
+        count == 0 and beyond.size > 0 and bool(np.all(side * spin[beyond[0] :] < 0.0))
+    )
     return count + int(pending)
 
 
@@ -77,15 +78,27 @@ def wackelstein():
     R = R_x(-0.02) R_y(-0.02) with body omega = (0, 0, -8) rad/s. Returns (body, the
     launch as run_batch/simulate keywords)."""
     inertia = rotated_inertia(2e-4, 1.6e-3, 1.7e-3, 0.1)
-    body = rs.Body(0.2, 0.03, 0.02, 1.0, (0.0, 0.0, -0.001), inertia, full_ellipsoid=True,
-                   name="wackelstein_1")
+    body = rs.Body(
+        0.2,
+        0.03,
+        0.02,
+        1.0,
+        (0.0, 0.0, -0.001),
+        inertia,
+        full_ellipsoid=True,
+        name="wackelstein_1",
+    )
     c, s = math.cos(-0.01), math.sin(-0.01)
     qx = np.array([c, s, 0.0, 0.0])
     qy = np.array([c, 0.0, s, 0.0])
     w1, x1, y1, z1 = qx
     w2, x2, y2, z2 = qy
-    q = np.array([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
-                  w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-                  w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
-                  w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
+    q = np.array(
+        [
+            w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+            w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+            w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+            w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+        ]
+    )
     return body, dict(omega=[0.0, 0.0, -8.0], orientation=q, damping=1e-4)

@@ -19,9 +19,9 @@ import numpy as np
 
 def cross(a, b):
     """a x b for stacks of vectors, shape (3, n)."""
-    return np.array([a[1] * b[2] - a[2] * b[1],
-                     a[2] * b[0] - a[0] * b[2],
-                     a[0] * b[1] - a[1] * b[0]])
+    return np.array(
+        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    )
 
 
 def solve3(M, b):
@@ -38,7 +38,7 @@ class NumpyRolling:
     def __init__(self, body, g: float = 9.81):
         self.m = float(body.mass)
         self.g = float(g)
-        self.A = np.array([body.a ** 2, body.b ** 2, body.c ** 2])[:, None]
+        self.A = np.array([body.a**2, body.b**2, body.c**2])[:, None]
         self.G = np.asarray(body.com, dtype=float)[:, None]
         self.I = np.asarray(body.inertia, dtype=float)
         self.full = bool(body.full_ellipsoid)
@@ -48,12 +48,15 @@ class NumpyRolling:
         """First two rows of R(q) and n_hat = R^T Z (its third row), for any non-zero q."""
         q0, q1, q2, q3 = q
         s = 2.0 / (q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
-        row0 = np.array([1 - s * (q2 * q2 + q3 * q3), s * (q1 * q2 - q0 * q3),
-                         s * (q1 * q3 + q0 * q2)])
-        row1 = np.array([s * (q1 * q2 + q0 * q3), 1 - s * (q1 * q1 + q3 * q3),
-                         s * (q2 * q3 - q0 * q1)])
-        up = np.array([s * (q1 * q3 - q0 * q2), s * (q2 * q3 + q0 * q1),
-                       1 - s * (q1 * q1 + q2 * q2)])
+        row0 = np.array(
+            [1 - s * (q2 * q2 + q3 * q3), s * (q1 * q2 - q0 * q3), s * (q1 * q3 + q0 * q2)]
+        )
+        row1 = np.array(
+            [s * (q1 * q2 + q0 * q3), 1 - s * (q1 * q1 + q3 * q3), s * (q2 * q3 - q0 * q1)]
+        )
+        up = np.array(
+            [s * (q1 * q3 - q0 * q2), s * (q2 * q3 + q0 * q1), 1 - s * (q1 * q1 + q2 * q2)]
+        )
         return row0, row1, up
 
     def contact(self, up):
@@ -69,11 +72,14 @@ class NumpyRolling:
         row0, row1, up = self.frame(y[0:4])
         rho, an, sigma = self.contact(up)
         dup = cross(up, w)  # d n_hat / dt in body components
-        dsp = -self.A * dup / sigma + an * ((an * dup).sum(0) / sigma ** 3)  # J dn_hat/dt
+        dsp = -self.A * dup / sigma + an * ((an * dup).sum(0) / sigma**3)  # J dn_hat/dt
         wv = cross(w, cross(w, rho) + dsp)
         # stick: (I + m(|rho|^2 1 - rho rho^T)) wdot = -w x Iw + m rho x (g n_hat - wv)
-        M = (self.I[:, :, None] + m * (rho * rho).sum(0) * np.eye(3)[:, :, None]
-             - m * rho[:, None, :] * rho[None, :, :])
+        M = (
+            self.I[:, :, None]
+            + m * (rho * rho).sum(0) * np.eye(3)[:, :, None]
+            - m * rho[:, None, :] * rho[None, :, :]
+        )
         wdot = solve3(M, -cross(w, self.I @ w) + m * cross(rho, g * up - wv))
         a_g = -(cross(wdot, rho) + wv)  # acceleration of G, body components
         dy = np.empty_like(y)
@@ -143,4 +149,4 @@ def reversal_bracket(spin, band: float = 0.05) -> int | None:
     beyond = np.flatnonzero(s * spin < -band * abs(spin[0]))
     if beyond.size == 0:
         return None
-    return int(np.flatnonzero(s * spin[:beyond[0]] > 0)[-1])
+    return int(np.flatnonzero(s * spin[: beyond[0]] > 0)[-1])

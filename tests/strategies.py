@@ -15,8 +15,18 @@ from hypothesis import strategies as st
 
 import rattlesweep as rs
 
-SPECIAL_FLOATS = (0.0, -0.0, -1.0, math.nan, math.inf, -math.inf, 1e300, -1e300, 1e-300,
-                  5e-324)
+SPECIAL_FLOATS = (
+    0.0,
+    -0.0,
+    -1.0,
+    math.nan,
+    math.inf,
+    -math.inf,
+    1e300,
+    -1e300,
+    1e-300,
+    5e-324,
+)
 NON_NUMBERS = ("abc", "", None, [1.0, "x"], [[1.0, 2.0], [3.0]], {"a": 1}, 1j, object())
 
 
@@ -37,7 +47,7 @@ def any_scalar(valid: st.SearchStrategy) -> st.SearchStrategy:
         st.sampled_from(NON_NUMBERS),
         st.booleans(),
         st.lists(st.one_of(valid, any_float()), min_size=0, max_size=3),
-        st.integers(-2**70, 2**70),
+        st.integers(-(2**70), 2**70),
     )
 
 
@@ -96,6 +106,7 @@ def valid_bodies(draw) -> rs.Body:
 def arbitrary_inertia() -> st.SearchStrategy:
     """Inertia tensors: physical ones (principal moments obeying the triangle rule,
     turned about z), near-misses, and junk."""
+
     @st.composite
     def physical(draw):
         i1, i2 = draw(finite(1e-7, 1e-2)), draw(finite(1e-7, 1e-2))
@@ -111,9 +122,28 @@ def arbitrary_inertia() -> st.SearchStrategy:
 
 
 # --- launches -------------------------------------------------------------------------
-LAUNCH_ARGS = ("spin", "omega", "roll", "pitch", "yaw", "orientation", "velocity", "mu",
-               "mu_static", "mu_spin", "mu_roll", "damping", "g", "dt", "t_end", "method",
-               "record_every", "reversal_band", "parallel", "threads")
+LAUNCH_ARGS = (
+    "spin",
+    "omega",
+    "roll",
+    "pitch",
+    "yaw",
+    "orientation",
+    "velocity",
+    "mu",
+    "mu_static",
+    "mu_spin",
+    "mu_roll",
+    "damping",
+    "g",
+    "dt",
+    "t_end",
+    "method",
+    "record_every",
+    "reversal_band",
+    "parallel",
+    "threads",
+)
 
 
 @st.composite
@@ -130,8 +160,10 @@ def valid_launch(draw, body: rs.Body, max_steps: int = 300) -> dict:
     accuracy is not a property of the engine's defaults."""
     g = draw(st.one_of(st.just(9.81), finite(0.5, 30.0)))
     dt0 = body.default_dt(g)
-    w0 = max(*body.small_oscillation_frequencies(g, rolling=True),
-             *body.small_oscillation_frequencies(g, rolling=False))
+    w0 = max(
+        *body.small_oscillation_frequencies(g, rolling=True),
+        *body.small_oscillation_frequencies(g, rolling=False),
+    )
     dt = draw(st.one_of(st.none(), finite(0.05, 1.0).map(lambda f: f * dt0)))
     steps = draw(st.integers(1, max_steps))
     t_end = steps * (dt0 if dt is None else dt) * draw(finite(0.5, 1.0))
@@ -149,8 +181,11 @@ def valid_launch(draw, body: rs.Body, max_steps: int = 300) -> dict:
         kw["spin"] = draw(finite(-spin, spin))
     else:
         rock = 0.15 * w0
-        kw["omega"] = (draw(finite(-rock, rock)), draw(finite(-rock, rock)),
-                       draw(finite(-spin, spin)))
+        kw["omega"] = (
+            draw(finite(-rock, rock)),
+            draw(finite(-rock, rock)),
+            draw(finite(-spin, spin)),
+        )
     if draw(st.integers(0, 3)) == 0:
         q = np.array([1.0] + [draw(finite(-0.07, 0.07)) for _ in range(3)])
         kw["orientation"] = tuple(q / np.linalg.norm(q))
@@ -175,17 +210,27 @@ def arbitrary_value(name: str) -> st.SearchStrategy:
     return {
         "spin": any_scalar(finite(-40, 40)),
         "omega": any_vector(3, finite(-20, 20)),
-        "roll": any_scalar(angle), "pitch": any_scalar(angle), "yaw": any_scalar(angle),
+        "roll": any_scalar(angle),
+        "pitch": any_scalar(angle),
+        "yaw": any_scalar(angle),
         "orientation": any_vector(4, finite(-1, 1)),
         "velocity": any_vector(2, finite(-0.3, 0.3)),
-        "mu": any_scalar(finite(0, 2)), "mu_static": any_scalar(finite(0, 2)),
-        "mu_spin": any_scalar(finite(0, 1e-3)), "mu_roll": any_scalar(finite(0, 1e-3)),
-        "damping": any_scalar(finite(0, 1e-3)), "g": any_scalar(finite(0.5, 30)),
-        "dt": any_scalar(finite(1e-5, 1e-3)), "t_end": any_scalar(finite(1e-4, 0.05)),
-        "method": st.one_of(st.sampled_from(["rk4", "euler", "RK4", "", "rk45"]),
-                            st.sampled_from(NON_NUMBERS), st.integers(-1, 3)),
-        "record_every": st.one_of(st.integers(-3, 5), st.sampled_from(NON_NUMBERS),
-                                  st.booleans(), any_float()),
+        "mu": any_scalar(finite(0, 2)),
+        "mu_static": any_scalar(finite(0, 2)),
+        "mu_spin": any_scalar(finite(0, 1e-3)),
+        "mu_roll": any_scalar(finite(0, 1e-3)),
+        "damping": any_scalar(finite(0, 1e-3)),
+        "g": any_scalar(finite(0.5, 30)),
+        "dt": any_scalar(finite(1e-5, 1e-3)),
+        "t_end": any_scalar(finite(1e-4, 0.05)),
+        "method": st.one_of(
+            st.sampled_from(["rk4", "euler", "RK4", "", "rk45"]),
+            st.sampled_from(NON_NUMBERS),
+            st.integers(-1, 3),
+        ),
+        "record_every": st.one_of(
+            st.integers(-3, 5), st.sampled_from(NON_NUMBERS), st.booleans(), any_float()
+        ),
         "reversal_band": any_scalar(finite(0, 0.99)),
         "parallel": st.one_of(st.booleans(), st.sampled_from(NON_NUMBERS)),
         "threads": st.one_of(st.integers(-2, 4), st.sampled_from(NON_NUMBERS), any_float()),
@@ -195,11 +240,23 @@ def arbitrary_value(name: str) -> st.SearchStrategy:
 # --- sweep configurations -------------------------------------------------------------
 SWEEP_BODY = ("a", "b", "c", "mass", "delta")
 VALID_RANGES = {
-    "spin": (-30.0, 30.0), "roll": (-0.1, 0.1), "pitch": (-0.1, 0.1), "yaw": (-3.0, 3.0),
-    "roll_deg": (-5.0, 5.0), "pitch_deg": (-5.0, 5.0), "delta_deg": (-8.0, 8.0),
-    "mu": (0.05, 1.0), "mu_static": (1.0, 2.0), "mu_spin": (0.0, 1e-3),
-    "mu_roll": (0.0, 1e-3), "damping": (0.0, 1e-4), "g": (5.0, 15.0),
-    "a": (0.04, 0.05), "b": (0.009, 0.01), "c": (0.008, 0.011), "mass": (0.005, 0.02),
+    "spin": (-30.0, 30.0),
+    "roll": (-0.1, 0.1),
+    "pitch": (-0.1, 0.1),
+    "yaw": (-3.0, 3.0),
+    "roll_deg": (-5.0, 5.0),
+    "pitch_deg": (-5.0, 5.0),
+    "delta_deg": (-8.0, 8.0),
+    "mu": (0.05, 1.0),
+    "mu_static": (1.0, 2.0),
+    "mu_spin": (0.0, 1e-3),
+    "mu_roll": (0.0, 1e-3),
+    "damping": (0.0, 1e-4),
+    "g": (5.0, 15.0),
+    "a": (0.04, 0.05),
+    "b": (0.009, 0.01),
+    "c": (0.008, 0.011),
+    "mass": (0.005, 0.02),
     "delta": (-0.15, 0.15),
 }
 
@@ -222,8 +279,11 @@ def sweep_axis(draw, key: str, bad: bool):
         return values
     num = draw(st.integers(1, 3))
     start = draw(finite(lo, hi))
-    stop = draw(finite(start, hi)) if num == 1 else start + draw(finite(1e-6, 1.0)) * (
-        hi - start) + 1e-9 * max(1.0, abs(start))
+    stop = (
+        draw(finite(start, hi))
+        if num == 1
+        else start + draw(finite(1e-6, 1.0)) * (hi - start) + 1e-9 * max(1.0, abs(start))
+    )
     spec = {"start": start, "stop": stop, "num": num}
     if bad:
         spec[draw(st.sampled_from(["start", "stop", "num"]))] = draw(sweep_value(key, True))
@@ -239,8 +299,14 @@ def sweep_configs(draw):
     (at most 3 values per axis, 3 axes, 2 repeats) and ``t_end`` a few steps, so a
     valid sweep runs in milliseconds."""
     keys = list(VALID_RANGES)
-    chosen = draw(st.lists(st.sampled_from(keys), min_size=1, max_size=5, unique_by=lambda
-                           k: k.removesuffix("_deg")))
+    chosen = draw(
+        st.lists(
+            st.sampled_from(keys),
+            min_size=1,
+            max_size=5,
+            unique_by=lambda k: k.removesuffix("_deg"),
+        )
+    )
     n_axes = draw(st.integers(1, min(3, len(chosen))))
     n_random = draw(st.integers(0, len(chosen) - n_axes))
     bad_keys: set[str] = set()
@@ -255,18 +321,28 @@ def sweep_configs(draw):
     config: dict = {"name": draw(st.text(max_size=10)), "axes": {}, "fixed": {}}
     for key in chosen[:n_axes]:
         config["axes"][key] = draw(sweep_axis(key, bad_here(f"axes.{key}")))
-    randoms = chosen[n_axes:n_axes + n_random]
-    for key in chosen[n_axes + n_random:]:
+    randoms = chosen[n_axes : n_axes + n_random]
+    for key in chosen[n_axes + n_random :]:
         config["fixed"][key] = draw(sweep_value(key, bad_here(f"fixed.{key}")))
     if randoms:
         config["random"] = {}
         for key in randoms:
             lo, hi = VALID_RANGES[key]
-            x, y = sorted(draw(st.lists(finite(lo, hi), min_size=2, max_size=2, unique=True)))
+            x, y = sorted(
+                draw(st.lists(finite(lo, hi), min_size=2, max_size=2, unique=True))
+            )
             spec = {"uniform": [x, y]}
             if bad_here(f"random.{key}"):
-                spec = draw(st.sampled_from([{"uniform": [y, x]}, {"normal": [x, -1.0]},
-                                             {"uniform": [x]}, {"beta": [x, y]}]))
+                spec = draw(
+                    st.sampled_from(
+                        [
+                            {"uniform": [y, x]},
+                            {"normal": [x, -1.0]},
+                            {"uniform": [x]},
+                            {"beta": [x, y]},
+                        ]
+                    )
+                )
             config["random"][key] = spec
         config["repeats"] = draw(st.integers(1, 2))
         config["seed"] = draw(st.integers(0, 2**32))
@@ -293,8 +369,11 @@ def sweep_configs(draw):
 def corruptions(draw, text: str) -> str:
     """``text`` damaged the ways files get damaged or hand-edited: cut short, a span
     deleted or repeated, a character replaced, junk inserted, a line duplicated."""
-    kind = draw(st.sampled_from(["truncate", "delete", "repeat", "replace", "insert",
-                                 "duplicate_line"]))
+    kind = draw(
+        st.sampled_from(
+            ["truncate", "delete", "repeat", "replace", "insert", "duplicate_line"]
+        )
+    )
     n = len(text)
     i = draw(st.integers(0, n))
     j = draw(st.integers(i, min(n, i + 20)))
@@ -305,11 +384,30 @@ def corruptions(draw, text: str) -> str:
     if kind == "repeat":
         return text[:j] + text[i:j] + text[j:]
     if kind == "replace" and i < n:
-        return text[:i] + draw(st.characters(codec="utf-8")) + text[i + 1:]
+        return text[:i] + draw(st.characters(codec="utf-8")) + text[i + 1 :]
     if kind == "duplicate_line":
         lines = text.splitlines(keepends=True)
         k = draw(st.integers(0, len(lines) - 1))
-        return "".join(lines[:k + 1] + lines[k:])
-    junk = draw(st.sampled_from(["=", "[", "]", "{", "\"", "'", "nan", "inf", "-",
-                                 "\n[axes]\n", "\nspin = 1\n", "\x00", "#", ",", "\\"]))
+        return "".join(lines[: k + 1] + lines[k:])
+    junk = draw(
+        st.sampled_from(
+            [
+                "=",
+                "[",
+                "]",
+                "{",
+                '"',
+                "'",
+                "nan",
+                "inf",
+                "-",
+                "\n[axes]\n",
+                "\nspin = 1\n",
+                "\x00",
+                "#",
+                ",",
+                "\\",
+            ]
+        )
+    )
     return text[:i] + junk + text[i:]

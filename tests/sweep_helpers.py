@@ -26,11 +26,17 @@ roll_deg = 0.5
 def small_sweep(**overrides) -> Sweep:
     """A few dozen short launches of toy semi-ellipsoids, a random roll per repeat."""
     args = dict(
-        axes={"spin": {"start": -12.0, "stop": 12.0, "num": 4},
-              "delta_deg": [-4.0, 3.0], "mu": [0.3, math.inf]},
+        axes={
+            "spin": {"start": -12.0, "stop": 12.0, "num": 4},
+            "delta_deg": [-4.0, 3.0],
+            "mu": [0.3, math.inf],
+        },
         fixed={"t_end": 3.0, "damping": 1e-7},
         random={"roll_deg": {"uniform": [0.3, 0.8]}},
-        repeats=2, seed=7, tile_size=5)
+        repeats=2,
+        seed=7,
+        tile_size=5,
+    )
     args.update(overrides)
     return Sweep(**args)
 
@@ -61,15 +67,30 @@ def assert_same_file(path_a, path_b):
 def file_stats(root, pattern):
     """Inode and modification time of every file under ``root`` matching ``pattern``: a
     file rewritten gets a new inode (atomic writes) or a new time."""
-    return {str(p.relative_to(root)): (p.stat().st_ino, p.stat().st_mtime_ns)
-            for p in root.rglob(pattern) if p.is_file()}
+    return {
+        str(p.relative_to(root)): (p.stat().st_ino, p.stat().st_mtime_ns)
+        for p in root.rglob(pattern)
+        if p.is_file()
+    }
 
 
 def start_sweep(config, out, workers):
     """``rattlesweep sweep CONFIG --out OUT`` in a new process, its stderr piped, started
     as from a terminal: a parent that ignores SIGINT (a background job of a
     non-interactive shell, as CI may be) would pass SIG_IGN on, and Python keeps it."""
-    return subprocess.Popen([sys.executable, "-m", "rattlesweep.cli", "sweep", str(config),
-                             "--out", str(out), "--workers", str(workers)],
-                            stderr=subprocess.PIPE, text=True,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    return subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "rattlesweep.cli",
+            "sweep",
+            str(config),
+            "--out",
+            str(out),
+            "--workers",
+            str(workers),
+        ],
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )

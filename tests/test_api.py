@@ -14,29 +14,32 @@ from rattlesweep.cli import main
 from rattlesweep.io import write_netcdf
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    (dict(mu=-0.1), r"mu must be >= 0.*-0\.1"),
-    (dict(mu=float("nan")), "mu must be >= 0"),
-    (dict(mu=0.5, mu_static=0.3), "mu_static must be >= mu"),
-    (dict(damping=-1.0), "damping must be finite and >= 0"),
-    (dict(g=0.0), "g must be finite and > 0"),
-    (dict(dt=-1e-3), "dt must be finite and > 0"),
-    (dict(t_end=[1.0, math.inf]), r"t_end must be finite and > 0.*index \(1,\)"),
-    (dict(spin=1.0, omega=(0, 0, 1)), "either spin .* or omega"),
-    (dict(orientation=(1, 0, 0, 0), roll=0.1), "either orientation or roll"),
-    (dict(orientation=(1, 0, 0, 0), roll=[[0.1], [0.2, 0.3]]), "roll must be a number"),
-    (dict(orientation=(1.0, 0.1, 0.0, 0.0)), "unit quaternion"),
-    (dict(omega=(1.0, 2.0)), "omega must have a last axis of length 3"),
-    (dict(spin=[1.0, 2.0], mu=[0.1, 0.2, 0.3]), "cannot be broadcast"),
-    (dict(velocity=(0.1, 0.0)), "sliding launch.*finite mu_static"),
-    (dict(method="rk45"), "method must be one of"),
-    (dict(record_every=0), "record_every must be a positive integer"),
-    (dict(reversal_band=1.5), "reversal_band must be in"),
-    (dict(reversal_band="abc"), "reversal_band must be in"),
-    (dict(reversal_band=None), "reversal_band must be in"),
-    (dict(threads=0), "threads must be an integer"),
-    (dict(t_end=None), "t_end"),
-])
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (dict(mu=-0.1), r"mu must be >= 0.*-0\.1"),
+        (dict(mu=float("nan")), "mu must be >= 0"),
+        (dict(mu=0.5, mu_static=0.3), "mu_static must be >= mu"),
+        (dict(damping=-1.0), "damping must be finite and >= 0"),
+        (dict(g=0.0), "g must be finite and > 0"),
+        (dict(dt=-1e-3), "dt must be finite and > 0"),
+        (dict(t_end=[1.0, math.inf]), r"t_end must be finite and > 0.*index \(1,\)"),
+        (dict(spin=1.0, omega=(0, 0, 1)), "either spin .* or omega"),
+        (dict(orientation=(1, 0, 0, 0), roll=0.1), "either orientation or roll"),
+        (dict(orientation=(1, 0, 0, 0), roll=[[0.1], [0.2, 0.3]]), "roll must be a number"),
+        (dict(orientation=(1.0, 0.1, 0.0, 0.0)), "unit quaternion"),
+        (dict(omega=(1.0, 2.0)), "omega must have a last axis of length 3"),
+        (dict(spin=[1.0, 2.0], mu=[0.1, 0.2, 0.3]), "cannot be broadcast"),
+        (dict(velocity=(0.1, 0.0)), "sliding launch.*finite mu_static"),
+        (dict(method="rk45"), "method must be one of"),
+        (dict(record_every=0), "record_every must be a positive integer"),
+        (dict(reversal_band=1.5), "reversal_band must be in"),
+        (dict(reversal_band="abc"), "reversal_band must be in"),
+        (dict(reversal_band=None), "reversal_band must be in"),
+        (dict(threads=0), "threads must be an integer"),
+        (dict(t_end=None), "t_end"),
+    ],
+)
 def test_bad_input_is_refused_with_a_clear_message(kl, kwargs, message):
     args = dict(spin=None, t_end=1.0)
     args.update(kwargs)
@@ -48,8 +51,10 @@ def test_bad_input_is_refused_with_a_clear_message(kl, kwargs, message):
 
 def test_tilt_past_the_rim_is_refused():
     toy = rs.Body.preset("toy")
-    with pytest.raises(ValueError, match="rim of the semi-ellipsoid"), \
-            pytest.warns(rs.UnitsWarning, match="roll_deg"):
+    with (
+        pytest.raises(ValueError, match="rim of the semi-ellipsoid"),
+        pytest.warns(rs.UnitsWarning, match="roll_deg"),
+    ):
         rs.simulate(toy, roll=math.radians(95), t_end=1.0)
     with pytest.raises(ValueError, match="rim of the semi-ellipsoid"):
         rs.simulate(toy, roll_deg=95, t_end=1.0)
@@ -79,7 +84,9 @@ def test_results_carry_units_and_inputs(kl):
     assert ds.attrs["rattlesweep_version"] == rs.__version__
     assert ds.attrs["dt"] == pytest.approx(kl.default_dt())
     batch = rs.run_batch(kl, spin=[1.0, 2.0], mu=0.3, t_end=0.1)
-    assert batch.mu.dims == ("trajectory",) and batch.launch_spin.attrs["units"] == "rad s-1"
+    assert (
+        batch.mu.dims == ("trajectory",) and batch.launch_spin.attrs["units"] == "rad s-1"
+    )
     assert batch.com.dims == ("trajectory", "body_axis")
 
 
@@ -93,8 +100,9 @@ def test_netcdf_round_trip_and_atomic_write(kl, tmp_path):
     with netCDF4.Dataset(path) as nc:
         assert nc.variables["spin"].units == "rad s-1"
         assert nc.variables["spin"].filters()["zlib"]
-    batch = rs.run_batch(np.array([kl, rs.Body.preset("toy")], dtype=object), spin=3.0,
-                         t_end=0.1)
+    batch = rs.run_batch(
+        np.array([kl, rs.Body.preset("toy")], dtype=object), spin=3.0, t_end=0.1
+    )
     back = xr.open_dataset(write_netcdf(batch, tmp_path / "batch.nc"))
     assert list(back.body_name.values) == ["kane_levinson", "toy"]
 
@@ -110,8 +118,20 @@ def test_failed_write_leaves_no_file(kl, tmp_path):
 def test_cli_simulate_writes_netcdf_and_png(tmp_path, capsys):
     # kane_levinson with its air damping: the +5 rad/s launch reverses, -5 rad/s does not
     base = ["simulate", "--t-end", "8", "--damping", "1e-4"]
-    assert main(base + ["--spin", "5", "--out", str(tmp_path / "p.nc"),
-                        "--png", str(tmp_path / "p.png")]) == 0
+    assert (
+        main(
+            base
+            + [
+                "--spin",
+                "5",
+                "--out",
+                str(tmp_path / "p.nc"),
+                "--png",
+                str(tmp_path / "p.png"),
+            ]
+        )
+        == 0
+    )
     out = capsys.readouterr().out
     assert "reversals: 1;" in out and "first reversal: none" not in out
     ds = xr.open_dataset(tmp_path / "p.nc")
@@ -123,8 +143,12 @@ def test_cli_simulate_writes_netcdf_and_png(tmp_path, capsys):
 
 
 def test_cli_simulate_and_errors(tmp_path, capsys):
-    assert main(["simulate", "--spin", "-5", "--t-end", "1", "--out",
-                 str(tmp_path / "one.nc")]) == 0
+    assert (
+        main(
+            ["simulate", "--spin", "-5", "--t-end", "1", "--out", str(tmp_path / "one.nc")]
+        )
+        == 0
+    )
     assert "status: ok" in capsys.readouterr().out
     assert (tmp_path / "one.nc").exists()
     assert main(["simulate", "--mu", "-1", "--t-end", "1"]) == 2
@@ -137,14 +161,17 @@ def test_an_empty_batch_gives_an_empty_result():
     from rattlesweep.planar import PlanarBody, run_planar_batch
 
     toy = rs.Body.preset("toy")
-    for ds in (rs.run_batch(toy, spin=[], t_end=0.1),
-               rs.run_batch(toy, spin=[], t_end=0.1, record_every=3),
-               rs.run_batch(toy, spin=[[1.0], [2.0]], mu=[[]], t_end=0.1)):
+    for ds in (
+        rs.run_batch(toy, spin=[], t_end=0.1),
+        rs.run_batch(toy, spin=[], t_end=0.1, record_every=3),
+        rs.run_batch(toy, spin=[[1.0], [2.0]], mu=[[]], t_end=0.1),
+    ):
         assert ds.sizes["trajectory"] == 0
         assert ds.first_reversal_time.shape == (0,) and ds.status.dtype == np.int8
         assert ds.com.shape == (0, 3)
     assert rs.run_batch(toy, spin=[[1.0], [2.0]], mu=[[]], t_end=0.1).attrs[
-        "batch_shape"] == [2, 0]
+        "batch_shape"
+    ] == [2, 0]
     planar = run_planar_batch(PlanarBody(0.1, 0.05, 1.0), theta=[], t_end=0.1)
     assert planar.sizes["trajectory"] == 0 and planar.max_angle.shape == (0,)
     # counting the steps of an empty batch (what a sweep asks of its corners) is no error
@@ -152,7 +179,9 @@ def test_an_empty_batch_gives_an_empty_result():
 
 
 def test_a_record_that_cannot_fit_is_refused_before_compute(kl):
-    with pytest.raises(ValueError, match=r"record would need [\d.]+ GiB.*record_every.*t_end"):
+    with pytest.raises(
+        ValueError, match=r"record would need [\d.]+ GiB.*record_every.*t_end"
+    ):
         rs.simulate(kl, spin=5.0, t_end=1e5, record_every=1)
     # the same run recorded sparsely is fine
     assert rs.simulate(kl, spin=5.0, t_end=0.5, record_every=50).sizes["time"] > 1
@@ -166,18 +195,28 @@ def test_more_steps_than_the_kernel_can_count_are_refused(kl):
     from rattlesweep.planar import PlanarBody, run_planar_batch
 
     for t_end in (1e300, 1.34e17):
-        with pytest.raises(ValueError, match=r"t_end / dt must be at most 2\*\*53 steps.*"
-                                             r"t_end = .* dt = "):
+        with pytest.raises(
+            ValueError,
+            match=r"t_end / dt must be at most 2\*\*53 steps.*"
+            r"t_end = .* dt = ",
+        ):
             rs.run_batch(kl, spin=[1.0, 2.0], t_end=[1.0, t_end], dt=0.0145)
     with pytest.raises(ValueError, match=r"t_end / dt .* at index \(1,\)"):
         run_planar_batch(PlanarBody(0.1, 0.05, 1.0), theta=0.1, t_end=[1.0, 1e300])
-    assert 2**52 < rs.rattleback.batch.max_steps(kl, spin=1.0, t_end=2.0**53, dt=1.0) <= 2**53
+    assert (
+        2**52 < rs.rattleback.batch.max_steps(kl, spin=1.0, t_end=2.0**53, dt=1.0) <= 2**53
+    )
     # the step is the default one of that g, damping and body: the message names them
-    with pytest.raises(ValueError, match=r"dt = .* \(the body's default step at g = 1e\+200"):
+    with pytest.raises(
+        ValueError, match=r"dt = .* \(the body's default step at g = 1e\+200"
+    ):
         rs.run_batch(kl, spin=1.0, t_end=1.0, g=1e200)
-    with pytest.raises(ValueError, match=r"default step at g = 9.81, damping = 1e\+300, "
-                                         r"body = 'kane_levinson' with a = 0.2, b = 0.03, "
-                                         r"c = 0.02 m\)"):
+    with pytest.raises(
+        ValueError,
+        match=r"default step at g = 9.81, damping = 1e\+300, "
+        r"body = 'kane_levinson' with a = 0.2, b = 0.03, "
+        r"c = 0.02 m\)",
+    ):
         rs.run_batch(kl, spin=1.0, t_end=1.0, damping=1e300)
     # a g so large that the default step overflows
     with pytest.raises(ValueError, match=r"g = 1.7e\+308 m s-2 is too large for body"):
@@ -210,8 +249,11 @@ def test_launch_angles_follow_the_documented_rotation_order():
     assert (rotation_matrices(quaternion_from_angles(0.0, 0.1, 0.0)) @ [1, 0, 0])[2] < 0
     # and the kernel starts from it: a launch's recorded quaternion is the same
     run = rs.simulate(rs.Body.preset("toy"), roll=roll, pitch=pitch, yaw=yaw, t_end=0.01)
-    np.testing.assert_allclose(run.quaternion.isel(time=0).values,
-                               quaternion_from_angles(roll, pitch, yaw), atol=1e-15)
+    np.testing.assert_allclose(
+        run.quaternion.isel(time=0).values,
+        quaternion_from_angles(roll, pitch, yaw),
+        atol=1e-15,
+    )
 
 
 def test_a_coarse_time_step_is_flagged_at_the_callers_line():
@@ -220,13 +262,20 @@ def test_a_coarse_time_step_is_flagged_at_the_callers_line():
 
     toy = rs.Body.preset("toy")
     default = toy.default_dt()
-    with pytest.warns(CoarseStepWarning, match=r"30 times the default step of body 'toy'"
-                      r".*unstable from about 29 times") as caught:
+    with pytest.warns(
+        CoarseStepWarning,
+        match=r"30 times the default step of body 'toy'"
+        r".*unstable from about 29 times",
+    ) as caught:
         rs.run_batch(toy, spin=[5.0, -5.0], roll=0.01, dt=30 * default, t_end=0.5)
     assert caught[0].filename == __file__
     with pytest.warns(CoarseStepWarning) as caught:
-        simulate_planar(PlanarBody(0.1, 0.05, 1.0), theta=0.2,
-                        dt=10 * PlanarBody(0.1, 0.05, 1.0).default_dt(), t_end=0.1)
+        simulate_planar(
+            PlanarBody(0.1, 0.05, 1.0),
+            theta=0.2,
+            dt=10 * PlanarBody(0.1, 0.05, 1.0).default_dt(),
+            t_end=0.1,
+        )
     assert caught[0].filename == __file__
     with warnings.catch_warnings():
         warnings.simplefilter("error", CoarseStepWarning)
@@ -243,8 +292,14 @@ def test_the_default_step_follows_strong_damping():
     body = rs.Body.semi_ellipsoid(0.01, 0.004, 0.003, 0.01)
     i_min = np.linalg.eigvalsh(body.inertia)[0]
     damping = 50 * i_min / body.default_dt()
-    ds = rs.run_batch(body, spin=[0.0, 3.0], roll=0.03, damping=damping,
-                      t_end=5 * body.default_dt(), record_every=1)
+    ds = rs.run_batch(
+        body,
+        spin=[0.0, 3.0],
+        roll=0.03,
+        damping=damping,
+        t_end=5 * body.default_dt(),
+        record_every=1,
+    )
     np.testing.assert_allclose(ds.dt.values, i_min / damping, rtol=1e-12)
     assert (ds.status == 0).all()
     energy = ds.energy.values
@@ -259,10 +314,17 @@ def test_the_default_step_follows_strong_damping():
 def test_angles_in_degrees_are_the_radian_launches_and_keep_their_values(kl):
     toy = rs.Body.preset("toy")
     deg = np.array([0.5, 1.0, 3.0])
-    a = rs.run_batch(toy, spin=[[2.0], [-3.0]], roll_deg=deg, pitch_deg=1.5, yaw_deg=30.0,
-                     t_end=0.2)
-    b = rs.run_batch(toy, spin=[[2.0], [-3.0]], roll=np.radians(deg),
-                     pitch=math.radians(1.5), yaw=math.radians(30.0), t_end=0.2)
+    a = rs.run_batch(
+        toy, spin=[[2.0], [-3.0]], roll_deg=deg, pitch_deg=1.5, yaw_deg=30.0, t_end=0.2
+    )
+    b = rs.run_batch(
+        toy,
+        spin=[[2.0], [-3.0]],
+        roll=np.radians(deg),
+        pitch=math.radians(1.5),
+        yaw=math.radians(30.0),
+        t_end=0.2,
+    )
     for name in ("final_spin", "max_tilt", "energy_initial", "status"):
         np.testing.assert_array_equal(a[name].values, b[name].values, err_msg=name)
     # the user's degrees exactly, not degrees -> radians -> degrees
@@ -276,16 +338,20 @@ def test_angles_in_degrees_are_the_radian_launches_and_keep_their_values(kl):
     assert run.attrs["pitch_deg"] == 2.0 and run.attrs["pitch_deg_units"] == "degree"
     assert run.attrs["roll_deg"] == 0.0
     # delta_deg where a body is made
-    assert rs.Body.semi_ellipsoid(0.1, 0.02, 0.01, 0.02, delta_deg=5.0) == \
-        rs.Body.semi_ellipsoid(0.1, 0.02, 0.01, 0.02, math.radians(5.0))
+    assert rs.Body.semi_ellipsoid(
+        0.1, 0.02, 0.01, 0.02, delta_deg=5.0
+    ) == rs.Body.semi_ellipsoid(0.1, 0.02, 0.01, 0.02, math.radians(5.0))
 
 
 @pytest.mark.parametrize("call", ["run_batch", "simulate"])
 def test_both_forms_of_one_angle_are_refused_naming_both(call):
     toy = rs.Body.preset("toy")
     for rad, deg in (("roll", "roll_deg"), ("pitch", "pitch_deg"), ("yaw", "yaw_deg")):
-        with pytest.raises(ValueError, match=rf"either {rad} \(rad\) or {deg}.*"
-                           rf"{rad}=0\.1 and {deg}=5"):
+        with pytest.raises(
+            ValueError,
+            match=rf"either {rad} \(rad\) or {deg}.*"
+            rf"{rad}=0\.1 and {deg}=5",
+        ):
             getattr(rs, call)(toy, spin=1.0, t_end=0.01, **{rad: 0.1, deg: 5})
     with pytest.raises(ValueError, match=r"either delta \(rad\) or delta_deg"):
         rs.Body.semi_ellipsoid(0.1, 0.02, 0.01, 0.02, 0.1, delta_deg=5.0)
@@ -295,13 +361,18 @@ def test_both_forms_of_one_angle_are_refused_naming_both(call):
 
 def test_degrees_typed_as_radians_draw_a_units_warning(kl):
     toy = rs.Body.preset("toy")
-    with pytest.warns(rs.UnitsWarning, match=r"roll = 30 rad \(1719 degrees\).*"
-                      r"roll_deg=30") as record:
+    with pytest.warns(
+        rs.UnitsWarning,
+        match=r"roll = 30 rad \(1719 degrees\).*"
+        r"roll_deg=30",
+    ) as record:
         rs.run_batch(toy, spin=1.0, roll=[0.01, 30.0], t_end=0.01)
     assert record[0].filename == __file__  # at the caller's line
     assert issubclass(rs.UnitsWarning, UserWarning)
-    with pytest.warns(rs.UnitsWarning, match="pitch_deg=-2"), \
-            pytest.raises(ValueError, match="rim"):
+    with (
+        pytest.warns(rs.UnitsWarning, match="pitch_deg=-2"),
+        pytest.raises(ValueError, match="rim"),
+    ):
         rs.simulate(toy, spin=1.0, pitch=-2.0, t_end=0.01)
     # a full ellipsoid may lie on its side (up to 180 degrees) without a warning
     with warnings.catch_warnings():

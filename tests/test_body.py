@@ -44,10 +44,13 @@ def test_misalignment_rotates_the_principal_axes():
     body = Body.semi_ellipsoid(0.1, 0.03, 0.02, 1.0, delta)
     plain = Body.semi_ellipsoid(0.1, 0.03, 0.02, 1.0)
     i1, i2 = plain.inertia[0, 0], plain.inertia[1, 1]
-    assert body.inertia[0, 1] == pytest.approx((i1 - i2) * math.sin(delta) * math.cos(delta))
+    assert body.inertia[0, 1] == pytest.approx(
+        (i1 - i2) * math.sin(delta) * math.cos(delta)
+    )
     assert body.misalignment == pytest.approx(delta)
-    np.testing.assert_allclose(np.linalg.eigvalsh(body.inertia),
-                               np.linalg.eigvalsh(plain.inertia), rtol=1e-12)
+    np.testing.assert_allclose(
+        np.linalg.eigvalsh(body.inertia), np.linalg.eigvalsh(plain.inertia), rtol=1e-12
+    )
 
 
 def test_point_masses_follow_parallel_axis_rule():
@@ -80,27 +83,40 @@ def test_zero_spin_frequencies_match_closed_forms():
     rx, ry = body.radii_of_curvature
     ixx, iyy = body.inertia[0, 0], body.inertia[1, 1]
     pitch, roll = body.small_oscillation_frequencies(g)
-    assert pitch == pytest.approx(math.sqrt(m * g * (rx - ell) / (iyy + m * ell**2)), rel=1e-12)
-    assert roll == pytest.approx(math.sqrt(m * g * (ry - ell) / (ixx + m * ell**2)), rel=1e-12)
+    assert pitch == pytest.approx(
+        math.sqrt(m * g * (rx - ell) / (iyy + m * ell**2)), rel=1e-12
+    )
+    assert roll == pytest.approx(
+        math.sqrt(m * g * (ry - ell) / (ixx + m * ell**2)), rel=1e-12
+    )
     pitch0, roll0 = body.small_oscillation_frequencies(g, rolling=False)
     assert pitch0 == pytest.approx(math.sqrt(m * g * (rx - ell) / iyy), rel=1e-12)
     assert body.default_dt(g) == pytest.approx(2 * math.pi / max(pitch0, roll0) / 64)
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    (dict(a=-1.0), "a must be a finite number > 0"),
-    (dict(c=0.0), "c must be a finite number > 0"),
-    (dict(mass=float("nan")), "mass must be"),
-    (dict(inertia=[[1, 0.5, 0], [0, 1, 0], [0, 0, 1.5]]), "symmetric"),
-    (dict(inertia=np.diag([1.0, 1.0, -0.5])), "positive definite"),
-    (dict(inertia=np.diag([1.0, 1.0, 3.0])), "triangle inequality"),
-    (dict(com=(0.0, 0.0, 0.001)), "strictly inside"),
-    (dict(com=(0.2, 0.0, -0.01)), "strictly inside"),
-    (dict(b=0.01), "b\\*\\*2/c"),
-])
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (dict(a=-1.0), "a must be a finite number > 0"),
+        (dict(c=0.0), "c must be a finite number > 0"),
+        (dict(mass=float("nan")), "mass must be"),
+        (dict(inertia=[[1, 0.5, 0], [0, 1, 0], [0, 0, 1.5]]), "symmetric"),
+        (dict(inertia=np.diag([1.0, 1.0, -0.5])), "positive definite"),
+        (dict(inertia=np.diag([1.0, 1.0, 3.0])), "triangle inequality"),
+        (dict(com=(0.0, 0.0, 0.001)), "strictly inside"),
+        (dict(com=(0.2, 0.0, -0.01)), "strictly inside"),
+        (dict(b=0.01), "b\\*\\*2/c"),
+    ],
+)
 def test_invalid_bodies_are_refused(kwargs, message):
-    args = dict(a=0.1, b=0.03, c=0.02, mass=1.0, com=(0.0, 0.0, -0.0075),
-                inertia=np.diag([1e-4, 2e-3, 2e-3]))
+    args = dict(
+        a=0.1,
+        b=0.03,
+        c=0.02,
+        mass=1.0,
+        com=(0.0, 0.0, -0.0075),
+        inertia=np.diag([1e-4, 2e-3, 2e-3]),
+    )
     args.update(kwargs)
     with pytest.raises(ValueError, match=message):
         Body(**args)
@@ -119,8 +135,11 @@ def test_scales_too_far_apart_for_float64_are_refused():
     with pytest.raises(ValueError, match="too far apart in scale for float64"):
         Body.ellipsoid(486.0, 0.058, 1e-300, 3.4e165)
     kl = Body.preset("kane_levinson")
-    with pytest.raises(ValueError, match=r"g = 1.7e\+308 m s-2 is too large for body "
-                                         r"'kane_levinson'"):
+    with pytest.raises(
+        ValueError,
+        match=r"g = 1.7e\+308 m s-2 is too large for body "
+        r"'kane_levinson'",
+    ):
         kl.default_dt(1.7e308)
 
 
@@ -131,8 +150,11 @@ def test_semi_axes_too_far_apart_for_the_inertia_are_refused_by_name():
     property-test run, through a sweep file with ``b`` fixed). The bound: the smallest
     moment above 1e-12 of the largest, semi-axes within about 1e6 of each other."""
     for make in (Body.semi_ellipsoid, Body.ellipsoid):
-        with pytest.raises(ValueError, match=r"semi-axes a = 0.05, b = 2084882453.0, c = "
-                                             r"0.01 m are too far apart in scale"):
+        with pytest.raises(
+            ValueError,
+            match=r"semi-axes a = 0.05, b = 2084882453.0, c = "
+            r"0.01 m are too far apart in scale",
+        ):
             make(0.05, 2084882453.0, 0.01, 1.0)
     with pytest.raises(ValueError, match=r"b = 2084882453.0.*too far apart"):
         Body.semi_ellipsoid(0.05, 2084882453.0, 0.01, 1.0, 0.02)
@@ -140,8 +162,10 @@ def test_semi_axes_too_far_apart_for_the_inertia_are_refused_by_name():
     flat = Body.semi_ellipsoid(1.0, 1e-4, 1e-5, 1.0)
     assert np.linalg.eigvalsh(flat.inertia)[0] > 0.0
     with pytest.raises(ValueError, match=r"b = 2084882453.0.*too far apart"):
-        rs.Sweep(axes={"spin": {"start": 0.0, "stop": 0.0, "num": 1}},
-                 fixed={"b": 2084882453.0, "t_end": 0.015625})
+        rs.Sweep(
+            axes={"spin": {"start": 0.0, "stop": 0.0, "num": 1}},
+            fixed={"b": 2084882453.0, "t_end": 0.015625},
+        )
 
 
 @pytest.mark.parametrize("delta", ["abc", None, [0.1], math.nan, math.inf])
@@ -168,8 +192,14 @@ def test_body_is_immutable():
 
 # --- value semantics ------------------------------------------------------------------
 
-_BASE = dict(a=0.1, b=0.03, c=0.02, mass=1.0, com=(0.0, 0.0, -0.0075),
-             inertia=np.diag([1e-4, 2e-3, 2e-3]))
+_BASE = dict(
+    a=0.1,
+    b=0.03,
+    c=0.02,
+    mass=1.0,
+    com=(0.0, 0.0, -0.0075),
+    inertia=np.diag([1e-4, 2e-3, 2e-3]),
+)
 
 
 def _body(**changes):
@@ -184,21 +214,31 @@ def test_equal_parameters_make_equal_bodies_whatever_the_name():
     assert Body.preset("toy") == Body.preset("toy")
     assert hash(Body.preset("toy")) == hash(Body.preset("toy"))
     # the containers the parameters came in do not matter, only their values
-    same = _body(com=np.array([0.0, 0.0, -0.0075]),
-                 inertia=np.diag([1e-4, 2e-3, 2e-3]).tolist())
+    same = _body(
+        com=np.array([0.0, 0.0, -0.0075]), inertia=np.diag([1e-4, 2e-3, 2e-3]).tolist()
+    )
     assert same == one and hash(same) == hash(one)
 
 
-@pytest.mark.parametrize("changes", [
-    dict(a=0.11), dict(b=0.031), dict(c=0.021), dict(mass=1.1),
-    dict(com=(0.001, 0.0, -0.0075)), dict(com=(0.0, 0.001, -0.0075)), dict(com=(0.0, 0.0, -0.008)),
-    dict(inertia=np.diag([1.1e-4, 2e-3, 2e-3])), dict(inertia=np.diag([1e-4, 2.1e-3, 2e-3])),
-    dict(inertia=np.diag([1e-4, 2e-3, 2.1e-3])),
-    dict(inertia=np.array([[1e-4, 1e-5, 0], [1e-5, 2e-3, 0], [0, 0, 2e-3]])),
-    dict(inertia=np.array([[1e-4, 0, 1e-5], [0, 2e-3, 0], [1e-5, 0, 2e-3]])),
-    dict(inertia=np.array([[1e-4, 0, 0], [0, 2e-3, 1e-5], [0, 1e-5, 2e-3]])),
-    dict(full_ellipsoid=True),
-])
+@pytest.mark.parametrize(
+    "changes",
+    [
+        dict(a=0.11),
+        dict(b=0.031),
+        dict(c=0.021),
+        dict(mass=1.1),
+        dict(com=(0.001, 0.0, -0.0075)),
+        dict(com=(0.0, 0.001, -0.0075)),
+        dict(com=(0.0, 0.0, -0.008)),
+        dict(inertia=np.diag([1.1e-4, 2e-3, 2e-3])),
+        dict(inertia=np.diag([1e-4, 2.1e-3, 2e-3])),
+        dict(inertia=np.diag([1e-4, 2e-3, 2.1e-3])),
+        dict(inertia=np.array([[1e-4, 1e-5, 0], [1e-5, 2e-3, 0], [0, 0, 2e-3]])),
+        dict(inertia=np.array([[1e-4, 0, 1e-5], [0, 2e-3, 0], [1e-5, 0, 2e-3]])),
+        dict(inertia=np.array([[1e-4, 0, 0], [0, 2e-3, 1e-5], [0, 1e-5, 2e-3]])),
+        dict(full_ellipsoid=True),
+    ],
+)
 def test_any_parameter_change_makes_a_different_body(changes):
     base, other = _body(), _body(**changes)
     assert base != other and not base == other
@@ -242,7 +282,9 @@ def test_body_does_not_keep_or_freeze_the_callers_com_array():
 def test_distinct_bodies_merges_equal_values_and_keeps_names_apart():
     toy, golden = Body.preset("toy"), Body.preset("golden")
     toy_again = Body.preset("toy")  # another object, same values and name
-    renamed = Body.semi_ellipsoid(toy.a, toy.b, toy.c, toy.mass, math.radians(5.0), name="mine")
+    renamed = Body.semi_ellipsoid(
+        toy.a, toy.b, toy.c, toy.mass, math.radians(5.0), name="mine"
+    )
     assert renamed == toy
     items = [toy_again, golden, toy, renamed, golden, renamed]
     for bodies in (items, np.array(items, dtype=object)):
@@ -255,7 +297,9 @@ def test_distinct_bodies_merges_equal_values_and_keeps_names_apart():
 
 def test_batch_names_follow_the_bodies_when_values_are_equal():
     toy = Body.preset("toy")
-    renamed = Body.semi_ellipsoid(toy.a, toy.b, toy.c, toy.mass, math.radians(5.0), name="mine")
+    renamed = Body.semi_ellipsoid(
+        toy.a, toy.b, toy.c, toy.mass, math.radians(5.0), name="mine"
+    )
     bodies = np.array([toy, renamed, Body.preset("toy")], dtype=object)
     ds = rs.run_batch(bodies, spin=3.0, roll=0.01, t_end=0.05)
     assert list(ds.body_name.values) == ["toy", "mine", "toy"]
@@ -263,12 +307,20 @@ def test_batch_names_follow_the_bodies_when_values_are_equal():
         assert ds[name].values[0] == ds[name].values[1] == ds[name].values[2]
 
 
-@pytest.mark.parametrize("body", [Body.preset("toy"), Body.preset("kane_levinson"),
-                                  Body.ellipsoid(0.05, 0.05, 0.05, 1.0)])
+@pytest.mark.parametrize(
+    "body",
+    [
+        Body.preset("toy"),
+        Body.preset("kane_levinson"),
+        Body.ellipsoid(0.05, 0.05, 0.05, 1.0),
+    ],
+)
 def test_default_dt_is_the_uncached_formula_bit_for_bit(body):
     for g in (9.81, 1.62, 9.81):
-        w = max(*body.small_oscillation_frequencies(g, rolling=True),
-                *body.small_oscillation_frequencies(g, rolling=False))
+        w = max(
+            *body.small_oscillation_frequencies(g, rolling=True),
+            *body.small_oscillation_frequencies(g, rolling=False),
+        )
         w = w if w > 0.0 else math.sqrt(g / body.c)
         assert body.default_dt(g) == 2.0 * math.pi / w / 64.0
     assert body.default_dt(10) == body.default_dt(10.0)
@@ -283,8 +335,11 @@ def test_default_dt_refuses_a_bad_g(g):
 
 # --- validation -----------------------------------------------------------------------
 
-@pytest.mark.parametrize("value", [0, 0.0, -1.0, math.nan, math.inf, -math.inf, "x", None,
-                                   [1.0, 2.0], 1j, 10**400])
+
+@pytest.mark.parametrize(
+    "value",
+    [0, 0.0, -1.0, math.nan, math.inf, -math.inf, "x", None, [1.0, 2.0], 1j, 10**400],
+)
 def test_positive_refuses_with_name_value_and_rule(value):
     with pytest.raises(ValueError) as info:
         positive("mass", value)
@@ -301,15 +356,27 @@ def test_positive_returns_a_float():
     assert positive("a", 5e-324) == 5e-324
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    (dict(a="wide"), "a must be a finite number > 0, got 'wide'"),
-    (dict(mass=None), "mass must be a finite number > 0, got None"),
-    (dict(com="low"), r"com must be a number or an array of numbers \(real numbers: not "
-                      r"booleans, strings or complex numbers\), got 'low'"),
-    (dict(com=(0.0, -0.0075)), r"com must have shape \(3,\), got \(2,\)"),
-    (dict(com=(0.0, math.nan, -0.0075)), r"com must be finite, got \[0.0, nan, -0.0075\]"),
-    (dict(inertia=[[1, 0], [0, 1, 2]]), "inertia must be a number or an array of numbers"),
-])
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (dict(a="wide"), "a must be a finite number > 0, got 'wide'"),
+        (dict(mass=None), "mass must be a finite number > 0, got None"),
+        (
+            dict(com="low"),
+            r"com must be a number or an array of numbers \(real numbers: not "
+            r"booleans, strings or complex numbers\), got 'low'",
+        ),
+        (dict(com=(0.0, -0.0075)), r"com must have shape \(3,\), got \(2,\)"),
+        (
+            dict(com=(0.0, math.nan, -0.0075)),
+            r"com must be finite, got \[0.0, nan, -0.0075\]",
+        ),
+        (
+            dict(inertia=[[1, 0], [0, 1, 2]]),
+            "inertia must be a number or an array of numbers",
+        ),
+    ],
+)
 def test_non_numbers_are_refused_with_the_parameter_name(kwargs, message):
     with pytest.raises(ValueError, match=message):
         _body(**kwargs)
@@ -317,7 +384,9 @@ def test_non_numbers_are_refused_with_the_parameter_name(kwargs, message):
 
 def test_point_masses_are_validated():
     base = _body()
-    with pytest.raises(ValueError, match=r"masses\[1\] mass must be a finite number > 0, got -0.1"):
+    with pytest.raises(
+        ValueError, match=r"masses\[1\] mass must be a finite number > 0, got -0.1"
+    ):
         base.with_point_masses([(0.1, (0, 0, -0.005)), (-0.1, (0, 0, -0.005))])
     with pytest.raises(ValueError, match=r"masses\[0\] position must have shape \(3,\)"):
         base.with_point_masses([(0.1, (0, -0.005))])
@@ -338,16 +407,22 @@ def test_finite_vector():
 
 
 def test_as_float_array():
-    assert as_float_array("spin", 3).shape == () and as_float_array("spin", 3).dtype == float
+    assert (
+        as_float_array("spin", 3).shape == () and as_float_array("spin", 3).dtype == float
+    )
     given = np.array([1.0, 2.0])
     assert as_float_array("spin", given) is given
-    assert np.isnan(as_float_array("spin", None))  # as numpy converts it: caught as non-finite
+    assert np.isnan(
+        as_float_array("spin", None)
+    )  # as numpy converts it: caught as non-finite
     for bad in ("fast", [1.0, [2.0, 3.0]], {"x": 1}, 1j):
         with pytest.raises(ValueError) as info:
             as_float_array("spin", bad)
-        assert str(info.value) == ("spin must be a number or an array of numbers (real "
-                                   "numbers: not booleans, strings or complex numbers), "
-                                   f"got {bad!r}")
+        assert str(info.value) == (
+            "spin must be a number or an array of numbers (real "
+            "numbers: not booleans, strings or complex numbers), "
+            f"got {bad!r}"
+        )
 
 
 def test_fail_where():

@@ -33,7 +33,9 @@ def test_dry_run_prints_points_tiles_time_and_memory_and_writes_nothing(tmp_path
     config = tmp_path / "dry.toml"
     config.write_text(CONFIG.replace('name = "dry"', 'name = "dry"\ntile_size = 8'))
     out = tmp_path / "never"
-    assert main(["sweep", str(config), "--out", str(out), "--dry-run", "--workers", "2"]) == 0
+    assert (
+        main(["sweep", str(config), "--out", str(out), "--dry-run", "--workers", "2"]) == 0
+    )
     text = capsys.readouterr().out
     assert not out.exists()
     assert "dry: dry run, nothing written (only a few launches timed)" in text
@@ -45,7 +47,7 @@ def test_dry_run_prints_points_tiles_time_and_memory_and_writes_nothing(tmp_path
 
 def test_dry_run_of_a_refined_sweep_names_the_finest_grid(tmp_path, capsys):
     config = tmp_path / "refined.toml"
-    config.write_text(CONFIG + '[refine]\nlevels = 2\n')
+    config.write_text(CONFIG + "[refine]\nlevels = 2\n")
     assert main(["sweep", str(config), "--dry-run"]) == 0
     text = capsys.readouterr().out
     assert "refined 2 levels to: launch_spin (17), body (2), repeat (2) = 68 points" in text
@@ -80,8 +82,10 @@ def test_zarr_output_is_quiet(tmp_path, capsys):
     store = tmp_path / "z.zarr"
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        assert main(["sweep", str(config), "--out", str(store), "--output", "zarr",
-                     "--quiet"]) == 0
+        assert (
+            main(["sweep", str(config), "--out", str(store), "--output", "zarr", "--quiet"])
+            == 0
+        )
         assert main(["info", str(store)]) == 0
         assert main(["export", str(store), str(tmp_path / "z.nc")]) == 0
     assert [str(w.message) for w in caught] == []
@@ -112,19 +116,31 @@ def test_calibration_of_hours_long_launches_runs_a_bounded_number_of_steps():
     # time is scaled from the steps run to those
     assert e.sample_full_steps == 8 * sweep.max_steps > 1e10
     assert e.seconds == pytest.approx(
-        e.sample_seconds * e.sample_full_steps / e.sample_steps + 0.3 + 0.015)
+        e.sample_seconds * e.sample_full_steps / e.sample_steps + 0.3 + 0.015
+    )
 
 
 def test_dry_run_of_hours_long_launches_answers_and_says_it_scaled(tmp_path):
     config = tmp_path / "long.toml"
     config.write_text(LONG)
-    done = subprocess.run([sys.executable, "-m", "rattlesweep.cli", "sweep", str(config),
-                           "--dry-run", "--workers", "1"],
-                          capture_output=True, text=True, timeout=120)
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "rattlesweep.cli",
+            "sweep",
+            str(config),
+            "--dry-run",
+            "--workers",
+            "1",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert done.returncode == 0, done.stderr
     assert "of their 29,042,876,064 steps, the time scaled by steps" in done.stdout
     assert "time: about" in done.stdout and "on 1 local thread" in done.stdout
-
 
 
 def _catches_sigint(pid):
@@ -147,11 +163,22 @@ def test_ctrl_c_at_any_instant_of_a_dry_run_exits_130_with_one_line(tmp_path):
     config.write_text(LONG.replace("num = 8", "num = 64"))
     statuses = []
     for delay in (0.25, 0.5, 0.8, 1.2):
-        proc = subprocess.Popen([sys.executable, "-m", "rattlesweep.cli", "sweep",
-                                 str(config), "--dry-run", "--workers", "1"],
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                                preexec_fn=lambda: signal.signal(signal.SIGINT,
-                                                                 signal.SIG_DFL))
+        proc = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "rattlesweep.cli",
+                "sweep",
+                str(config),
+                "--dry-run",
+                "--workers",
+                "1",
+            ],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+        )
         while not _catches_sigint(proc.pid):
             time.sleep(0.002)
         time.sleep(delay)

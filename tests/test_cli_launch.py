@@ -42,8 +42,12 @@ def test_every_help_shows_the_defaults(name, parser):
     text = " ".join(parser.format_help().split())
     formatter = parser._get_formatter()
     for action in parser._actions:
-        if (not action.option_strings or action.required or action.default is False
-                or isinstance(action, (argparse._HelpAction, argparse._VersionAction))):
+        if (
+            not action.option_strings
+            or action.required
+            or action.default is False
+            or isinstance(action, (argparse._HelpAction, argparse._VersionAction))
+        ):
             continue  # positionals, required options, flags, --help
         shown = " ".join(formatter._format_action(action).split())
         assert "default" in shown, f"{name} {action.option_strings[0]}: {shown}"
@@ -56,25 +60,90 @@ def test_simulate_takes_every_launch_and_friction_input_and_a_body_file(tmp_path
     (tmp_path / "coins.toml").write_text(COINS)
     out = tmp_path / "run.nc"
     dt = 2e-4
-    rc = main(["simulate", "--body", str(tmp_path / "coins.toml"), "--spin", "-3",
-               "--roll-deg", "1", "--pitch-deg", "-0.5", "--yaw-deg", "30",
-               "--velocity", "0.01", "-0.02", "--mu", "0.4", "--mu-static", "0.5",
-               "--mu-spin", "1e-4", "--mu-roll", "2e-4", "--damping", "1e-7",
-               "--g", "9.7", "--dt", str(dt), "--t-end", "0.3", "--method", "euler",
-               "--out", str(out)])
+    rc = main(
+        [
+            "simulate",
+            "--body",
+            str(tmp_path / "coins.toml"),
+            "--spin",
+            "-3",
+            "--roll-deg",
+            "1",
+            "--pitch-deg",
+            "-0.5",
+            "--yaw-deg",
+            "30",
+            "--velocity",
+            "0.01",
+            "-0.02",
+            "--mu",
+            "0.4",
+            "--mu-static",
+            "0.5",
+            "--mu-spin",
+            "1e-4",
+            "--mu-roll",
+            "2e-4",
+            "--damping",
+            "1e-7",
+            "--g",
+            "9.7",
+            "--dt",
+            str(dt),
+            "--t-end",
+            "0.3",
+            "--method",
+            "euler",
+            "--out",
+            str(out),
+        ]
+    )
     assert rc == 0
     assert "status: ok" in capsys.readouterr().out
-    body = rs.Body(0.05, 0.01, 0.01, 0.02, (0.0, 0.0, -0.004),
-                   [[4e-7, 5e-8, 0.0], [5e-8, 1.4e-5, 0.0], [0.0, 0.0, 1.4e-5]],
-                   name="two coins")
-    expected = rs.simulate(body, spin=-3.0, roll_deg=1.0, pitch_deg=-0.5,
-                           yaw_deg=30.0, velocity=(0.01, -0.02), mu=0.4,
-                           mu_static=0.5, mu_spin=1e-4, mu_roll=2e-4, damping=1e-7,
-                           g=9.7, dt=dt, t_end=0.3, method="euler")
+    body = rs.Body(
+        0.05,
+        0.01,
+        0.01,
+        0.02,
+        (0.0, 0.0, -0.004),
+        [[4e-7, 5e-8, 0.0], [5e-8, 1.4e-5, 0.0], [0.0, 0.0, 1.4e-5]],
+        name="two coins",
+    )
+    expected = rs.simulate(
+        body,
+        spin=-3.0,
+        roll_deg=1.0,
+        pitch_deg=-0.5,
+        yaw_deg=30.0,
+        velocity=(0.01, -0.02),
+        mu=0.4,
+        mu_static=0.5,
+        mu_spin=1e-4,
+        mu_roll=2e-4,
+        damping=1e-7,
+        g=9.7,
+        dt=dt,
+        t_end=0.3,
+        method="euler",
+    )
     with xr.open_dataset(out) as got:
         assert got.attrs["body_name"] == "two coins"
-        for key in ("launch_spin", "roll_deg", "pitch_deg", "yaw_deg", "mu", "mu_static", "mu_spin",
-                    "mu_roll", "damping", "g", "dt", "t_end", "inertia_xy", "method"):
+        for key in (
+            "launch_spin",
+            "roll_deg",
+            "pitch_deg",
+            "yaw_deg",
+            "mu",
+            "mu_static",
+            "mu_spin",
+            "mu_roll",
+            "damping",
+            "g",
+            "dt",
+            "t_end",
+            "inertia_xy",
+            "method",
+        ):
             assert got.attrs[key] == expected.attrs[key], key
         np.testing.assert_array_equal(got.spin.values, expected.spin.values)
         np.testing.assert_array_equal(got.velocity.values, expected.velocity.values)
@@ -82,8 +151,22 @@ def test_simulate_takes_every_launch_and_friction_input_and_a_body_file(tmp_path
 
 def test_simulate_a_semi_ellipsoid_from_its_misalignment(tmp_path):
     out = tmp_path / "run.nc"
-    assert main(["simulate", "--delta-deg", "4", "--c", "0.012", "--t-end", "0.05",
-                 "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "simulate",
+                "--delta-deg",
+                "4",
+                "--c",
+                "0.012",
+                "--t-end",
+                "0.05",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     toy = rs.Body.preset("toy")
     body = rs.Body.semi_ellipsoid(toy.a, toy.b, 0.012, toy.mass, math.radians(4))
     with xr.open_dataset(out) as got:
@@ -91,19 +174,31 @@ def test_simulate_a_semi_ellipsoid_from_its_misalignment(tmp_path):
         assert got.attrs["inertia_xy"] == pytest.approx(body.inertia[0, 1], rel=1e-12)
 
 
-@pytest.mark.parametrize("argv,message", [
-    (["--preset", "toy", "--delta-deg", "3"], "--preset and --a/--b/--c/--mass/--delta-deg"),
-    (["--body", "{coins}", "--preset", "toy"], "--preset and --body"),
-    (["--body", "{bad}"], "body table lacks ['inertia']"),
-    (["--body", "{empty}"], "has no [body] table"),
-    (["--body", "{missing}"], "cannot read"),
-])
+@pytest.mark.parametrize(
+    "argv,message",
+    [
+        (
+            ["--preset", "toy", "--delta-deg", "3"],
+            "--preset and --a/--b/--c/--mass/--delta-deg",
+        ),
+        (["--body", "{coins}", "--preset", "toy"], "--preset and --body"),
+        (["--body", "{bad}"], "body table lacks ['inertia']"),
+        (["--body", "{empty}"], "has no [body] table"),
+        (["--body", "{missing}"], "cannot read"),
+    ],
+)
 def test_simulate_refuses_an_unclear_or_bad_body(tmp_path, capsys, argv, message):
-    files = {"coins": COINS, "bad": COINS.replace("inertia", "# inertia"), "empty": "x = 1\n"}
+    files = {
+        "coins": COINS,
+        "bad": COINS.replace("inertia", "# inertia"),
+        "empty": "x = 1\n",
+    }
     for name, text in files.items():
         (tmp_path / f"{name}.toml").write_text(text)
-    argv = [a.format(**{k: str(tmp_path / f"{k}.toml") for k in [*files, "missing"]})
-            for a in argv]
+    argv = [
+        a.format(**{k: str(tmp_path / f"{k}.toml") for k in [*files, "missing"]})
+        for a in argv
+    ]
     assert main(["simulate", *argv, "--t-end", "0.01"]) == 2
     err = capsys.readouterr().err
     assert message in err

@@ -20,13 +20,24 @@ trimesh = pytest.importorskip("trimesh")
 pytest.importorskip("manifold3d")
 
 from rattlesweep.design import (  # noqa: E402
-    COINS, Coin, DesignRefused, Launches, Material, Part, PrintSettings, body_of, design,
+    COINS,
+    Coin,
+    DesignRefused,
+    Launches,
+    Material,
+    Part,
+    PrintSettings,
+    body_of,
+    design,
     load_body,
 )
 from rattlesweep.design.constraints import check_margin  # noqa: E402
 from rattlesweep.design.mass import moments_of  # noqa: E402
 from rattlesweep.design.mesh import (  # noqa: E402
-    PRINT_FROM_BODY, coin_meshes, core_mesh, moments_of_mesh,
+    PRINT_FROM_BODY,
+    coin_meshes,
+    core_mesh,
+    moments_of_mesh,
 )
 from rattlesweep.sweep import Sweep  # noqa: E402
 
@@ -37,7 +48,9 @@ SHELL = (0.07, 0.02, 0.018)  # m: 140 x 40 x 18 mm
 def made(tmp_path_factory):
     out = tmp_path_factory.mktemp("design")
     a, b, c = SHELL
-    status = main(["design", "--a", str(a), "--b", str(b), "--c", str(c), "--out", str(out)])
+    status = main(
+        ["design", "--a", str(a), "--b", str(b), "--c", str(c), "--out", str(out)]
+    )
     assert status == 0
     with open(out / "design.toml", "rb") as f:
         doc = tomllib.load(f)
@@ -47,10 +60,21 @@ def made(tmp_path_factory):
 def part_from(doc):
     """The Part that a design.toml describes, rebuilt from its tables."""
     shell, coin, pr = doc["shell"], doc["coins"], doc["print"]
-    settings = PrintSettings(Material(pr["material"], pr["density"], pr["density_source"]),
-                             pr["infill"], pr["wall"], pr["clearance"], pr["rim"])
-    the_coin = Coin(coin["name"], coin["mass"], coin["diameter"], coin["thickness"],
-                    coin["inner_diameter"], coin["source"])
+    settings = PrintSettings(
+        Material(pr["material"], pr["density"], pr["density_source"]),
+        pr["infill"],
+        pr["wall"],
+        pr["clearance"],
+        pr["rim"],
+    )
+    the_coin = Coin(
+        coin["name"],
+        coin["mass"],
+        coin["diameter"],
+        coin["thickness"],
+        coin["inner_diameter"],
+        coin["source"],
+    )
     (x, y, _), (x2, y2, _) = coin["centres"]
     assert (x2, y2) == (-x, -y)
     return Part(shell["a"], shell["b"], shell["c"], the_coin, x, y, settings)
@@ -71,8 +95,15 @@ def launches():
 def reversals(body, sign):
     """First reversal times (s, NaN for none within 15 s) of launches spun with sign."""
     spin, roll, pitch, mu = launches()
-    ds = rs.run_batch(body, spin=sign * spin, roll=roll, pitch=pitch, mu=mu, t_end=15.0,
-                      stop="first_reversal")
+    ds = rs.run_batch(
+        body,
+        spin=sign * spin,
+        roll=roll,
+        pitch=pitch,
+        mu=mu,
+        t_end=15.0,
+        stop="first_reversal",
+    )
     assert (ds.status.values == 0).all()
     return ds.first_reversal_time.values
 
@@ -83,8 +114,9 @@ def test_stl_is_watertight_has_the_size_and_the_pockets(made):
     assert mesh.is_watertight and mesh.is_volume
     a, b, c = SHELL
     # millimetres, flat face on the bed
-    np.testing.assert_allclose(mesh.bounds, [[-a * 1e3, -b * 1e3, 0], [a * 1e3, b * 1e3,
-                                                                       c * 1e3]], atol=0.01)
+    np.testing.assert_allclose(
+        mesh.bounds, [[-a * 1e3, -b * 1e3, 0], [a * 1e3, b * 1e3, c * 1e3]], atol=0.01
+    )
     part = part_from(doc)
     r, t = part.pocket_radius, part.coin.thickness
     solid = 2 / 3 * math.pi * a * b * c * 1e9
@@ -112,7 +144,9 @@ def test_mesh_mass_properties_match_the_simulated_body(made):
     mesh = trimesh.load(out / "rattleback.stl")
     mesh.apply_transform(np.linalg.inv(PRINT_FROM_BODY))  # back to the body frame, m
     rho, infill = part.settings.material.density, part.settings.infill
-    total = moments_of_mesh(mesh, rho) + moments_of_mesh(core_mesh(part), -(1 - infill) * rho)
+    total = moments_of_mesh(mesh, rho) + moments_of_mesh(
+        core_mesh(part), -(1 - infill) * rho
+    )
     for coin in coin_meshes(part):
         total = total + moments_of_mesh(coin, part.coin.density)
     body = load_body(out / "design.toml")
@@ -132,7 +166,9 @@ def test_mesh_and_closed_form_agree_for_coins_and_washers(coin):
 
     m, exact = mesh_moments(part), moments_of(part)
     assert m.mass == pytest.approx(exact.mass, rel=5e-3)
-    np.testing.assert_allclose(m.inertia, exact.inertia, atol=5e-3 * np.abs(exact.inertia).max())
+    np.testing.assert_allclose(
+        m.inertia, exact.inertia, atol=5e-3 * np.abs(exact.inertia).max()
+    )
     assert m.inertia[0, 1] == pytest.approx(exact.inertia[0, 1], rel=5e-3)
 
 
@@ -163,9 +199,10 @@ def test_design_toml_is_a_body_for_sweeps_and_the_map_sweep_loads(made):
     body = load_body(out / "design.toml")
     # the [body] table, copied as it is into a sweep file
     text = (out / "design.toml").read_text()
-    table = text[text.index("[body]\n") + len("[body]\n"):].split("\n[", 1)[0]
-    sweep = Sweep.from_toml("[axes]\nspin = [5.0]\n\n[fixed]\nt_end = 1.0\n\n"
-                            f"[fixed.body]\n{table}\n")
+    table = text[text.index("[body]\n") + len("[body]\n") :].split("\n[", 1)[0]
+    sweep = Sweep.from_toml(
+        f"[axes]\nspin = [5.0]\n\n[fixed]\nt_end = 1.0\n\n[fixed.body]\n{table}\n"
+    )
     assert sweep.fixed["body"]["mass"] == body.mass
     np.testing.assert_array_equal(sweep.fixed["body"]["inertia"], body.inertia)
     mapped = Sweep.from_toml(out / "sweep.toml")
@@ -180,7 +217,9 @@ def test_placement_sheet_is_one_to_one(made):
     png = imread(out / "placement_sheet.png")
     height_px, width_px = png.shape[:2]
     pdf = (out / "placement_sheet.pdf").read_bytes()
-    box = [float(v) for v in re.search(rb"/MediaBox \[\s*([\d.\s]+)\]", pdf).group(1).split()]
+    box = [
+        float(v) for v in re.search(rb"/MediaBox \[\s*([\d.\s]+)\]", pdf).group(1).split()
+    ]
     width_pt, height_pt = box[2] - box[0], box[3] - box[1]
     # the PNG at 300 dpi and the PDF (72 pt per inch) show the same real size
     assert width_px / 300 == pytest.approx(width_pt / 72, abs=1 / 300 * 2)
@@ -192,7 +231,7 @@ def test_placement_sheet_is_one_to_one(made):
     with open(out / "placement_sheet.png", "rb") as f:
         data = f.read()
     phys = data.index(b"pHYs")
-    ppm_x, = struct.unpack(">I", data[phys + 4:phys + 8])
+    (ppm_x,) = struct.unpack(">I", data[phys + 4 : phys + 8])
     assert ppm_x == pytest.approx(300 / 0.0254, rel=1e-3)  # dots per metre
     assert (out / "reversal_map.png").stat().st_size > 10_000
 
@@ -207,7 +246,8 @@ def test_search_and_map_data_are_kept(made):
         assert s.first_reversal_time.size == doc["prediction"]["launches_in_search"]
         best = s.isel(candidate=int(s.attrs["best_candidate"]))
         assert (float(best.x), float(best.y)) == pytest.approx(
-            tuple(doc["coins"]["centres"][0][:2]))
+            tuple(doc["coins"]["centres"][0][:2])
+        )
         assert bool(best.robust)
     with xr.open_dataset(out / "reversal_map.nc") as m:
         assert m.first_reversal_time.dims == ("spin", "mu")
@@ -219,8 +259,11 @@ def test_search_and_map_data_are_kept(made):
 
 def test_too_heavy_coins_are_refused_with_the_largest_mass_that_works():
     a, b, c = 0.05, 0.014, 0.015  # b**2/c = 13 mm: G must stay low
-    with pytest.raises(DesignRefused, match=r"design refused: .* 20 g .* the largest coin "
-                       r"mass that would do, at this coin's size, is [\d.]+ g per coin") as e:
+    with pytest.raises(
+        DesignRefused,
+        match=r"design refused: .* 20 g .* the largest coin "
+        r"mass that would do, at this coin's size, is [\d.]+ g per coin",
+    ) as e:
         design(a, b, c, coin="usd_0.01", coin_mass=0.02)
     m_max = e.value.max_coin_mass
     said = float(re.search(r"is ([\d.]+) g per coin", str(e.value)).group(1))
@@ -230,37 +273,55 @@ def test_too_heavy_coins_are_refused_with_the_largest_mass_that_works():
     part = Part(a, b, c, coin, 0.0, 0.0, PrintSettings())
 
     def with_mass(m):
-        return Part(a, b, c, Coin("x", m, coin.diameter, coin.thickness), 0.0, 0.0,
-                    part.settings)
+        return Part(
+            a, b, c, Coin("x", m, coin.diameter, coin.thickness), 0.0, 0.0, part.settings
+        )
+
     check_margin(with_mass(0.99 * m_max), 0.1)  # passes
     with pytest.raises(DesignRefused):
         check_margin(with_mass(1.01 * m_max), 0.1)
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    ({"infill": 0.0}, r"infill = 0.0 is invalid: it must be a fraction in \(0, 1\]"),
-    ({"infill": 1.5}, r"infill = 1.5 is invalid"),
-    ({"infill": float("nan")}, r"infill = nan is invalid"),
-    ({"shell": (0.05, 0.012, 0.03)}, r"cannot rock stably.*b\*\*2/c"),
-    ({"shell": (0.05, 0.013, 0.01), "coin": "eur_2"},
-     r"coin diameter = 0.02575 m is too wide for the flat face"),
-    ({"shell": (-0.05, 0.02, 0.018)}, r"a = -0.05 is invalid"),
-    ({"shell": (70, 20, 18)}, r"a = 70 is invalid: it must be a finite length > 0 and at "
-                              r"most 1 m \(SI units: m\); 70 looks like millimetres"),
-    ({"mu": (0.5, 0.2)}, r"mu high = 0.2 is invalid"),
-    ({"prefer": "left"}, r"prefer = 'left' is invalid"),
-    ({"coins": 3}, r"coins = 3 is invalid"),
-    ({"coin": "EUR_3"}, r"coin 'EUR_3' is unknown"),
-    ({"coin": "doubloon"}, r"coin 'doubloon' is unknown"),
-    ({"coin": None, "coin_mass": -1.0, "coin_diameter": 0.02, "coin_thickness": 0.002},
-     r"coin mass must be a finite number > 0"),
-    ({"margin": 1.0}, r"margin = 1.0 is invalid: it must be a fraction in \[0, 1\)"),
-])
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"infill": 0.0}, r"infill = 0.0 is invalid: it must be a fraction in \(0, 1\]"),
+        ({"infill": 1.5}, r"infill = 1.5 is invalid"),
+        ({"infill": float("nan")}, r"infill = nan is invalid"),
+        ({"shell": (0.05, 0.012, 0.03)}, r"cannot rock stably.*b\*\*2/c"),
+        (
+            {"shell": (0.05, 0.013, 0.01), "coin": "eur_2"},
+            r"coin diameter = 0.02575 m is too wide for the flat face",
+        ),
+        ({"shell": (-0.05, 0.02, 0.018)}, r"a = -0.05 is invalid"),
+        (
+            {"shell": (70, 20, 18)},
+            r"a = 70 is invalid: it must be a finite length > 0 and at "
+            r"most 1 m \(SI units: m\); 70 looks like millimetres",
+        ),
+        ({"mu": (0.5, 0.2)}, r"mu high = 0.2 is invalid"),
+        ({"prefer": "left"}, r"prefer = 'left' is invalid"),
+        ({"coins": 3}, r"coins = 3 is invalid"),
+        ({"coin": "EUR_3"}, r"coin 'EUR_3' is unknown"),
+        ({"coin": "doubloon"}, r"coin 'doubloon' is unknown"),
+        (
+            {
+                "coin": None,
+                "coin_mass": -1.0,
+                "coin_diameter": 0.02,
+                "coin_thickness": 0.002,
+            },
+            r"coin mass must be a finite number > 0",
+        ),
+        ({"margin": 1.0}, r"margin = 1.0 is invalid: it must be a fraction in \[0, 1\)"),
+    ],
+)
 def test_bad_inputs_are_refused_before_any_simulation(kwargs, message, monkeypatch):
     import rattlesweep.design.search as search
 
     def no_compute(*args, **kw):
         raise AssertionError("a simulation started")
+
     monkeypatch.setattr(search, "run_batch", no_compute)
     kwargs = dict(kwargs)
     shell = kwargs.pop("shell", SHELL)
@@ -269,8 +330,24 @@ def test_bad_inputs_are_refused_before_any_simulation(kwargs, message, monkeypat
 
 
 def test_cli_reports_bad_input_as_an_error(capsys):
-    assert main(["design", "--a", "0.07", "--b", "0.02", "--c", "0.018", "--infill", "0",
-                 "--out", "unused"]) == 2
+    assert (
+        main(
+            [
+                "design",
+                "--a",
+                "0.07",
+                "--b",
+                "0.02",
+                "--c",
+                "0.018",
+                "--infill",
+                "0",
+                "--out",
+                "unused",
+            ]
+        )
+        == 2
+    )
     assert "infill = 0.0 is invalid" in capsys.readouterr().err
 
 
@@ -279,9 +356,14 @@ def test_every_coin_is_offered_and_documented():
 
     from rattlesweep.cli import build_parser
 
-    help_text = " ".join(build_parser()._subparsers._group_actions[0]  # noqa: SLF001
-                         .choices["design"].format_help().split())
-    page = (Path(__file__).resolve().parent.parent / "docs/guide/design.md")
+    help_text = " ".join(
+        build_parser()
+        ._subparsers._group_actions[0]  # noqa: SLF001
+        .choices["design"]
+        .format_help()
+        .split()
+    )
+    page = Path(__file__).resolve().parent.parent / "docs/guide/design.md"
     doc = page.read_text() if page.is_file() else None
     for name, coin in COINS.items():
         assert name in help_text
@@ -296,9 +378,12 @@ def test_every_coin_is_offered_and_documented():
 
 # --- what a new user's trial found (issue 33, second round) ---------------------------
 
-CHEAP = dict(grid=(2, 2), refine=0, reversal_map=False,
-             launches=Launches(spins=(5.0,), tilts=((0.01, 0.0),), n_mu=2,
-                                         t_end=2.0))
+CHEAP = dict(
+    grid=(2, 2),
+    refine=0,
+    reversal_map=False,
+    launches=Launches(spins=(5.0,), tilts=((0.01, 0.0),), n_mu=2, t_end=2.0),
+)
 
 
 def no_simulation(monkeypatch):
@@ -306,17 +391,21 @@ def no_simulation(monkeypatch):
 
     def no_compute(*args, **kw):
         raise AssertionError("a simulation started")
+
     monkeypatch.setattr(search, "run_batch", no_compute)
 
 
-def test_a_directory_holding_files_is_refused_before_any_simulation(made, tmp_path,
-                                                                     monkeypatch, capsys):
+def test_a_directory_holding_files_is_refused_before_any_simulation(
+    made, tmp_path, monkeypatch, capsys
+):
     out, _ = made
     before = {p.name: p.stat().st_mtime_ns for p in out.iterdir()}
     no_simulation(monkeypatch)
     a, b, c = SHELL
-    assert main(["design", "--a", str(a), "--b", str(b), "--c", str(c),
-                 "--out", str(out)]) == 2
+    assert (
+        main(["design", "--a", str(a), "--b", str(b), "--c", str(c), "--out", str(out)])
+        == 2
+    )
     err = capsys.readouterr().err
     assert str(out) in err and "a previous design (8 of its 8 files" in err
     assert "design.toml" in err and "--force" in err
@@ -345,6 +434,7 @@ def test_a_failed_write_leaves_no_half_design(tmp_path, monkeypatch):
 
     def broken(*args, **kw):
         raise OSError("disk full")
+
     monkeypatch.setattr(files, "write_sheet", broken)
     with pytest.raises(OSError, match="disk full"):
         design(*SHELL, out=tmp_path / "d", **CHEAP)
@@ -363,8 +453,21 @@ def not_robust(tmp_path_factory):
 
     stdout, stderr = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
-        status = main(["design", "--a", str(a), "--b", str(b), "--c", str(c),
-                       "--coin", "GBP_0.10", "--out", str(out)])
+        status = main(
+            [
+                "design",
+                "--a",
+                str(a),
+                "--b",
+                str(b),
+                "--c",
+                str(c),
+                "--coin",
+                "GBP_0.10",
+                "--out",
+                str(out),
+            ]
+        )
     return out, status, stdout.getvalue(), stderr.getvalue()
 
 
@@ -388,6 +491,7 @@ def test_a_design_not_robust_fails_loudly_and_says_what_to_try(not_robust, made)
     def red(path):
         img = imread(path)[..., :3]
         return int(((img[..., 0] > 0.9) & (img[..., 1] < 0.2) & (img[..., 2] < 0.2)).sum())
+
     good, _ = made
     for name in ("placement_sheet.png", "reversal_map.png"):
         assert red(out / name) > 1000
@@ -396,17 +500,38 @@ def test_a_design_not_robust_fails_loudly_and_says_what_to_try(not_robust, made)
 
 def test_accept_not_robust_exits_zero(not_robust, tmp_path, capsys):
     a, b, c = SHELL
-    assert main(["design", "--a", str(a), "--b", str(b), "--c", str(c), "--coin",
-                 "gbp_0.10", "--out", str(tmp_path / "d"), "--accept-not-robust",
-                 "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "design",
+                "--a",
+                str(a),
+                "--b",
+                str(b),
+                "--c",
+                str(c),
+                "--coin",
+                "gbp_0.10",
+                "--out",
+                str(tmp_path / "d"),
+                "--accept-not-robust",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     captured = capsys.readouterr()
     assert "NOT ROBUST" in captured.out and captured.err == ""
 
 
 def test_progress_is_shown(not_robust, monkeypatch):
     _, _, _, stderr = not_robust
-    for line in ("searching 24 placements x 72 launches...", "refining (level 1 of 2)",
-                 "reversal map: 41 spins x 9 friction values...", "writing files into"):
+    for line in (
+        "searching 24 placements x 72 launches...",
+        "refining (level 1 of 2)",
+        "reversal map: 41 spins x 9 friction values...",
+        "writing files into",
+    ):
         assert line in stderr
     from rattlesweep._run import kernels_compiled
 
@@ -420,19 +545,31 @@ def test_progress_is_shown(not_robust, monkeypatch):
     assert re.fullmatch(r"searching \d+ placements x 4 launches\.\.\.", said[1])
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    ({"shell": (70, 20, 18)}, r"a = 70 is invalid: .*; 70 looks like millimetres: give "
-                              r"metres, e.g. 0.07"),
-    ({"wall": 1.2}, r"wall = 1.2 is invalid.*1.2 looks like millimetres: give metres, e.g. "
-                    r"0.0012"),
-    ({"clearance": 0.4}, r"0.4 looks like millimetres: give metres, e.g. 0.0004"),
-    ({"rim": 2}, r"2 looks like millimetres: give metres, e.g. 0.002"),
-    ({"infill": 20}, r"infill = 20 is invalid: .*it is a fraction: 20 % is 0.2"),
-    ({"wall": 0.02}, r"wall = 0.02 m is too thick for this shell.*c = 0.018 m"),
-    ({"density": 1.24}, r"density = 1.24 is invalid.*looks like g/cm\^3: 1.24 g/cm\^3 is "
-                        r"1240 kg/m\^3"),
-    ({"material": "nylon"}, r"material 'nylon' is unknown.*--density"),
-])
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (
+            {"shell": (70, 20, 18)},
+            r"a = 70 is invalid: .*; 70 looks like millimetres: give "
+            r"metres, e.g. 0.07",
+        ),
+        (
+            {"wall": 1.2},
+            r"wall = 1.2 is invalid.*1.2 looks like millimetres: give metres, e.g. "
+            r"0.0012",
+        ),
+        ({"clearance": 0.4}, r"0.4 looks like millimetres: give metres, e.g. 0.0004"),
+        ({"rim": 2}, r"2 looks like millimetres: give metres, e.g. 0.002"),
+        ({"infill": 20}, r"infill = 20 is invalid: .*it is a fraction: 20 % is 0.2"),
+        ({"wall": 0.02}, r"wall = 0.02 m is too thick for this shell.*c = 0.018 m"),
+        (
+            {"density": 1.24},
+            r"density = 1.24 is invalid.*looks like g/cm\^3: 1.24 g/cm\^3 is "
+            r"1240 kg/m\^3",
+        ),
+        ({"material": "nylon"}, r"material 'nylon' is unknown.*--density"),
+    ],
+)
 def test_unit_mistakes_are_named(kwargs, message, monkeypatch):
     no_simulation(monkeypatch)
     kwargs = dict(kwargs)
@@ -447,12 +584,33 @@ def test_density_overrides_the_material(monkeypatch):
     masses = []
     for material, density in (("pla", None), ("nylon", 2 * 1240.0)):
         with pytest.raises(DesignRefused) as e:
-            design(a, b, c, coin="usd_0.01", coin_mass=0.05, material=material,
-                   density=density)
+            design(
+                a, b, c, coin="usd_0.01", coin_mass=0.05, material=material, density=density
+            )
         masses.append(e.value.max_coin_mass)
     assert masses[1] == pytest.approx(2 * masses[0], rel=1e-9)
-    assert main(["design", "--a", "0.05", "--b", "0.014", "--c", "0.015", "--coin-mass",
-                 "0.05", "--material", "nylon", "--density", "2480", "--out", "unused"]) == 2
+    assert (
+        main(
+            [
+                "design",
+                "--a",
+                "0.05",
+                "--b",
+                "0.014",
+                "--c",
+                "0.015",
+                "--coin-mass",
+                "0.05",
+                "--material",
+                "nylon",
+                "--density",
+                "2480",
+                "--out",
+                "unused",
+            ]
+        )
+        == 2
+    )
 
 
 def test_simulate_and_animate_take_the_design_toml(made, tmp_path):
@@ -460,15 +618,51 @@ def test_simulate_and_animate_take_the_design_toml(made, tmp_path):
 
     out, doc = made
     # a wrong-way flick (cw preferred: n > 0) reverses; the numbers are the design's
-    assert main(["simulate", "--body", str(out / "design.toml"), "--spin", "7", "--mu",
-                 "0.3", "--roll-deg", "0.5", "--t-end", "15", "--out",
-                 str(tmp_path / "run.nc")]) == 0
+    assert (
+        main(
+            [
+                "simulate",
+                "--body",
+                str(out / "design.toml"),
+                "--spin",
+                "7",
+                "--mu",
+                "0.3",
+                "--roll-deg",
+                "0.5",
+                "--t-end",
+                "15",
+                "--out",
+                str(tmp_path / "run.nc"),
+            ]
+        )
+        == 0
+    )
     with xr.open_dataset(tmp_path / "run.nc") as ds:
         assert ds.attrs["body_name"] == "printed rattleback"
         assert math.isfinite(float(ds.first_reversal_time))
-    assert main(["animate", "--body", str(out / "design.toml"), "--spin", "7", "--mu",
-                 "0.3", "--t-end", "1", "--frames", "3", "--dpi", "30", "--out",
-                 str(tmp_path / "a.gif")]) == 0
+    assert (
+        main(
+            [
+                "animate",
+                "--body",
+                str(out / "design.toml"),
+                "--spin",
+                "7",
+                "--mu",
+                "0.3",
+                "--t-end",
+                "1",
+                "--frames",
+                "3",
+                "--dpi",
+                "30",
+                "--out",
+                str(tmp_path / "a.gif"),
+            ]
+        )
+        == 0
+    )
     assert (tmp_path / "a.gif").stat().st_size > 1000
 
 
@@ -478,8 +672,13 @@ def test_coin_names_in_any_case_and_the_help(monkeypatch):
 
     assert make_coin("EUR_1") == COINS["eur_1"]
     assert make_coin("washer_m10") == COINS["washer_M10"]
-    help_text = " ".join(build_parser()._subparsers._group_actions[0]  # noqa: SLF001
-                         .choices["design"].format_help().split())
+    help_text = " ".join(
+        build_parser()
+        ._subparsers._group_actions[0]  # noqa: SLF001
+        .choices["design"]
+        .format_help()
+        .split()
+    )
     assert "--coins" not in help_text
     assert "Two coins are used" in help_text
     assert help_text.count("which this overrides") >= 4  # coin mass, diameter, thickness,
@@ -506,7 +705,7 @@ def test_sheet_labels_clear_the_outline_and_each_other(made):
         for box in boxes:
             assert not path.intersects_bbox(box, filled=False)
         for i, box in enumerate(boxes):
-            for other in boxes[i + 1:]:
+            for other in boxes[i + 1 :]:
                 assert not box.overlaps(other)
 
 
@@ -556,8 +755,9 @@ def test_the_coin_table_says_what_the_design_runs_show(made, not_robust):
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(not os.environ.get("RATTLESWEEP_SLOW"),
-                    reason="slow: set RATTLESWEEP_SLOW=1 to run")
+@pytest.mark.skipif(
+    not os.environ.get("RATTLESWEEP_SLOW"), reason="slow: set RATTLESWEEP_SLOW=1 to run"
+)
 @pytest.mark.parametrize("name", sorted(COINS))
 def test_every_coin_table_claim(name):
     """Each row's claim, by the default search: robust or not on the example shell, and
@@ -570,8 +770,9 @@ def test_every_coin_table_claim(name):
         args = other.group(1).split()
         shell = dict(zip("abc", SHELL))
         shell.update({k[2:]: float(v) for k, v in zip(args[::2], args[1::2])})
-        assert design(shell["a"], shell["b"], shell["c"], coin=name,
-                      reversal_map=False).robust
+        assert design(
+            shell["a"], shell["b"], shell["c"], coin=name, reversal_map=False
+        ).robust
 
 
 def test_a_new_directory_gets_the_usual_permissions(tmp_path):

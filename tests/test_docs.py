@@ -23,14 +23,40 @@ DOCS = Path(__file__).resolve().parent.parent / "docs"
 def test_docs_build_without_warnings(tmp_path):
     out = tmp_path / "html"
     result = subprocess.run(
-        [sys.executable, "-m", "sphinx", "-W", "--keep-going", "-q", "-b", "html",
-         "-d", str(tmp_path / "doctrees"), str(DOCS), str(out)],
-        capture_output=True, text=True, timeout=600)
+        [
+            sys.executable,
+            "-m",
+            "sphinx",
+            "-W",
+            "--keep-going",
+            "-q",
+            "-b",
+            "html",
+            "-d",
+            str(tmp_path / "doctrees"),
+            str(DOCS),
+            str(out),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert result.returncode == 0, result.stdout[-5000:] + result.stderr[-5000:]
-    for page in ("index", "tutorial", "model", "api", "cli", "toml", "gallery", "notebooks",
-                 "guide/simulate", "guide/sweeps", "guide/benchmarks",
-                 "generated/api/rattlesweep.run_batch",
-                 "generated/notebooks/02_rattleback_reversal"):
+    for page in (
+        "index",
+        "tutorial",
+        "model",
+        "api",
+        "cli",
+        "toml",
+        "gallery",
+        "notebooks",
+        "guide/simulate",
+        "guide/sweeps",
+        "guide/benchmarks",
+        "generated/api/rattlesweep.run_batch",
+        "generated/notebooks/02_rattleback_reversal",
+    ):
         assert (out / f"{page}.html").is_file(), page
     api = (out / "generated/api/rattlesweep.run_batch.html").read_text()
     assert "mu_static" in api and "Returns" in api

@@ -14,8 +14,12 @@ import numpy as np
 import pytest
 
 import rattlesweep as rs
-from event_reference import (launch_state, planar_events, rattleback_events,
-                             rattleback_regularized)
+from event_reference import (
+    launch_state,
+    planar_events,
+    rattleback_events,
+    rattleback_regularized,
+)
 from rattlesweep.planar import PlanarBody, simulate_planar
 
 HALF_DEGREE = math.radians(0.5)
@@ -24,8 +28,9 @@ DATA = Path(__file__).parent / "data" / "event_reference.npz"
 
 def kl_launch(mu):
     body = rs.Body.preset("kane_levinson")
-    run = rs.simulate(body, spin=5.0, pitch=HALF_DEGREE, mu=mu, t_end=body.default_dt(),
-                      record_every=1)
+    run = rs.simulate(
+        body, spin=5.0, pitch=HALF_DEGREE, mu=mu, t_end=body.default_dt(), record_every=1
+    )
     return body, launch_state(run)
 
 
@@ -58,8 +63,9 @@ def kl_coulomb():
 
 def test_launch_state_is_the_kernels_t0_record():
     body = rs.Body.preset("kane_levinson")
-    run = rs.simulate(body, spin=5.0, pitch=HALF_DEGREE, t_end=body.default_dt(),
-                      record_every=1)
+    run = rs.simulate(
+        body, spin=5.0, pitch=HALF_DEGREE, t_end=body.default_dt(), record_every=1
+    )
     y0 = launch_state(run)
     assert y0.shape == (11,)
     res = rattleback_events(body, y0, mu=math.inf, t_end=1e-3, samples=2)
@@ -149,8 +155,9 @@ def test_regularised_friction_converges_to_the_event_solution(kl_coulomb):
     t = kl_coulomb.t[::10]
     errors = []
     for delta in (1e-6, 1e-7):
-        _, y, _, _ = rattleback_regularized(body, y0, mu=0.3, delta=delta, t_end=0.3,
-                                            t_eval=t)
+        _, y, _, _ = rattleback_regularized(
+            body, y0, mu=0.3, delta=delta, t_end=0.3, t_eval=t
+        )
         errors.append(np.abs(y - kl_coulomb.y[::10]).max())
     assert errors[1] < 2e-4
     assert errors[1] < errors[0] / 4
@@ -174,8 +181,9 @@ def test_sphere_rolls_up_at_five_sevenths():
     assert end[10] / end[9] == pytest.approx(0.8 / 0.6, rel=1e-9)
     assert res.slip_fraction == pytest.approx(0.5, rel=1e-9)
     # energy lost: (1/2) m v0^2 (1 - 5/7)
-    assert res.energy[0] - res.energy[-1] == pytest.approx(0.5 * m * v0 ** 2 * 2 / 7,
-                                                           rel=1e-9)
+    assert res.energy[0] - res.energy[-1] == pytest.approx(
+        0.5 * m * v0**2 * 2 / 7, rel=1e-9
+    )
 
 
 # --------------------------------------------------------------------------------------
@@ -187,7 +195,7 @@ def planar_period_formula(body, rolling, g=9.81):
     """MODEL.md section 8, from the body's public attributes."""
     d = body.com_depth
     assert d == pytest.approx(4 * body.b / (3 * math.pi))
-    num = body.mass * g * (body.a ** 2 / body.b - (body.b - d))
+    num = body.mass * g * (body.a**2 / body.b - (body.b - d))
     den = body.inertia + (body.mass * (body.b - d) ** 2 if rolling else 0.0)
     return 2 * math.pi / math.sqrt(num / den)
 
@@ -216,8 +224,9 @@ def test_planar_small_rocking_period(mu, rolling):
 
 @pytest.mark.parametrize("mu", [0.3, 0.1])
 def test_planar_coulomb_energy_and_switches(mu):
-    run = simulate_planar(LAMINA, theta=0.3, mu=mu, t_end=LAMINA.default_dt(),
-                          record_every=1)
+    run = simulate_planar(
+        LAMINA, theta=0.3, mu=mu, t_end=LAMINA.default_dt(), record_every=1
+    )
     y0 = launch_state(run)
     res = planar_events(LAMINA, y0[0], y0[1], y0[3], mu=mu, t_end=2.0, samples=4001)
     assert res.status == "ok"
@@ -255,13 +264,23 @@ def test_stored_case_c_reproduces_the_earlier_independent_solution(stored):
     np.testing.assert_allclose(stored["c/t"][:n], stored["a/t"], rtol=0, atol=1e-12)
     assert np.abs(stored["c/spin"][:n] - stored["a/spin"]).max() < 1e-6
     assert float(stored["c/slip_fraction_3"]) == pytest.approx(
-        float(stored["a/slip_fraction"]), abs=1e-6)
+        float(stored["a/slip_fraction"]), abs=1e-6
+    )
 
 
 def test_stored_references_are_complete(stored):
     for case in ("a", "b", "c", "e"):
-        for key in ("t", "spin", "slipping", "switch_t", "switch_kind", "first_zero",
-                    "first_reversal", "slip_fraction", "y0"):
+        for key in (
+            "t",
+            "spin",
+            "slipping",
+            "switch_t",
+            "switch_kind",
+            "first_zero",
+            "first_reversal",
+            "slip_fraction",
+            "y0",
+        ):
             assert f"{case}/{key}" in stored.files
         assert np.all(np.isfinite(stored[f"{case}/spin"]))
     for case in ("d03", "d01"):
@@ -270,15 +289,23 @@ def test_stored_references_are_complete(stored):
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(not os.environ.get("RATTLESWEEP_SLOW"),
-                    reason="slow: set RATTLESWEEP_SLOW=1 to run")
+@pytest.mark.skipif(
+    not os.environ.get("RATTLESWEEP_SLOW"), reason="slow: set RATTLESWEEP_SLOW=1 to run"
+)
 def test_recompute_stored_case_a(stored):
     body, y0 = kl_launch(0.3)
     np.testing.assert_array_equal(y0, stored["a/y0"])
     t = stored["a/t"]
-    res = rattleback_events(body, y0, mu=0.3, t_end=3.0, t_eval=t,
-                            rtol=float(stored["rtol"]), atol=float(stored["atol"]),
-                            method=str(stored["method"]))
+    res = rattleback_events(
+        body,
+        y0,
+        mu=0.3,
+        t_end=3.0,
+        t_eval=t,
+        rtol=float(stored["rtol"]),
+        atol=float(stored["atol"]),
+        method=str(stored["method"]),
+    )
     assert np.abs(res.spin - stored["a/spin"]).max() < 1e-7
     assert res.first_zero_of_spin == pytest.approx(float(stored["a/first_zero"]), abs=1e-7)
     assert res.slip_fraction == pytest.approx(float(stored["a/slip_fraction"]), abs=1e-7)
@@ -288,15 +315,17 @@ def test_recompute_stored_case_a(stored):
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(not os.environ.get("RATTLESWEEP_SLOW"),
-                    reason="slow: set RATTLESWEEP_SLOW=1 to run")
+@pytest.mark.skipif(
+    not os.environ.get("RATTLESWEEP_SLOW"), reason="slow: set RATTLESWEEP_SLOW=1 to run"
+)
 def test_regularised_friction_agrees_with_stored_case_a(stored):
     """Over the 3 s of case (a) the regularised solution (delta = 1e-7 m/s) is within
     1.3e-3 rad/s of the stored event solution and its spin's first zero within 0.1 ms
     (measured: 1.28e-3 rad/s, 6e-5 s; the gap shrinks ~8x per decade of delta)."""
     body, y0 = kl_launch(0.3)
-    t, _, spin, _ = rattleback_regularized(body, y0, mu=0.3, delta=1e-7, t_end=3.0,
-                                           t_eval=stored["a/t"])
+    t, _, spin, _ = rattleback_regularized(
+        body, y0, mu=0.3, delta=1e-7, t_end=3.0, t_eval=stored["a/t"]
+    )
     assert np.abs(spin - stored["a/spin"]).max() < 2e-3
     i = np.flatnonzero(spin < 0)[0]
     first_zero = t[i - 1] - spin[i - 1] * (t[i] - t[i - 1]) / (spin[i] - spin[i - 1])
@@ -326,8 +355,15 @@ def test_planar_kernel_follows_the_event_reference_through_every_switch(mu):
 def _kl_run(stored, case, dt=None, record_every=1):
     body = rs.Body.preset("kane_levinson")
     mu, t_end = float(stored[f"{case}/mu"]), float(stored[f"{case}/t_end"])
-    return rs.simulate(body, spin=float(stored["spin0"]), pitch=float(stored["pitch"]),
-                       mu=mu, t_end=t_end, dt=dt, record_every=record_every)
+    return rs.simulate(
+        body,
+        spin=float(stored["spin0"]),
+        pitch=float(stored["pitch"]),
+        mu=mu,
+        t_end=t_end,
+        dt=dt,
+        record_every=record_every,
+    )
 
 
 @pytest.mark.parametrize("case", ["c", "e"])

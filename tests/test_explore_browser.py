@@ -20,18 +20,22 @@ from rattlesweep.explore import start, warm
 from rattlesweep.sweep.params import result_name
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-sync_api = pytest.importorskip("playwright.sync_api",
-                               reason="Playwright's Python package is not installed "
-                                      "(the test extra installs it)")
+sync_api = pytest.importorskip(
+    "playwright.sync_api",
+    reason="Playwright's Python package is not installed (the test extra installs it)",
+)
 pytestmark = pytest.mark.skipif(
-    CHROMIUM is None, reason="no Chromium installed (Debian: apt-get install chromium; "
-                             ".ci/run installs it)")
+    CHROMIUM is None,
+    reason="no Chromium installed (Debian: apt-get install chromium; .ci/run installs it)",
+)
 
 
 @pytest.fixture(scope="module")
 def shots(tmp_path_factory, request):
-    where = Path(os.environ.get("RATTLESWEEP_SCREENSHOTS")
-                 or tmp_path_factory.mktemp("explore-screenshots"))
+    where = Path(
+        os.environ.get("RATTLESWEEP_SCREENSHOTS")
+        or tmp_path_factory.mktemp("explore-screenshots")
+    )
     where.mkdir(parents=True, exist_ok=True)
     capman = request.config.pluginmanager.getplugin("capturemanager")
     with capman.global_and_fixture_disabled():
@@ -44,8 +48,10 @@ def page():
     warm()
     server = start(workers=2)
     with sync_api.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, args=[
-            "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"])
+        browser = p.chromium.launch(
+            executable_path=CHROMIUM,
+            args=["--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"],
+        )
         context = browser.new_context(viewport={"width": 1500, "height": 1000})
         context.grant_permissions(["clipboard-read", "clipboard-write"])
         pg = context.new_page()
@@ -69,13 +75,16 @@ def test_the_page_loads_and_draws_the_run(page, shots):
     state = page.evaluate("window.explorer.run.summary")
     assert state["status"] == "ok"
     # the 3-D view drew the (orange) body: a share of its pixels is far redder than blue
-    share = page.eval_on_selector("#view", """c => {
+    share = page.eval_on_selector(
+        "#view",
+        """c => {
         const g = document.createElement('canvas'); g.width = c.width; g.height = c.height;
         const x = g.getContext('2d'); x.drawImage(c, 0, 0);
         const d = x.getImageData(0, 0, c.width, c.height).data;
         let n = 0, hit = 0;
         for (let i = 0; i < d.length; i += 4 * 7) { n++; if (d[i] - d[i + 2] > 60) hit++; }
-        return hit / n; }""")
+        return hit / n; }""",
+    )
     assert 0.005 < share < 0.5
     assert "Limits of this server" in page.inner_text("#controls")
     assert "30" in page.inner_text("#caps")  # the run-length cap, said in the page
@@ -90,9 +99,11 @@ def test_moving_the_spin_control_changes_the_spin_plot(page, shots):
     for _ in range(10):  # the slider's step is 0.5 rad/s: from -5 to 0 ... to +0
         page.keyboard.press("ArrowRight")
     page.keyboard.press("ArrowRight")
-    page.wait_for_function(f"window.explorer.runs > {runs} && "
-                           "Math.abs(window.explorer.run.spin[0] - 0.5) < 1e-9",
-                           timeout=30_000)
+    page.wait_for_function(
+        f"window.explorer.runs > {runs} && "
+        "Math.abs(window.explorer.run.spin[0] - 0.5) < 1e-9",
+        timeout=30_000,
+    )
     assert page.input_value("#spin") == "0.5"
     page.wait_for_timeout(100)
     after = canvas_png(page, "#plot-spin")
@@ -102,24 +113,31 @@ def test_moving_the_spin_control_changes_the_spin_plot(page, shots):
 
 def test_a_refused_value_shows_the_library_message_by_its_control(page):
     page.fill("#c", "-0.011")
-    page.wait_for_function("document.getElementById('err-c').textContent.length > 0",
-                           timeout=30_000)
+    page.wait_for_function(
+        "document.getElementById('err-c').textContent.length > 0", timeout=30_000
+    )
     with pytest.raises(ValueError) as info:
         rs.Body.semi_ellipsoid(0.0475, 0.0095, -0.011, 0.01)
     assert page.inner_text("#err-c") == str(info.value)
     page.fill("#c", "0.011")
-    page.wait_for_function("document.getElementById('err-c').textContent === ''",
-                           timeout=30_000)
+    page.wait_for_function(
+        "document.getElementById('err-c').textContent === ''", timeout=30_000
+    )
 
 
 def test_clicking_a_map_point_loads_its_launch(page, shots):
-    for sel, value in (("#map-x-num", "7"), ("#map-y-num", "5"), ("#map-levels", "1"),
-                       ("#t_end", "3")):
+    for sel, value in (
+        ("#map-x-num", "7"),
+        ("#map-y-num", "5"),
+        ("#map-levels", "1"),
+        ("#t_end", "3"),
+    ):
         page.fill(sel, value)
     page.fill("#mu", "inf")
     page.click("#map-go")
-    page.wait_for_function("window.explorer.map && window.explorer.map.done",
-                           timeout=60_000)
+    page.wait_for_function(
+        "window.explorer.map && window.explorer.map.done", timeout=60_000
+    )
     m = page.evaluate("window.explorer.map")
     nx, ny = len(m["x"]["values"]), len(m["y"]["values"])
     box = page.locator("#map-canvas").bounding_box()
@@ -155,15 +173,19 @@ def test_pause_scrub_and_slow_motion(page):
     assert page.evaluate("window.explorer.frame") == frame  # paused: the frame stays
     cursor_before = canvas_png(page, "#plot-tilt")
     n = page.evaluate("window.explorer.run.n")
-    page.eval_on_selector("#scrub", f"""s => {{ s.value = {n // 2};
-        s.dispatchEvent(new Event('input')); }}""")
+    page.eval_on_selector(
+        "#scrub",
+        f"""s => {{ s.value = {n // 2};
+        s.dispatchEvent(new Event('input')); }}""",
+    )
     t_mid = page.evaluate(f"window.explorer.run.t[{n // 2}]")
     assert page.inner_text("#clock") == f"{t_mid:.2f} s"
     assert canvas_png(page, "#plot-tilt") != cursor_before  # the cursor moved
     t0 = time.monotonic()
     page.click("#play")
-    page.wait_for_function(f"window.explorer.run.t[window.explorer.frame] > {t_mid}",
-                           timeout=10_000)
+    page.wait_for_function(
+        f"window.explorer.run.t[window.explorer.frame] > {t_mid}", timeout=10_000
+    )
     page.wait_for_timeout(500)
     t_now = page.evaluate("window.explorer.run.t[window.explorer.frame]")
     wall = time.monotonic() - t0
@@ -173,7 +195,9 @@ def test_pause_scrub_and_slow_motion(page):
 
 def test_copy_as_python_and_the_sweep_toml(page, tmp_path):
     page.click("#copy-python")
-    page.wait_for_function("document.getElementById('status').textContent === 'Python copied'")
+    page.wait_for_function(
+        "document.getElementById('status').textContent === 'Python copied'"
+    )
     code = page.evaluate("navigator.clipboard.readText()")
     assert code == page.evaluate("window.explorer.run.python")
     assert "rs.simulate(body, " in code
@@ -183,12 +207,16 @@ def test_copy_as_python_and_the_sweep_toml(page, tmp_path):
     info.value.save_as(path)
     sweep = rs.Sweep.from_toml(path)
     # the sweep's dimensions are named as results name them (spin: launch_spin)
-    assert sweep.dims == tuple(result_name(page.input_value(f"#map-{k}-param")) for k in "xy")
+    assert sweep.dims == tuple(
+        result_name(page.input_value(f"#map-{k}-param")) for k in "xy"
+    )
 
 
 def wait_run(page, runs, timeout=30_000):
-    page.wait_for_function(f"window.explorer.runs > {runs} || "
-                           f"window.explorer.lastError !== null", timeout=timeout)
+    page.wait_for_function(
+        f"window.explorer.runs > {runs} || window.explorer.lastError !== null",
+        timeout=timeout,
+    )
 
 
 def set_control(page, sel, value):
@@ -196,9 +224,11 @@ def set_control(page, sel, value):
     refusal)."""
     runs, requests = page.evaluate("[window.explorer.runs, window.explorer.requests]")
     page.fill(sel, value)
-    page.wait_for_function(f"window.explorer.requests > {requests} && "
-                           "document.getElementById('status').textContent !== 'running…'",
-                           timeout=30_000)
+    page.wait_for_function(
+        f"window.explorer.requests > {requests} && "
+        "document.getElementById('status').textContent !== 'running…'",
+        timeout=30_000,
+    )
     return runs
 
 
@@ -222,11 +252,14 @@ def test_a_run_that_ends_at_t0_shows_its_warning_and_the_page_keeps_playing(page
     assert page.errors == []
 
 
-@pytest.mark.parametrize("value, message", [
-    ("inf", "spin must be a finite number (rad/s), got inf"),
-    ("nan", "spin must be a finite number (rad/s), got nan"),
-    ("1e300", "spin must be at most 1e+08 rad/s in size, got 1e+300"),
-])
+@pytest.mark.parametrize(
+    "value, message",
+    [
+        ("inf", "spin must be a finite number (rad/s), got inf"),
+        ("nan", "spin must be a finite number (rad/s), got nan"),
+        ("1e300", "spin must be at most 1e+08 rad/s in size, got 1e+300"),
+    ],
+)
 def test_a_spin_the_page_cannot_show_is_refused_by_its_control(page, value, message):
     set_control(page, "#spin", value)
     assert page.inner_text("#err-spin") == message
@@ -239,13 +272,19 @@ def test_a_spin_the_page_cannot_show_is_refused_by_its_control(page, value, mess
 
 def test_a_broken_answer_leaves_the_page_usable(page):
     good = page.evaluate("window.explorer.runs")
-    page.route("**/api/run", lambda route: route.fulfill(
-        status=200, content_type="application/json",
-        body='{"t": [0, 1], "spin": [null, null], "summary": {}, "body": {"a": 1}}'))
+    page.route(
+        "**/api/run",
+        lambda route: route.fulfill(
+            status=200,
+            content_type="application/json",
+            body='{"t": [0, 1], "spin": [null, null], "summary": {}, "body": {"a": 1}}',
+        ),
+    )
     set_control(page, "#spin", "-4")
     assert "could not be drawn" in page.inner_text("#err-general")
-    page.route("**/api/run", lambda route: route.fulfill(status=502, body="Bad Gateway"),
-               times=1)
+    page.route(
+        "**/api/run", lambda route: route.fulfill(status=502, body="Bad Gateway"), times=1
+    )
     page.unroute("**/api/run")
     page.route("**/api/run", lambda route: route.fulfill(status=502, body="Bad Gateway"))
     set_control(page, "#spin", "-4.5")
@@ -274,14 +313,20 @@ def test_caps_are_said_by_their_own_control(page):
 
 def test_a_new_map_axis_gets_its_own_range_and_labels_are_human(page):
     page.select_option("#map-x-param", "mu")
-    start, stop = float(page.input_value("#map-x-start")), float(page.input_value("#map-x-stop"))
+    start, stop = (
+        float(page.input_value("#map-x-start")),
+        float(page.input_value("#map-x-stop")),
+    )
     assert 0 <= start < stop <= 2
     page.select_option("#map-x-param", "a")
     a = float(page.input_value("#a"))
     assert float(page.input_value("#map-x-start")) == pytest.approx(0.5 * a, rel=0.01)
     assert float(page.input_value("#map-x-stop")) == pytest.approx(1.5 * a, rel=0.01)
     page.select_option("#map-x-param", "spin")
-    assert (page.input_value("#map-x-start"), page.input_value("#map-x-stop")) == ("-30", "30")
+    assert (page.input_value("#map-x-start"), page.input_value("#map-x-stop")) == (
+        "-30",
+        "30",
+    )
     options = page.eval_on_selector_all("#map-y-param option", "os => os.map(o => o.text)")
     assert "misalignment δ (deg)" in options and "spin (rad/s)" in options
     assert "μ kinetic" in options and not any("_" in o for o in options)
@@ -298,7 +343,10 @@ def test_a_preset_shows_its_body_and_the_view_frames_it(page, shots):
     golden = rs.Body.preset("golden")
     assert float(page.input_value("#a")) == pytest.approx(golden.a, rel=1e-5)
     assert (page.input_value("#b"), page.input_value("#c"), page.input_value("#mass")) == (
-        "1", "1", "0.2")
+        "1",
+        "1",
+        "0.2",
+    )
     assert page.eval_on_selector("#a", "e => e.readOnly")
     page.wait_for_timeout(100)
     assert page.evaluate("window.explorer.extentInView()") < 0.95
@@ -306,7 +354,8 @@ def test_a_preset_shows_its_body_and_the_view_frames_it(page, shots):
     page.select_option("#preset", "custom")
     page.wait_for_function("window.explorer.run.body.a < 1", timeout=30_000)
     assert page.input_value("#a") == "0.0475" and not page.eval_on_selector(
-        "#a", "e => e.readOnly")
+        "#a", "e => e.readOnly"
+    )
     assert page.input_value("#mass") == "0.0109159"  # rounded for display
     assert page.evaluate("window.explorer.run.python").count("mass=0.010915856") == 1
 
@@ -316,7 +365,9 @@ def test_the_spin_arrow_grows_with_the_spin_and_stays_in_view(page, shots):
     lengths = []
     for spin in ("-1", "-5", "-20"):
         set_control(page, "#spin", spin)
-        page.eval_on_selector("#scrub", "s => { s.value = 0; s.dispatchEvent(new Event('input')); }")
+        page.eval_on_selector(
+            "#scrub", "s => { s.value = 0; s.dispatchEvent(new Event('input')); }"
+        )
         lengths.append(page.evaluate("window.explorer.arrowLength"))
         assert page.evaluate("window.explorer.extentInView()") < 0.95
         page.screenshot(path=str(shots / f"explore-arrow{spin}.png"))
@@ -351,8 +402,11 @@ def test_the_map_has_ticks_a_full_bar_and_no_stray_boundary(page):
     set_control(page, "#t_end", "2")
     set_control(page, "#mu", "inf")
     page.click("#map-go")
-    page.wait_for_function("window.explorer.map && window.explorer.map.done && "
-                           "window.explorer.map.x.values.length === 17", timeout=60_000)
+    page.wait_for_function(
+        "window.explorer.map && window.explorer.map.done && "
+        "window.explorer.map.x.values.length === 17",
+        timeout=60_000,
+    )
     page.wait_for_timeout(300)
     ticks = page.evaluate("window.explorer.mapTicks")
     assert len(ticks["x"]) >= 4 and len(ticks["y"]) >= 3

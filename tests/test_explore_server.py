@@ -36,8 +36,9 @@ def server():
 
 def call(srv, path, body=None, session="s"):
     data = None if body is None else json.dumps({"session": session, **body}).encode()
-    req = urllib.request.Request(srv.url + path, data=data,
-                                 headers={"Content-Type": "application/json"})
+    req = urllib.request.Request(
+        srv.url + path, data=data, headers={"Content-Type": "application/json"}
+    )
     try:
         with urllib.request.urlopen(req, timeout=60) as r:
             return r.status, r.read()
@@ -62,22 +63,34 @@ def test_a_run_answers_with_its_series_and_summary(server):
     toy = rs.Body.semi_ellipsoid(0.0475, 0.0095, 0.011, defaults()["mass"], math.radians(5))
     ref = rs.simulate(toy, spin=-5.0, roll=math.radians(0.5), mu=0.3, t_end=5.0)
     assert data["summary"]["first_reversal_time"] == pytest.approx(
-        float(ref.first_reversal_time), abs=2 * data["summary"]["dt"])
+        float(ref.first_reversal_time), abs=2 * data["summary"]["dt"]
+    )
     assert data["spin"][0] == pytest.approx(-5.0)
     n = len(data["t"])
     assert 100 < n <= Caps().max_frames
     assert len(data["quaternion"]) == 4 * n and len(data["contact"]) == 2 * n
 
 
-@pytest.mark.parametrize("control, value, library", [
-    ("a", -0.01, lambda: rs.Body.semi_ellipsoid(-0.01, 0.0095, 0.011, 0.01)),
-    ("mass", "heavy", lambda: rs.Body.semi_ellipsoid(0.0475, 0.0095, 0.011, "heavy")),
-    ("mu_static", 0.1, lambda: rs.simulate(rs.Body.preset("toy"), mu=0.3, mu_static=0.1,
-                                           t_end=1.0)),
-    ("damping", -1.0, lambda: rs.simulate(rs.Body.preset("toy"), damping=-1.0, t_end=1.0)),
-])
-def test_refused_values_get_the_library_message_by_their_control(server, control, value,
-                                                                 library):
+@pytest.mark.parametrize(
+    "control, value, library",
+    [
+        ("a", -0.01, lambda: rs.Body.semi_ellipsoid(-0.01, 0.0095, 0.011, 0.01)),
+        ("mass", "heavy", lambda: rs.Body.semi_ellipsoid(0.0475, 0.0095, 0.011, "heavy")),
+        (
+            "mu_static",
+            0.1,
+            lambda: rs.simulate(rs.Body.preset("toy"), mu=0.3, mu_static=0.1, t_end=1.0),
+        ),
+        (
+            "damping",
+            -1.0,
+            lambda: rs.simulate(rs.Body.preset("toy"), damping=-1.0, t_end=1.0),
+        ),
+    ],
+)
+def test_refused_values_get_the_library_message_by_their_control(
+    server, control, value, library
+):
     status, data = run(server, **{control: value})
     assert status == 400
     assert data["control"] == control
@@ -90,23 +103,30 @@ def test_refused_values_get_the_library_message_by_their_control(server, control
 
 def test_the_rim_on_the_floor_is_the_library_message_at_the_roll_control(server):
     status, data = run(server, roll_deg=95.0)
-    message = library_message(lambda: rs.simulate(rs.Body.preset("toy"),
-                                                  roll_deg=95.0, t_end=1.0))
+    message = library_message(
+        lambda: rs.simulate(rs.Body.preset("toy"), roll_deg=95.0, t_end=1.0)
+    )
     assert (status, data["control"], data["error"]) == (400, "roll_deg", message)
 
 
-@pytest.mark.parametrize("changes, cap", [
-    ({"t_end": 1000.0}, "max_t_end"),
-    ({"masses": [[0.001, 0.0, 0.0, -0.001]] * 5}, "max_point_masses"),
-])
+@pytest.mark.parametrize(
+    "changes, cap",
+    [
+        ({"t_end": 1000.0}, "max_t_end"),
+        ({"masses": [[0.001, 0.0, 0.0, -0.001]] * 5}, "max_point_masses"),
+    ],
+)
 def test_oversize_runs_are_refused_naming_the_cap(server, changes, cap):
     status, data = run(server, **changes)
     assert status == 413 and cap in data["error"]
 
 
 def test_oversize_maps_are_refused_naming_the_cap(server):
-    axes = {"x": {"param": "spin", "start": -5, "stop": 5, "num": 500},
-            "y": {"param": "delta_deg", "start": -5, "stop": 5, "num": 5}, "levels": 0}
+    axes = {
+        "x": {"param": "spin", "start": -5, "stop": 5, "num": 500},
+        "y": {"param": "delta_deg", "start": -5, "stop": 5, "num": 5},
+        "levels": 0,
+    }
     status, body = call(server, "api/map", {"settings": defaults(), "map": axes})
     assert status == 413 and "max_map_num" in json.loads(body)["error"]
     axes["x"]["num"], axes["levels"] = 5, 9
@@ -120,6 +140,7 @@ def test_a_newer_run_supersedes_the_running_one():
     roomy = start(workers=1, caps=Caps(max_t_end=600.0, max_steps=10**6))
     answers = {}
     try:
+
         def slow():
             answers["slow"] = run(roomy, session="race", t_end=600.0, spin=-7.0)
 
@@ -150,6 +171,7 @@ def test_waiting_work_is_superseded_and_sessions_take_turns():
             order.append(name)
             left[0] -= 1
             return left[0] == 0, name
+
         return step
 
     try:
@@ -169,12 +191,15 @@ def test_waiting_work_is_superseded_and_sessions_take_turns():
 
 
 def test_copy_as_python_makes_the_same_run(server):
-    status, data = run(server, spin=-6.0, mu=0.2, damping=1e-7,
-                       masses=[[0.001, 0.02, 0.002, -0.002]])
+    status, data = run(
+        server, spin=-6.0, mu=0.2, damping=1e-7, masses=[[0.001, 0.02, 0.002, -0.002]]
+    )
     assert status == 200
     namespace = {}
-    exec(compile(data["python"].replace("print(", "(lambda *a: None)("), "<python>", "exec"),
-         namespace)
+    exec(
+        compile(data["python"].replace("print(", "(lambda *a: None)("), "<python>", "exec"),
+        namespace,
+    )
     ref = namespace["run"]
     assert int(ref.n_reversals) == data["summary"]["n_reversals"]
     assert float(ref.final_spin) == pytest.approx(data["summary"]["final_spin"], rel=1e-9)
@@ -193,8 +218,11 @@ def test_the_run_downloads_as_netcdf(server, tmp_path):
 
 
 def test_a_map_runs_to_the_end_and_its_toml_is_the_sweep(server):
-    axes = {"x": {"param": "spin", "start": -20, "stop": 20, "num": 5},
-            "y": {"param": "delta_deg", "start": -6, "stop": 6, "num": 3}, "levels": 1}
+    axes = {
+        "x": {"param": "spin", "start": -20, "stop": 20, "num": 5},
+        "y": {"param": "delta_deg", "start": -6, "stop": 6, "num": 3},
+        "levels": 1,
+    }
     settings = {**defaults(), "mu": "inf", "t_end": 3.0}
     status, body = call(server, "api/map", {"settings": settings, "map": axes}, "map")
     assert status == 200
@@ -221,8 +249,21 @@ def test_a_map_runs_to_the_end_and_its_toml_is_the_sweep(server):
 
 def test_the_command_line_serves_and_warns_off_localhost(tmp_path):
     proc = subprocess.Popen(
-        [sys.executable, "-m", "rattlesweep.cli", "explore", "--no-browser", "--port", "0",
-         "--host", "0.0.0.0"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        [
+            sys.executable,
+            "-m",
+            "rattlesweep.cli",
+            "explore",
+            "--no-browser",
+            "--port",
+            "0",
+            "--host",
+            "0.0.0.0",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     lines = []
     try:
         for line in proc.stdout:
@@ -284,15 +325,22 @@ def test_a_classroom_connecting_at_once_is_answered(server):
 
 def test_a_new_map_supersedes_the_stale_one(server):
     settings = {**defaults(), "mu": "inf", "t_end": 10.0}
-    big = {"x": {"param": "spin", "start": -30, "stop": 30, "num": 25},
-           "y": {"param": "delta_deg", "start": -8, "stop": 8, "num": 25}, "levels": 2}
+    big = {
+        "x": {"param": "spin", "start": -30, "stop": 30, "num": 25},
+        "y": {"param": "delta_deg", "start": -8, "stop": 8, "num": 25},
+        "levels": 2,
+    }
     status, _ = call(server, "api/map", {"settings": settings, "map": big}, "maps")
     assert status == 200
     stale = server.app.session("maps").map
-    small = {"x": {"param": "spin", "start": -5, "stop": 5, "num": 3},
-             "y": {"param": "roll_deg", "start": 0.5, "stop": 1, "num": 2}, "levels": 0}
-    status, _ = call(server, "api/map", {"settings": {**settings, "t_end": 1.0},
-                                         "map": small}, "maps")
+    small = {
+        "x": {"param": "spin", "start": -5, "stop": 5, "num": 3},
+        "y": {"param": "roll_deg", "start": 0.5, "stop": 1, "num": 2},
+        "levels": 0,
+    }
+    status, _ = call(
+        server, "api/map", {"settings": {**settings, "t_end": 1.0}, "map": small}, "maps"
+    )
     assert status == 200
     deadline = time.monotonic() + 60
     while not json.loads(call(server, "api/map?session=maps")[1])["done"]:
@@ -306,8 +354,9 @@ def test_a_new_map_supersedes_the_stale_one(server):
 
 def test_a_loopback_server_refuses_other_host_names(server):
     port = server.url.rsplit(":", 1)[1].strip("/")
-    req = urllib.request.Request(f"http://127.0.0.1:{port}/api/config",
-                                 headers={"Host": f"attacker.example:{port}"})
+    req = urllib.request.Request(
+        f"http://127.0.0.1:{port}/api/config", headers={"Host": f"attacker.example:{port}"}
+    )
     with pytest.raises(urllib.error.HTTPError) as info:
         urllib.request.urlopen(req, timeout=30)
     assert info.value.code == 403
@@ -338,15 +387,19 @@ def test_library_messages_read_as_plain_numbers_without_an_index(server):
     assert "index" not in data["error"]
 
 
-@pytest.mark.parametrize("control, value, message", [
-    ("spin", "inf", "spin must be a finite number (rad/s), got inf"),
-    ("spin", "-inf", "spin must be a finite number (rad/s), got -inf"),
-    ("spin", 1e300, "spin must be at most 1e+08 rad/s in size, got 1e+300"),
-    ("t_end", "nan", "t_end must be a finite number (s), got nan"),
-    ("a", "inf", "a must be a finite number (m), got inf"),
-])
-def test_values_the_page_cannot_show_are_refused_by_their_control(server, control, value,
-                                                                 message):
+@pytest.mark.parametrize(
+    "control, value, message",
+    [
+        ("spin", "inf", "spin must be a finite number (rad/s), got inf"),
+        ("spin", "-inf", "spin must be a finite number (rad/s), got -inf"),
+        ("spin", 1e300, "spin must be at most 1e+08 rad/s in size, got 1e+300"),
+        ("t_end", "nan", "t_end must be a finite number (s), got nan"),
+        ("a", "inf", "a must be a finite number (m), got inf"),
+    ],
+)
+def test_values_the_page_cannot_show_are_refused_by_their_control(
+    server, control, value, message
+):
     status, data = run(server, **{control: value})
     assert (status, data["control"], data["error"]) == (400, control, message)
 
@@ -375,7 +428,11 @@ def test_the_config_describes_presets_and_map_axes(server):
     golden = config["presets"]["golden"]
     body = rs.Body.preset("golden")
     assert (golden["a"], golden["b"], golden["c"], golden["mass"]) == (
-        body.a, body.b, body.c, body.mass)
+        body.a,
+        body.b,
+        body.c,
+        body.mass,
+    )
     assert "_" not in golden["label"]
     axes = config["map_axes"]
     assert axes["delta_deg"]["label"] == config["labels"]["delta_deg"] == "misalignment δ"
@@ -384,9 +441,19 @@ def test_the_config_describes_presets_and_map_axes(server):
         if "start" in axis:
             settings = {**defaults(), "mu": "inf", "t_end": 1.0}
             other = "delta_deg" if name != "delta_deg" else "spin"
-            sweep = map_sweep(settings, {
-                "x": {"param": name, "start": axis["start"], "stop": axis["stop"], "num": 2},
-                "y": {"param": other, "start": 1, "stop": 2, "num": 2}}, Caps())
+            sweep = map_sweep(
+                settings,
+                {
+                    "x": {
+                        "param": name,
+                        "start": axis["start"],
+                        "stop": axis["stop"],
+                        "num": 2,
+                    },
+                    "y": {"param": other, "start": 1, "stop": 2, "num": 2},
+                },
+                Caps(),
+            )
             assert sweep.size == 4
 
 
@@ -408,19 +475,36 @@ def test_a_busy_port_is_one_line_and_exit_status_2():
         busy.listen()
         port = busy.getsockname()[1]
         t0 = time.monotonic()
-        proc = subprocess.run([sys.executable, "-m", "rattlesweep.cli", "explore",
-                               "--no-browser", "--port", str(port)],
-                              capture_output=True, text=True, timeout=120)
+        proc = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "rattlesweep.cli",
+                "explore",
+                "--no-browser",
+                "--port",
+                str(port),
+            ],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
     assert proc.returncode == 2
-    assert proc.stderr.strip() == (f"rattlesweep explore: port {port} is in use: choose "
-                                   "another with --port, or --port 0 for any free port")
+    assert proc.stderr.strip() == (
+        f"rattlesweep explore: port {port} is in use: choose "
+        "another with --port, or --port 0 for any free port"
+    )
     assert "warming" not in proc.stdout  # checked before the kernels are warmed
     assert time.monotonic() - t0 < 30
 
 
 def test_the_command_line_help_describes_the_explorer():
-    proc = subprocess.run([sys.executable, "-m", "rattlesweep.cli", "explore", "--help"],
-                          capture_output=True, text=True, timeout=60)
+    proc = subprocess.run(
+        [sys.executable, "-m", "rattlesweep.cli", "explore", "--help"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert proc.returncode == 0
     assert "reversal map" in proc.stdout and "first run" in proc.stdout
 
@@ -428,7 +512,10 @@ def test_the_command_line_help_describes_the_explorer():
 def test_show_in_a_plain_script_says_where_and_how_to_keep_it_up():
     proc = subprocess.run(
         [sys.executable, "-c", "from rattlesweep import explore; explore.show()"],
-        capture_output=True, text=True, timeout=300)
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert proc.returncode == 0
     assert "serving at http://127.0.0.1:" in proc.stdout
     assert "rattlesweep explore" in proc.stdout and "explore.serve()" in proc.stdout

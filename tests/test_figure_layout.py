@@ -14,8 +14,14 @@ from matplotlib.text import Text
 import rattlesweep as rs
 from rattlesweep.planar import PlanarBody, simulate_planar
 from rattlesweep.plot import (
-    animate, animate_inline, contact_path, reversal_map, reversal_vs_growth, spin_history,
-    stability_map, time_series,
+    animate,
+    animate_inline,
+    contact_path,
+    reversal_map,
+    reversal_vs_growth,
+    spin_history,
+    stability_map,
+    time_series,
 )
 from rattlesweep.plot.animation import _scene
 from rattlesweep.sweep import Sweep, run_sweep
@@ -29,16 +35,26 @@ CF_STRINGS = ("rad s-1", "m s-1", "mu = inf", "degree]")
 @pytest.fixture(scope="module")
 def sweeps(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("layout")
-    grid = Sweep(axes={"spin": {"start": -20, "stop": 20, "num": 5},
-                       "delta_deg": {"start": -6, "stop": 6, "num": 3},
-                       "mu": [0.3, math.inf]},
-                 fixed={"t_end": 1.5, "roll_deg": 0.5})
-    logs = Sweep(axes={"spin": {"start": -20, "stop": 20, "num": 5},
-                       "damping": {"start": 1e-7, "stop": 1e-4, "num": 4, "scale": "log"}},
-                 fixed={"t_end": 1.5, "roll_deg": 0.5})
-    return (run_sweep(grid, tmp / "grid", progress=False),
-            run_sweep(logs, tmp / "logs", progress=False),
-            rs.stability.stability_dataset(grid))
+    grid = Sweep(
+        axes={
+            "spin": {"start": -20, "stop": 20, "num": 5},
+            "delta_deg": {"start": -6, "stop": 6, "num": 3},
+            "mu": [0.3, math.inf],
+        },
+        fixed={"t_end": 1.5, "roll_deg": 0.5},
+    )
+    logs = Sweep(
+        axes={
+            "spin": {"start": -20, "stop": 20, "num": 5},
+            "damping": {"start": 1e-7, "stop": 1e-4, "num": 4, "scale": "log"},
+        },
+        fixed={"t_end": 1.5, "roll_deg": 0.5},
+    )
+    return (
+        run_sweep(grid, tmp / "grid", progress=False),
+        run_sweep(logs, tmp / "logs", progress=False),
+        rs.stability.stability_dataset(grid),
+    )
 
 
 def _texts(fig):
@@ -69,8 +85,9 @@ def test_maps_are_clean_with_human_units(sweeps):
     fig = reversal_map(grid, "launch_spin", "delta_deg", "first_reversal_time", facet="mu")
     _clean(fig)
     assert fig.axes[-1].get_ylabel().endswith("[s]")  # the colour bar, whole
-    _clean(stability_map(stab, "launch_spin", "delta_deg", overlay=grid,
-                         select={"mu": 0.3}))
+    _clean(
+        stability_map(stab, "launch_spin", "delta_deg", overlay=grid, select={"mu": 0.3})
+    )
 
 
 def test_log_spaced_axes_are_drawn_on_log_scales(sweeps):
@@ -79,11 +96,13 @@ def test_log_spaced_axes_are_drawn_on_log_scales(sweeps):
     assert ax.get_yscale() == "log" and ax.get_xscale() == "linear"
     lo, hi = ax.get_ylim()
     # each of the 4 cells spans the same factor, 10 (edges at the geometric midpoints)
-    assert hi / lo == pytest.approx(10.0 ** 4, rel=1e-6)
+    assert hi / lo == pytest.approx(10.0**4, rel=1e-6)
     ax = reversal_map(logs, "damping", "launch_spin", "max_tilt").axes[0]
     assert ax.get_xscale() == "log" and ax.get_yscale() == "linear"
-    assert reversal_map(grid, "launch_spin", "delta_deg", facet="mu").axes[0].get_yscale() \
+    assert (
+        reversal_map(grid, "launch_spin", "delta_deg", facet="mu").axes[0].get_yscale()
         == "linear"
+    )
 
 
 def test_predicted_against_simulated_has_readable_log_ticks(sweeps):
@@ -111,8 +130,10 @@ def test_run_pictures_are_clean_and_contact_paths_share_scales(kl):
         assert panels[0].get_xlim() == panels[1].get_xlim()
         assert panels[0].get_ylim() == panels[1].get_ylim()
     # the -5 rad/s path is a short stroke on the +5 one's scale, not blown up to fill it
-    xy = [np.ptp(p.get_paths()[0].vertices[:, 0]) if p.get_paths() else 0
-          for p in fig.axes[1].collections]
+    xy = [
+        np.ptp(p.get_paths()[0].vertices[:, 0]) if p.get_paths() else 0
+        for p in fig.axes[1].collections
+    ]
     assert max(xy, default=0) < np.diff(fig.axes[1].get_xlim())[0]
 
 
@@ -126,8 +147,11 @@ def test_animation_frame_reads_at_a_glance(kl, dpi):
     ax = fig.axes[0]
     assert ax.computed_zorder is False  # drawn in zorder, not by depth
     body = artists[0]
-    dot = [a for a in artists if getattr(a, "get_marker", lambda: None)() == "o"
-           and a.get_color() == "#e8000b"][0]
+    dot = [
+        a
+        for a in artists
+        if getattr(a, "get_marker", lambda: None)() == "o" and a.get_color() == "#e8000b"
+    ][0]
     arrow = artists[-1]
     assert dot.get_zorder() > body.get_zorder() and arrow.get_zorder() > body.get_zorder()
     # the arrow is tens of pixels long (was 5 px), in proportion to the dpi

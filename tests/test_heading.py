@@ -9,8 +9,14 @@ import numpy as np
 import pytest
 
 import rattlesweep as rs
-from heading_oracle import (HEADING_BAND, heading_from_quaternions, heading_reversal_steps,
-                            largest_turn_back, reversal_count, wackelstein)
+from heading_oracle import (
+    HEADING_BAND,
+    heading_from_quaternions,
+    heading_reversal_steps,
+    largest_turn_back,
+    reversal_count,
+    wackelstein,
+)
 from rattlesweep.core.workspace import HEADING_BAND as KERNEL_HEADING_BAND
 
 TOY = rs.Body.preset("toy")
@@ -55,8 +61,14 @@ def test_rocking_hard_without_reversing_counts_none():
     """The toy spun its preferred way, rolling, pitched 3 degrees: it rocks to a tilt of
     more than a radian and n crosses zero beyond the band, but the heading never turns
     back by even half the band."""
-    run = rs.simulate(TOY, spin=6.0, pitch=math.radians(3.0), roll=math.radians(1.0),
-                      t_end=8.0, record_every=1)
+    run = rs.simulate(
+        TOY,
+        spin=6.0,
+        pitch=math.radians(3.0),
+        roll=math.radians(1.0),
+        t_end=8.0,
+        record_every=1,
+    )
     assert float(run.max_tilt) > 1.0
     assert spin_reversals(run.spin.values) >= 2
     assert largest_turn_back(run.quaternion.values, 1.0) < 0.5 * HEADING_BAND
@@ -67,8 +79,15 @@ def test_rocking_hard_without_reversing_counts_none():
 def test_one_reversal_under_large_rocking_counts_one():
     """At mu = 0.3 the same launch reverses once and then rocks hard: n swings through
     zero several times; the heading reverses once."""
-    run = rs.simulate(TOY, spin=6.0, mu=0.3, pitch=math.radians(3.0), roll=math.radians(1.0),
-                      t_end=10.0, record_every=1)
+    run = rs.simulate(
+        TOY,
+        spin=6.0,
+        mu=0.3,
+        pitch=math.radians(3.0),
+        roll=math.radians(1.0),
+        t_end=10.0,
+        record_every=1,
+    )
     assert spin_reversals(run.spin.values) >= 4
     assert len(heading_reversal_steps(run.quaternion.values, 1.0)) == 1
     assert int(run.n_reversals) == 1
@@ -77,25 +96,40 @@ def test_one_reversal_under_large_rocking_counts_one():
 def test_a_spin_decayed_to_rocking_counts_no_phantoms():
     """kane_levinson with strong air resistance: it reverses once, then its spin decays
     below the rocking's share of n, which then crosses zero again and again."""
-    run = rs.simulate(rs.Body.preset("kane_levinson"), spin=4.0, damping=3e-4,
-                      pitch=math.radians(3.0), roll=math.radians(1.0), t_end=20.0,
-                      record_every=2)
+    run = rs.simulate(
+        rs.Body.preset("kane_levinson"),
+        spin=4.0,
+        damping=3e-4,
+        pitch=math.radians(3.0),
+        roll=math.radians(1.0),
+        t_end=20.0,
+        record_every=2,
+    )
     spin = run.spin.values
     assert spin_reversals(spin) >= 10
-    assert np.max(np.abs(spin[-len(spin) // 5:])) < 0.2 * abs(spin[0])  # decayed
+    assert np.max(np.abs(spin[-len(spin) // 5 :])) < 0.2 * abs(spin[0])  # decayed
     assert reversal_count(run.quaternion.values, spin) == 1
     assert int(run.n_reversals) == 1
 
 
 def test_kane_levinson_counts_as_before():
     """Small rocking: spin and heading count alike (twice each way in 30 s, rolling)."""
-    batch = rs.run_batch(rs.Body.preset("kane_levinson"), spin=[-5.0, 5.0],
-                         pitch=math.radians(0.5), t_end=30.0, record_every=2)
+    batch = rs.run_batch(
+        rs.Body.preset("kane_levinson"),
+        spin=[-5.0, 5.0],
+        pitch=math.radians(0.5),
+        t_end=30.0,
+        record_every=2,
+    )
     for i in range(2):
         sense = np.sign(batch.launch_spin.values[i])
         by_heading = len(heading_reversal_steps(batch.quaternion.values[i], sense))
-        assert batch.n_reversals.values[i] == by_heading == spin_reversals(
-            batch.spin.values[i]) == 2
+        assert (
+            batch.n_reversals.values[i]
+            == by_heading
+            == spin_reversals(batch.spin.values[i])
+            == 2
+        )
 
 
 def test_numpy_count_agrees_on_random_launches():
@@ -103,12 +137,15 @@ def test_numpy_count_agrees_on_random_launches():
     rng = np.random.default_rng(29)
     n = 12
     body = np.array([TOY, rs.Body.preset("kane_levinson"), wackelstein()[0]], dtype=object)[
-        rng.integers(0, 3, n)]
-    launch = dict(spin=rng.choice([-1.0, 1.0], n) * rng.uniform(2.0, 15.0, n),
-                  mu=rng.choice([0.15, 0.3, 0.6, math.inf], n),
-                  damping=rng.choice([0.0, 2e-6, 1e-4], n),
-                  pitch=np.radians(rng.uniform(-3.0, 3.0, n)),
-                  roll=np.radians(rng.uniform(-3.0, 3.0, n)))
+        rng.integers(0, 3, n)
+    ]
+    launch = dict(
+        spin=rng.choice([-1.0, 1.0], n) * rng.uniform(2.0, 15.0, n),
+        mu=rng.choice([0.15, 0.3, 0.6, math.inf], n),
+        damping=rng.choice([0.0, 2e-6, 1e-4], n),
+        pitch=np.radians(rng.uniform(-3.0, 3.0, n)),
+        roll=np.radians(rng.uniform(-3.0, 3.0, n)),
+    )
     batch = rs.run_batch(body, **launch, dt=5e-4, t_end=8.0, record_every=1)
     counts = []
     for i in range(n):

@@ -22,10 +22,13 @@ def _imported_after(code: str) -> dict[str, bool]:
         import json, sys
         print(json.dumps({{m: m in sys.modules for m in {HEAVY!r}}}))
     """)
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
-        [SRC, *filter(None, [os.environ.get("PYTHONPATH")])])}
-    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
-                         env=env, check=True).stdout
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([SRC, *filter(None, [os.environ.get("PYTHONPATH")])]),
+    }
+    out = subprocess.run(
+        [sys.executable, "-c", probe], capture_output=True, text=True, env=env, check=True
+    ).stdout
     return json.loads(out.splitlines()[-1])
 
 
@@ -76,10 +79,13 @@ def test_making_a_sweep_runs_no_kernel():
         assert kernels
         print(sum(len(f.signatures) for f in kernels))
     """)
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
-        [SRC, *filter(None, [os.environ.get("PYTHONPATH")])])}
-    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
-                         env=env, check=True).stdout
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([SRC, *filter(None, [os.environ.get("PYTHONPATH")])]),
+    }
+    out = subprocess.run(
+        [sys.executable, "-c", probe], capture_output=True, text=True, env=env, check=True
+    ).stdout
     assert out.split()[-1] == "0"
 
 
@@ -137,19 +143,33 @@ def test_the_command_starts_without_numerical_libraries():
         import rattlesweep.cli
         print(json.dumps([m for m in ("numpy", "numba", "xarray") if m in sys.modules]))
     """)
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
-        [SRC, *filter(None, [os.environ.get("PYTHONPATH")])])}
-    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
-                         env=env, check=True).stdout
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([SRC, *filter(None, [os.environ.get("PYTHONPATH")])]),
+    }
+    out = subprocess.run(
+        [sys.executable, "-c", probe], capture_output=True, text=True, env=env, check=True
+    ).stdout
     assert json.loads(out.splitlines()[-1]) == []
 
 
 def test_python_m_rattlesweep_is_the_command_line():
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
-        [SRC, *filter(None, [os.environ.get("PYTHONPATH")])])}
-    out = subprocess.run([sys.executable, "-m", "rattlesweep", "--version"],
-                         capture_output=True, text=True, env=env, check=True).stdout
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([SRC, *filter(None, [os.environ.get("PYTHONPATH")])]),
+    }
+    out = subprocess.run(
+        [sys.executable, "-m", "rattlesweep", "--version"],
+        capture_output=True,
+        text=True,
+        env=env,
+        check=True,
+    ).stdout
     assert rs.__version__ in out
-    bad = subprocess.run([sys.executable, "-m", "rattlesweep", "no-such-command"],
-                         capture_output=True, text=True, env=env)
+    bad = subprocess.run(
+        [sys.executable, "-m", "rattlesweep", "no-such-command"],
+        capture_output=True,
+        text=True,
+        env=env,
+    )
     assert bad.returncode == 2 and "no-such-command" in bad.stderr

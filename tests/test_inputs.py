@@ -14,8 +14,17 @@ from rattlesweep.rattleback.batch import launch_inputs, max_steps
 from rattlesweep.core.rattleback import layout as rattleback_layout
 from rattlesweep.core.planar import layout as planar_layout
 from rattlesweep.core.workspace import COMMON_PARAMS
-from rattlesweep.inputs import (BAND, FINITE, HALF_TURN, INPUTS, NONNEG, NONNEG_INF, PLANAR,
-                                POSITIVE, RATTLEBACK)
+from rattlesweep.inputs import (
+    BAND,
+    FINITE,
+    HALF_TURN,
+    INPUTS,
+    NONNEG,
+    NONNEG_INF,
+    PLANAR,
+    POSITIVE,
+    RATTLEBACK,
+)
 from rattlesweep.planar.batch import prepare as prepare_planar
 
 TOY = rs.Body.preset("toy")
@@ -23,9 +32,14 @@ LAMINA = rs.PlanarBody(0.10, 0.05, 1.0)
 T_END = 0.02
 
 # each rule: a value it accepts at its edge, and one it refuses
-EDGES = {id(POSITIVE): (1e-3, 0.0), id(NONNEG): (0.0, -1e-9),
-         id(NONNEG_INF): (math.inf, -1e-9), id(FINITE): (0.0, math.inf),
-         id(HALF_TURN): (1.5, 1.6), id(BAND): (0.0, 1.0)}
+EDGES = {
+    id(POSITIVE): (1e-3, 0.0),
+    id(NONNEG): (0.0, -1e-9),
+    id(NONNEG_INF): (math.inf, -1e-9),
+    id(FINITE): (0.0, math.inf),
+    id(HALF_TURN): (1.5, 1.6),
+    id(BAND): (0.0, 1.0),
+}
 
 # arguments that are another form of a described input (the angles in degrees)
 FORMS = {"roll_deg", "pitch_deg", "yaw_deg"}
@@ -37,32 +51,81 @@ def results(tmp_path_factory):
     friction = dict(mu=0.3, mu_static=0.4, mu_spin=1e-5, mu_roll=1e-6)
     launch = dict(**friction, damping=1e-8, g=9.8, dt=1e-3, t_end=T_END)
     batches = [
-        rs.run_batch(TOY, spin=[2.0, -2.0], roll_deg=0.5, pitch_deg=0.25, yaw_deg=10.0,
-                     velocity=(0.01, 0.0), **launch),
-        rs.run_batch(TOY, omega=[0.1, 0.0, 2.0], orientation=[1.0, 0.0, 0.0, 0.0],
-                     **launch),
+        rs.run_batch(
+            TOY,
+            spin=[2.0, -2.0],
+            roll_deg=0.5,
+            pitch_deg=0.25,
+            yaw_deg=10.0,
+            velocity=(0.01, 0.0),
+            **launch,
+        ),
+        rs.run_batch(
+            TOY, omega=[0.1, 0.0, 2.0], orientation=[1.0, 0.0, 0.0, 0.0], **launch
+        ),
     ]
-    runs = [rs.simulate(TOY, spin=2.0, roll_deg=0.5, pitch_deg=0.25, yaw_deg=10.0,
-                        velocity=(0.01, 0.0), **launch),
-            rs.simulate(TOY, omega=[0.1, 0.0, 2.0], orientation=[1.0, 0.0, 0.0, 0.0],
-                        **launch)]
+    runs = [
+        rs.simulate(
+            TOY,
+            spin=2.0,
+            roll_deg=0.5,
+            pitch_deg=0.25,
+            yaw_deg=10.0,
+            velocity=(0.01, 0.0),
+            **launch,
+        ),
+        rs.simulate(TOY, omega=[0.1, 0.0, 2.0], orientation=[1.0, 0.0, 0.0, 0.0], **launch),
+    ]
     out = tmp_path_factory.mktemp("inputs")
-    fixed = dict(a=0.06, b=0.01, c=0.01, mass=0.02, roll=0.01, pitch=0.005, yaw=0.1,
-                 **{k: v for k, v in launch.items() if k != "t_end"}, t_end=0.01)
+    fixed = dict(
+        a=0.06,
+        b=0.01,
+        c=0.01,
+        mass=0.02,
+        roll=0.01,
+        pitch=0.005,
+        yaw=0.1,
+        **{k: v for k, v in launch.items() if k != "t_end"},
+        t_end=0.01,
+    )
     sweeps = [
-        rs.run_sweep(rs.Sweep(axes={"spin": [2.0, -2.0], "delta_deg": [1.0]}, fixed=fixed),
-                     out / "fixed", progress=False, workers=1),
+        rs.run_sweep(
+            rs.Sweep(axes={"spin": [2.0, -2.0], "delta_deg": [1.0]}, fixed=fixed),
+            out / "fixed",
+            progress=False,
+            workers=1,
+        ),
         # the body's default step (a variable), the angles and spin as axes and draws
-        rs.run_sweep(rs.Sweep(axes={"spin": [2.0], "roll_deg": [0.5], "pitch": [0.01]},
-                              fixed={"t_end": 0.01, "yaw_deg": 3.0},
-                              random={"mu": {"uniform": [0.2, 0.3]}}),
-                     out / "default_dt", progress=False, workers=1),
+        rs.run_sweep(
+            rs.Sweep(
+                axes={"spin": [2.0], "roll_deg": [0.5], "pitch": [0.01]},
+                fixed={"t_end": 0.01, "yaw_deg": 3.0},
+                random={"mu": {"uniform": [0.2, 0.3]}},
+            ),
+            out / "default_dt",
+            progress=False,
+            workers=1,
+        ),
     ]
-    planar = dict(theta=0.1, rate=0.5, velocity=0.01, mu=0.3, mu_static=0.4, mu_roll=1e-6,
-                  g=9.8, dt=1e-3, t_end=T_END)
-    return {"rattleback": (batches, runs, sweeps),
-            "planar": ([rs.run_planar_batch(LAMINA, **planar)],
-                       [rs.simulate_planar(LAMINA, **planar)], [])}
+    planar = dict(
+        theta=0.1,
+        rate=0.5,
+        velocity=0.01,
+        mu=0.3,
+        mu_static=0.4,
+        mu_roll=1e-6,
+        g=9.8,
+        dt=1e-3,
+        t_end=T_END,
+    )
+    return {
+        "rattleback": (batches, runs, sweeps),
+        "planar": (
+            [rs.run_planar_batch(LAMINA, **planar)],
+            [rs.simulate_planar(LAMINA, **planar)],
+            [],
+        ),
+    }
 
 
 @pytest.mark.parametrize("model", ["rattleback", "planar"])
@@ -94,11 +157,17 @@ def test_every_input_carries_its_description_in_every_result(results, model):
     if model == "rattleback":
         assert seen["sweep"] == {s.name for s in inputs.values() if s.sweep}
     # ... and no input a result holds lacks a description
-    described = {s.result_name for s in inputs.values()} | {"body_name", "trajectory",
-                                                           "time"}
+    described = {s.result_name for s in inputs.values()} | {
+        "body_name",
+        "trajectory",
+        "time",
+    }
     for ds in batches:
-        assert set(ds.coords) - described <= {"quaternion_component", "body_axis",
-                                              "horizontal"}
+        assert set(ds.coords) - described <= {
+            "quaternion_component",
+            "body_axis",
+            "horizontal",
+        }
 
 
 def test_a_swept_default_step_and_draws_carry_the_inputs_long_names(results):
@@ -112,8 +181,10 @@ def test_a_swept_default_step_and_draws_carry_the_inputs_long_names(results):
 
 
 def test_the_kernel_packs_inputs_in_their_described_units():
-    for rows, inputs in ((rattleback_layout.PARAMS, RATTLEBACK), (planar_layout.PARAMS,
-                                                                  PLANAR)):
+    for rows, inputs in (
+        (rattleback_layout.PARAMS, RATTLEBACK),
+        (planar_layout.PARAMS, PLANAR),
+    ):
         for row in (*COMMON_PARAMS, *rows):
             if row.name in inputs:
                 assert row.units == inputs[row.name].units, row.name
@@ -123,8 +194,10 @@ def test_the_kernel_packs_inputs_in_their_described_units():
             assert row.long_name == INPUTS[row.name].long_name, row.name
 
 
-FUNCTIONS = {"rattleback": (rs.run_batch, rs.simulate),
-             "planar": (rs.run_planar_batch, rs.simulate_planar)}
+FUNCTIONS = {
+    "rattleback": (rs.run_batch, rs.simulate),
+    "planar": (rs.run_planar_batch, rs.simulate_planar),
+}
 
 
 @pytest.mark.parametrize("model", ["rattleback", "planar"])
@@ -148,14 +221,16 @@ def test_the_functions_take_the_described_inputs_with_their_defaults(model):
 def test_omitted_inputs_take_their_described_defaults():
     batch = rs.run_batch(TOY, t_end=T_END)
     run = rs.simulate(TOY, t_end=T_END)
-    numbers = [s for s in RATTLEBACK.values()
-               if s.in_results and isinstance(s.default, float)]
+    numbers = [
+        s for s in RATTLEBACK.values() if s.in_results and isinstance(s.default, float)
+    ]
     assert {s.name for s in numbers} >= {"spin", "roll", "mu", "mu_spin", "damping", "g"}
     for spec in numbers:
         if spec.name == "delta":
             continue
-        np.testing.assert_array_equal(batch[spec.result_name].values, spec.default,
-                                      spec.name)
+        np.testing.assert_array_equal(
+            batch[spec.result_name].values, spec.default, spec.name
+        )
         assert run.attrs[spec.result_name] == spec.default, spec.name
     assert batch.mu_static.values[0] == batch.mu.values[0]  # "`mu`"
     assert batch.attrs["method"] == RATTLEBACK["method"].default
@@ -165,8 +240,10 @@ def test_omitted_inputs_take_their_described_defaults():
     # as the description says
     assert batch.dt.values[0] == TOY.default_dt(9.81)
     i_min = np.linalg.eigvalsh(TOY.inertia)[0]
-    for damping, want in ((1e3 * i_min / TOY.default_dt(9.81), TOY.default_dt(9.81) / 1e3),
-                          (1e-3 * i_min / TOY.default_dt(9.81), TOY.default_dt(9.81))):
+    for damping, want in (
+        (1e3 * i_min / TOY.default_dt(9.81), TOY.default_dt(9.81) / 1e3),
+        (1e-3 * i_min / TOY.default_dt(9.81), TOY.default_dt(9.81)),
+    ):
         dt = launch_inputs(TOY, damping=damping, t_end=T_END).flat["dt"][0]
         assert dt == pytest.approx(want, rel=1e-12)
     text = RATTLEBACK["dt"].default_text
@@ -188,8 +265,11 @@ def _launch(model, name, value):
 
 
 def _ruled(inputs):
-    return [(s.name, s) for s in inputs.values()
-            if s.rule is not None and s.group not in ("body", "run")]
+    return [
+        (s.name, s)
+        for s in inputs.values()
+        if s.rule is not None and s.group not in ("body", "run")
+    ]
 
 
 @pytest.mark.filterwarnings("ignore:invalid value encountered:RuntimeWarning")
@@ -213,8 +293,9 @@ def test_a_batch_obeys_each_planar_rule(name, spec):
     good, bad = EDGES[id(spec.rule)]
     prepare_planar(LAMINA, **_launch("planar", name, good))  # every check, no kernel
     for function in FUNCTIONS["planar"]:
-        with pytest.raises(ValueError,
-                           match=rf"^{name} {re.escape(spec.rule.message)}; got"):
+        with pytest.raises(
+            ValueError, match=rf"^{name} {re.escape(spec.rule.message)}; got"
+        ):
             function(LAMINA, **_launch("planar", name, bad))
 
 
@@ -252,5 +333,7 @@ def test_a_sweep_obeys_each_rule(name):
     with pytest.raises(ValueError, match=rf"{name} {re.escape(spec.rule.message)}; got"):
         rs.Sweep(axes=axes, fixed={**fixed, name: bad})
     with pytest.raises(ValueError, match=rf"{name} {re.escape(spec.rule.message)}; got"):
-        rs.Sweep(axes={**axes, name: [fixed[name], bad]},
-                 fixed={k: v for k, v in fixed.items() if k != name})
+        rs.Sweep(
+            axes={**axes, name: [fixed[name], bad]},
+            fixed={k: v for k, v in fixed.items() if k != name},
+        )

@@ -10,19 +10,34 @@ from rattlesweep.core.workspace import BLOCK, STATUS_NAMES
 
 from conftest import HALF_DEGREE
 
-OBSERVABLES = ["first_reversal_time", "n_reversals", "final_spin", "mean_final_spin",
-               "max_tilt", "energy_lost", "slip_fraction", "status", "t_final"]
+OBSERVABLES = [
+    "first_reversal_time",
+    "n_reversals",
+    "final_spin",
+    "mean_final_spin",
+    "max_tilt",
+    "energy_lost",
+    "slip_fraction",
+    "status",
+    "t_final",
+]
 
 
 def test_each_status_comes_from_a_launch_that_causes_it(kl):
     toy = rs.Body.preset("toy")
     bodies = np.array([kl, toy, kl, kl], dtype=object)
-    omega = np.array([
-        [0.0, 0.0, 5.0],     # ordinary launch
-        [15.0, 0.0, 0.0],    # toy tipped to 80 deg and rolled over: the rim hits the floor
-        [60.0, 0.0, 0.0],    # violent roll kick: centripetal demand exceeds gravity
-        [np.nan, 0.0, 5.0],  # non-finite input
-    ])
+    omega = np.array(
+        [
+            [0.0, 0.0, 5.0],  # ordinary launch
+            [
+                15.0,
+                0.0,
+                0.0,
+            ],  # toy tipped to 80 deg and rolled over: the rim hits the floor
+            [60.0, 0.0, 0.0],  # violent roll kick: centripetal demand exceeds gravity
+            [np.nan, 0.0, 5.0],  # non-finite input
+        ]
+    )
     roll = np.radians([0.5, 80.0, 0.5, 0.5])
     ds = rs.run_batch(bodies, omega=omega, roll=roll, mu=0.5, t_end=1.0)
     names = [STATUS_NAMES[s] for s in ds.status.values]
@@ -51,8 +66,9 @@ def test_result_is_independent_of_position_and_batch_size(kl):
         spins[pos] = 5.0
         batch = rs.run_batch(kl, spin=spins, **kw)
         for name in OBSERVABLES:
-            np.testing.assert_array_equal(batch[name].values[pos], alone[name].values[0],
-                                          err_msg=name)
+            np.testing.assert_array_equal(
+                batch[name].values[pos], alone[name].values[0], err_msg=name
+            )
 
 
 def test_a_slip_does_not_depend_on_a_neighbour_switching_at_its_step_start():
@@ -63,17 +79,25 @@ def test_a_slip_does_not_depend_on_a_neighbour_switching_at_its_step_start():
     one step."""
     golden = rs.Body.preset("golden")
     tilted = dict(omega=(0.0, 0.0, 0.0), mu=0.1, t_end=0.0145493)
-    alone = rs.run_batch(golden, orientation=(0.9980475107, 0.0, 0.0624593178, 0.0),
-                         **tilted)
+    alone = rs.run_batch(
+        golden, orientation=(0.9980475107, 0.0, 0.0624593178, 0.0), **tilted
+    )
     bodies = np.empty(2, dtype=object)
     bodies[:] = [golden, golden]
-    pair = rs.run_batch(bodies, orientation=[(0.9980525785, 0.0, 0.0623782862, 0.0),
-                                             (0.9980475107, 0.0, 0.0624593178, 0.0)],
-                        mu_roll=[0.0625, 0.0], **tilted)
+    pair = rs.run_batch(
+        bodies,
+        orientation=[
+            (0.9980525785, 0.0, 0.0623782862, 0.0),
+            (0.9980475107, 0.0, 0.0624593178, 0.0),
+        ],
+        mu_roll=[0.0625, 0.0],
+        **tilted,
+    )
     assert float(alone.slip_fraction[0]) == 1.0  # it slips: the case in question
     for name in OBSERVABLES:
-        np.testing.assert_array_equal(pair[name].values[1], alone[name].values[0],
-                                      err_msg=name)
+        np.testing.assert_array_equal(
+            pair[name].values[1], alone[name].values[0], err_msg=name
+        )
 
 
 def test_serial_and_parallel_entries_agree(kl):
@@ -86,12 +110,19 @@ def test_serial_and_parallel_entries_agree(kl):
 
 def test_per_trajectory_parameters_span_a_grid():
     bodies = [rs.Body.semi_ellipsoid(0.05, 0.01, 0.01, 0.02, d) for d in (-0.1, 0.1)]
-    ds = rs.run_batch(np.array(bodies, dtype=object)[:, None], spin=[[-4.0, 4.0]],
-                      roll=0.02, g=[[9.81, 3.0]], t_end=0.5, dt=5e-4)
+    ds = rs.run_batch(
+        np.array(bodies, dtype=object)[:, None],
+        spin=[[-4.0, 4.0]],
+        roll=0.02,
+        g=[[9.81, 3.0]],
+        t_end=0.5,
+        dt=5e-4,
+    )
     assert ds.sizes["trajectory"] == 4
     assert ds.attrs["batch_shape"] == [2, 2]
-    np.testing.assert_allclose(ds.inertia_xy.values[[0, 2]],
-                               [bodies[0].inertia[0, 1], bodies[1].inertia[0, 1]])
+    np.testing.assert_allclose(
+        ds.inertia_xy.values[[0, 2]], [bodies[0].inertia[0, 1], bodies[1].inertia[0, 1]]
+    )
     np.testing.assert_array_equal(ds.g.values, [9.81, 3.0, 9.81, 3.0])
     # each lane ran with its own parameters: a lone run of lane 3 matches
     lone = rs.run_batch(bodies[1], spin=4.0, roll=0.02, g=3.0, t_end=0.5, dt=5e-4)
@@ -153,8 +184,13 @@ def test_no_allocation_in_the_time_loop(kl):
     def allocations(t_end, parallel):
         # a rolling block and two that slip (mu = 0.02, 0.01): the stick, slip and
         # re-stick code paths all run
-        prep = prepare(kl, spin=np.linspace(-8.0, 8.0, BLOCK), roll=math.radians(2.0),
-                       mu=np.array([math.inf, 0.02, 0.01])[:, None], t_end=t_end)
+        prep = prepare(
+            kl,
+            spin=np.linspace(-8.0, 8.0, BLOCK),
+            roll=math.radians(2.0),
+            mu=np.array([math.inf, 0.02, 0.01])[:, None],
+            t_end=t_end,
+        )
         kw = dict(method=RK4, record_every=5, band=0.05, parallel=parallel)
         obs = execute(prep, **kw).observables  # compiles and warms up outside the count
         slip = obs[O_SLIP_FRAC].reshape(3, BLOCK)
@@ -214,8 +250,10 @@ def test_stale_kernels_are_dropped_where_numba_caches_them(tmp_path, monkeypatch
     (stepper_cache,) = (tmp_path / "cache").glob("package_*")
     (model_cache,) = (tmp_path / "cache").glob("model_*")
     assert (stepper_cache / "kernel-sources.sha256").is_file()
-    kernels = [stepper_cache / "stepper.advance_block-1.py311.nbi",
-               model_cache / "hooks.rhs-1.py311.1.nbc"]
+    kernels = [
+        stepper_cache / "stepper.advance_block-1.py311.nbi",
+        model_cache / "hooks.rhs-1.py311.1.nbc",
+    ]
     for kernel in kernels:
         kernel.write_bytes(b"compiled from the current sources")
     assert not drop_stale_cache(package) and all(k.exists() for k in kernels)
@@ -237,8 +275,15 @@ def test_kernels_compiled_says_whether_a_first_call_compiles(tmp_path):
 
     rs.simulate(rs.Body.preset("toy"), spin=5.0, t_end=0.01)  # rolling: mu = inf
     assert kernels_compiled(parallel=False, level=ROLLING)
-    probe = ("from rattlesweep._run import kernels_compiled; "
-             "print(kernels_compiled(False, level=0), kernels_compiled(True))")
-    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
-                         env={**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}, check=True)
+    probe = (
+        "from rattlesweep._run import kernels_compiled; "
+        "print(kernels_compiled(False, level=0), kernels_compiled(True))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", probe],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)},
+        check=True,
+    )
     assert out.stdout.split() == ["False", "False"]

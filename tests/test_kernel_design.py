@@ -13,8 +13,19 @@ from rattlesweep.core import models, stepper
 from rattlesweep.core.models import RATTLEBACK
 from rattlesweep.core.rattleback import dynamics, layout, slip
 from rattlesweep.core.workspace import (
-    BLOCK, COUPLES, OFF_S, OFF_X, ROLLING, S_DPX, S_DPY, S_MODE, S_UHX, S_UHY,
-    SLIDING, STAGE_START, X_DCX,
+    BLOCK,
+    COUPLES,
+    OFF_S,
+    OFF_X,
+    ROLLING,
+    S_DPX,
+    S_DPY,
+    S_MODE,
+    S_UHX,
+    S_UHY,
+    SLIDING,
+    STAGE_START,
+    X_DCX,
 )
 
 
@@ -33,9 +44,15 @@ def _slipping_block():
     slipping: slowly (steered, where the consistent direction is solved for) or fast,
     with a consistent direction from the step before."""
     n = BLOCK
-    prep = prepare(rs.Body.preset("kane_levinson"), spin=np.linspace(-8.0, 8.0, n),
-                   roll=math.radians(3.0), pitch=math.radians(2.0), mu=0.3,
-                   mu_spin=np.where(np.arange(n) % 3 == 0, 1e-3, 0.0), t_end=0.01)
+    prep = prepare(
+        rs.Body.preset("kane_levinson"),
+        spin=np.linspace(-8.0, 8.0, n),
+        roll=math.radians(3.0),
+        pitch=math.radians(2.0),
+        mu=0.3,
+        mu_spin=np.where(np.arange(n) % 3 == 0, 1e-3, 0.0),
+        t_end=0.01,
+    )
     Y = prep.Y[0].copy()
     offsets = np.where(np.arange(n) % 4 == 1, 1e-5, 1.0)  # m/s: slow, fast
     Y[layout.VEL_X] += offsets
@@ -57,8 +74,9 @@ def _rows(offset, n):
     return slice(offset * BLOCK, (offset + n) * BLOCK)
 
 
-@pytest.mark.parametrize("evaluate", [_evaluate_sliding, _evaluate_couples],
-                         ids=["sliding", "couples"])
+@pytest.mark.parametrize(
+    "evaluate", [_evaluate_sliding, _evaluate_couples], ids=["sliding", "couples"]
+)
 def test_the_right_hand_side_writes_only_its_outputs(evaluate):
     """Evaluated twice at one state, a block gives identical derivatives and outputs, and
     leaves every row but its outputs as it found them: the switching state (modes, slip
@@ -75,11 +93,16 @@ def test_the_right_hand_side_writes_only_its_outputs(evaluate):
     assert set(kinds[slipping]) == {slip.FAST_SLIP, slip.SLOW_SLIP}
     assert np.all(first[(OFF_X + X_DCX) * BLOCK + np.flatnonzero(slipping)] != 0.0)
     outputs = np.zeros(W.size, dtype=bool)
-    for offset, n in [(layout.OFF_A, layout.N_STATE), (layout.OFF_T, layout.N_STATE),
-                      (OFF_X, OFF_S - OFF_X), (layout.OFF_G, layout.N_SCRATCH)]:
+    for offset, n in [
+        (layout.OFF_A, layout.N_STATE),
+        (layout.OFF_T, layout.N_STATE),
+        (OFF_X, OFF_S - OFF_X),
+        (layout.OFF_G, layout.N_SCRATCH),
+    ]:
         outputs[_rows(offset, n)] = True
-    changed = np.flatnonzero(~outputs & ~((first == before) | (np.isnan(first)
-                                                              & np.isnan(before))))
+    changed = np.flatnonzero(
+        ~outputs & ~((first == before) | (np.isnan(first) & np.isnan(before)))
+    )
     assert changed.size == 0, f"rows written outside the outputs: {set(changed // BLOCK)}"
 
 
@@ -96,8 +119,12 @@ RHS_VARIANTS = {
 its own and those of the levels below it (a block without couples, or where no lane
 slips, steps at a lower level)."""
 
-ENTRY_BUDGET = {"integrate_serial": 1, "integrate_parallel": 1,
-                "contact_slip_velocity": 1, "rolling_derivative": 1}
+ENTRY_BUDGET = {
+    "integrate_serial": 1,
+    "integrate_parallel": 1,
+    "contact_slip_velocity": 1,
+    "rolling_derivative": 1,
+}
 """Compiled specialisations per entry point, per model and friction level."""
 
 
@@ -111,14 +138,17 @@ def test_compiled_variants_stay_within_the_budget():
     side variants, and one specialisation of each entry point per model and level."""
     body = rs.Body.preset("toy")
     for friction in ({}, {"mu": 0.3}, {"mu": 0.3, "mu_roll": 1e-4}):
-        rs.run_batch(body, spin=[-5.0, 5.0], roll_deg=1.0, t_end=0.01, parallel=False,
-                     **friction)
-    variants = {tuple(t.literal_value for t in sig[1:4])
-                for sig in _cached(dynamics.eval_block)}
+        rs.run_batch(
+            body, spin=[-5.0, 5.0], roll_deg=1.0, t_end=0.01, parallel=False, **friction
+        )
+    variants = {
+        tuple(t.literal_value for t in sig[1:4]) for sig in _cached(dynamics.eval_block)
+    }
     designed = set().union(*RHS_VARIANTS.values())
     assert variants == designed, (
         f"compiled right-hand side variants {sorted(variants - designed)} beyond the "
-        f"design, or {sorted(designed - variants)} missing")
+        f"design, or {sorted(designed - variants)} missing"
+    )
     for name, budget in ENTRY_BUDGET.items():
         per_literals: dict = {}
         for sig in _cached(getattr(stepper, name)):
@@ -146,6 +176,11 @@ def test_a_rolling_run_compiles_no_slip_work(tmp_path):
     import subprocess
     import sys
 
-    out = subprocess.run([sys.executable, "-c", PROBE], capture_output=True, text=True,
-                         env={**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}, check=True)
+    out = subprocess.run(
+        [sys.executable, "-c", PROBE],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)},
+        check=True,
+    )
     assert out.stdout.split("\n")[0] == f"[{ROLLING}] 0 0 [{ROLLING}]"

@@ -22,10 +22,16 @@ def test_notebook_runs_at_small_size(path, tmp_path, monkeypatch):
     monkeypatch.setenv("RATTLESWEEP_NOTEBOOK_SIZE", "small")
     monkeypatch.delenv("MPLBACKEND", raising=False)  # the kernel draws inline
     nb = nbformat.read(path, as_version=4)
-    client = nbclient.NotebookClient(nb, timeout=300, kernel_name="python3",
-                                     resources={"metadata": {"path": str(tmp_path)}})
+    client = nbclient.NotebookClient(
+        nb,
+        timeout=300,
+        kernel_name="python3",
+        resources={"metadata": {"path": str(tmp_path)}},
+    )
     client.execute()  # raises CellExecutionError, with the cell and traceback, on failure
     outputs = [o for cell in nb.cells if cell.cell_type == "code" for o in cell.outputs]
     assert not [o for o in outputs if o.output_type == "error"]
-    assert any(o.output_type in ("display_data", "execute_result") and "image/png" in o.data
-               for o in outputs), "the notebook drew no figure"
+    assert any(
+        o.output_type in ("display_data", "execute_result") and "image/png" in o.data
+        for o in outputs
+    ), "the notebook drew no figure"

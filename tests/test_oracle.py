@@ -29,10 +29,23 @@ CASES = {"kane_levinson": (5.0, 6.2), "toy": (-10.0, 2.0)}
 
 def kernel_launch(body, spins, t_end):
     """Kernel run recorded at every step (public API); its t = 0 state as an oracle state."""
-    ds = rs.run_batch(body, spin=spins, roll=ROLL, t_end=t_end, record_every=1,
-                      reversal_band=BAND, parallel=False)
-    y0 = np.concatenate([ds.quaternion.values[:, 0].T, ds.omega.values[:, 0].T,
-                         ds.position.values[:, 0, :2].T, ds.velocity.values[:, 0, :2].T])
+    ds = rs.run_batch(
+        body,
+        spin=spins,
+        roll=ROLL,
+        t_end=t_end,
+        record_every=1,
+        reversal_band=BAND,
+        parallel=False,
+    )
+    y0 = np.concatenate(
+        [
+            ds.quaternion.values[:, 0].T,
+            ds.omega.values[:, 0].T,
+            ds.position.values[:, 0, :2].T,
+            ds.velocity.values[:, 0, :2].T,
+        ]
+    )
     return ds, y0
 
 
@@ -44,8 +57,9 @@ def run(request):
     ds, y0 = kernel_launch(body, spins, t_end)
     dt = float(ds.dt.values[0])
     _, oracle_spin = NumpyRolling(body).rk4(y0, dt, ds.time.size - 1)
-    return types.SimpleNamespace(body=body, spins=spins, ds=ds, y0=y0, dt=dt,
-                                 oracle_spin=oracle_spin.T)
+    return types.SimpleNamespace(
+        body=body, spins=spins, ds=ds, y0=y0, dt=dt, oracle_spin=oracle_spin.T
+    )
 
 
 def relative_gap(spin_a, spin_b, spins):
@@ -73,8 +87,9 @@ def test_first_reversal_times_agree(run):
 def test_launch_states_agree(run):
     """The oracle's own rolling launch (roll about body x, spin about the vertical, G
     moving so that the contact point is at rest) is the kernel's t = 0 state."""
-    np.testing.assert_allclose(NumpyRolling(run.body).initial(run.spins, ROLL), run.y0,
-                               rtol=0, atol=1e-15)
+    np.testing.assert_allclose(
+        NumpyRolling(run.body).initial(run.spins, ROLL), run.y0, rtol=0, atol=1e-15
+    )
 
 
 class _ContactFromC(NumpyRolling):
@@ -99,9 +114,15 @@ class _NoMigration(NumpyRolling):
 def _mirrored_inertia(body):
     inertia = np.array(body.inertia)
     inertia[0, 1] = inertia[1, 0] = -inertia[0, 1]
-    return types.SimpleNamespace(a=body.a, b=body.b, c=body.c, mass=body.mass,
-                                 com=body.com, inertia=inertia,
-                                 full_ellipsoid=body.full_ellipsoid)
+    return types.SimpleNamespace(
+        a=body.a,
+        b=body.b,
+        c=body.c,
+        mass=body.mass,
+        com=body.com,
+        inertia=inertia,
+        full_ellipsoid=body.full_ellipsoid,
+    )
 
 
 WRONG_MODELS = {

@@ -29,8 +29,9 @@ MU = 5.0  # MuJoCo's friction is finite: this one never reaches the cone here
 
 
 def launch(body, spin):
-    return rs.run_batch(body, spin=spin, pitch=HALF_DEGREE, t_end=body.default_dt(),
-                        record_every=1).isel(time=0, trajectory=0)
+    return rs.run_batch(
+        body, spin=spin, pitch=HALF_DEGREE, t_end=body.default_dt(), record_every=1
+    ).isel(time=0, trajectory=0)
 
 
 def mujoco_state(model, start):
@@ -51,12 +52,19 @@ def test_mujoco_starts_where_rattlesweep_does(kl):
     lifted[3] += 1e-4  # qpos z of G follows the time entry of the state
     with pytest.raises(AssertionError, match="contact_distance"):
         mj.check_same_start(model, kl, lifted, start.contact_point.values, SLOW)
-    mirrored = rs.Body(kl.a, kl.b, kl.c, kl.mass, kl.com,
-                       kl.inertia * np.array([[1, -1, 1], [-1, 1, 1], [1, 1, 1]]),
-                       full_ellipsoid=True)
+    mirrored = rs.Body(
+        kl.a,
+        kl.b,
+        kl.c,
+        kl.mass,
+        kl.com,
+        kl.inertia * np.array([[1, -1, 1], [-1, 1, 1], [1, 1, 1]]),
+        full_ellipsoid=True,
+    )
     with pytest.raises(AssertionError, match="inertia"):
-        mj.check_same_start(mj.build(mirrored, MU, CONTACT)[0], kl, state,
-                            start.contact_point.values, SLOW)
+        mj.check_same_start(
+            mj.build(mirrored, MU, CONTACT)[0], kl, state, start.contact_point.values, SLOW
+        )
 
 
 def test_mujoco_and_rattlesweep_agree_on_the_slow_sense(kl):
@@ -69,8 +77,9 @@ def test_mujoco_and_rattlesweep_agree_on_the_slow_sense(kl):
     nstep = int(round(T_END / CONTACT.dt))
     spin = mj.spin_histories(model, state, nstep)[0]
     t_mujoco = first_reversal(np.arange(nstep + 1) * CONTACT.dt, spin)
-    t_rattlesweep = float(rs.run_batch(kl, spin=SLOW, pitch=HALF_DEGREE, t_end=T_END)
-                          .first_reversal_time[0])
+    t_rattlesweep = float(
+        rs.run_batch(kl, spin=SLOW, pitch=HALF_DEGREE, t_end=T_END).first_reversal_time[0]
+    )
     assert 11.5 < t_rattlesweep < 11.7
     assert math.isfinite(t_mujoco)
     assert abs(t_mujoco / t_rattlesweep - 1.0) < 0.01, (t_mujoco, t_rattlesweep)

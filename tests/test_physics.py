@@ -18,8 +18,15 @@ def _up(q):
 
 
 def test_energy_conserved_when_rolling_and_frictionless(kl):
-    ds = rs.run_batch(kl, spin=5.0, roll=HALF_DEGREE, mu=[math.inf, 0.0], dt=2e-4,
-                      t_end=20.0, record_every=50)
+    ds = rs.run_batch(
+        kl,
+        spin=5.0,
+        roll=HALF_DEGREE,
+        mu=[math.inf, 0.0],
+        dt=2e-4,
+        t_end=20.0,
+        record_every=50,
+    )
     assert (ds.status == 0).all()
     energy = ds.energy.values
     drift = np.abs(energy - energy[:, :1]).max(axis=1) / energy[:, 0]
@@ -28,7 +35,9 @@ def test_energy_conserved_when_rolling_and_frictionless(kl):
 
 
 def _final_state(ds):
-    return np.concatenate([ds.quaternion.values[..., -1, :], ds.omega.values[..., -1, :]], -1)
+    return np.concatenate(
+        [ds.quaternion.values[..., -1, :], ds.omega.values[..., -1, :]], -1
+    )
 
 
 @pytest.mark.parametrize("method, order, dt0", [("rk4", 4, 1e-3), ("euler", 1, 1e-4)])
@@ -36,8 +45,15 @@ def test_convergence_order(kl, method, order, dt0):
     finals = []
     for k in range(3):
         dt = dt0 / 2**k
-        ds = rs.simulate(kl, spin=5.0, roll=0.05, t_end=0.4, dt=dt, method=method,
-                         record_every=int(round(0.4 / dt)))
+        ds = rs.simulate(
+            kl,
+            spin=5.0,
+            roll=0.05,
+            t_end=0.4,
+            dt=dt,
+            method=method,
+            record_every=int(round(0.4 / dt)),
+        )
         finals.append(_final_state(ds))
     e1 = np.linalg.norm(finals[0] - finals[1])
     e2 = np.linalg.norm(finals[1] - finals[2])
@@ -79,8 +95,15 @@ def test_small_rocking_period(mu, mode):
     period = 2 * math.pi / omega
     amp = 1e-4
     kwargs = {mode: amp}
-    ds = rs.simulate(body, spin=0.0, mu=mu, t_end=10.5 * period, dt=period / 2000,
-                     record_every=1, **kwargs)
+    ds = rs.simulate(
+        body,
+        spin=0.0,
+        mu=mu,
+        t_end=10.5 * period,
+        dt=period / 2000,
+        record_every=1,
+        **kwargs,
+    )
     # tilt component about the rocking axis: q_y (pitch) or q_x (roll)
     signal = ds.quaternion.sel(quaternion_component="y" if mode == "pitch" else "x").values
     t = ds.time.values
@@ -95,8 +118,16 @@ def test_small_rocking_period(mu, mode):
 def _mirror(body: Body) -> Body:
     """Reflect y -> -y: flips I_xy and I_yz and com_y."""
     flip = np.diag([1.0, -1.0, 1.0])
-    return Body(body.a, body.b, body.c, body.mass, flip @ body.com,
-                flip @ body.inertia @ flip, body.full_ellipsoid, name="mirrored")
+    return Body(
+        body.a,
+        body.b,
+        body.c,
+        body.mass,
+        flip @ body.com,
+        flip @ body.inertia @ flip,
+        body.full_ellipsoid,
+        name="mirrored",
+    )
 
 
 def test_mirror_symmetry(kl):
@@ -110,7 +141,8 @@ def test_mirror_symmetry(kl):
     np.testing.assert_allclose(mpos[:, 0], pos[:, 0], atol=1e-10)
     np.testing.assert_allclose(mpos[:, 1], -pos[:, 1], atol=1e-10)
     assert float(mirrored.first_reversal_time) == pytest.approx(
-        float(ds.first_reversal_time), abs=1e-9)
+        float(ds.first_reversal_time), abs=1e-9
+    )
 
 
 def test_kane_levinson_chirality(kl):
@@ -124,8 +156,9 @@ def test_kane_levinson_chirality(kl):
 
 @pytest.mark.parametrize("mu", [0.3, 0.6])
 def test_coulomb_slips_part_time_and_energy_never_increases(kl, mu):
-    ds = rs.simulate(kl, spin=5.0, roll=HALF_DEGREE, mu=mu, dt=2e-4, t_end=8.0,
-                     record_every=1)
+    ds = rs.simulate(
+        kl, spin=5.0, roll=HALF_DEGREE, mu=mu, dt=2e-4, t_end=8.0, record_every=1
+    )
     assert 0.0 < float(ds.slip_fraction) < 0.5
     assert np.isfinite(float(ds.first_reversal_time))
     energy = ds.energy.values
@@ -143,12 +176,23 @@ def test_coulomb_slips_part_time_and_energy_never_increases(kl, mu):
 
 def test_coulomb_runs_converge_as_dt_shrinks(kl):
     dts = 4e-4 / np.array([1, 2, 4, 8])  # each records every 0.01 s exactly
-    runs = [rs.simulate(kl, spin=5.0, roll=HALF_DEGREE, mu=0.3, dt=float(dt), t_end=8.0,
-                        record_every=int(round(0.01 / dt)))
-            for dt in dts]
+    runs = [
+        rs.simulate(
+            kl,
+            spin=5.0,
+            roll=HALF_DEGREE,
+            mu=0.3,
+            dt=float(dt),
+            t_end=8.0,
+            record_every=int(round(0.01 / dt)),
+        )
+        for dt in dts
+    ]
     t_rev = np.array([float(r.first_reversal_time) for r in runs])
     slip = np.array([float(r.slip_fraction) for r in runs])
-    spin_diff = [np.abs(a.spin.values - b.spin.values).max() for a, b in zip(runs, runs[1:])]
+    spin_diff = [
+        np.abs(a.spin.values - b.spin.values).max() for a, b in zip(runs, runs[1:])
+    ]
     rev_diff = np.abs(np.diff(t_rev))
     slip_diff = np.abs(np.diff(slip))
     assert all(np.diff(spin_diff) < 0), spin_diff

@@ -25,8 +25,9 @@ def slipping_run(kl):
 def _momentum_balance_error(body, dt, mu, t_end=5.0):
     """max |∫ friction couple dt + Σ impulse couples − ΔL_z| over a fully recorded run,
     relative to max |ΔL_z|."""
-    run = rs.simulate(body, spin=5.0, roll=HALF_DEGREE, mu=mu, t_end=t_end, dt=dt,
-                      record_every=1)
+    run = rs.simulate(
+        body, spin=5.0, roll=HALF_DEGREE, mu=mu, t_end=t_end, dt=dt, record_every=1
+    )
     c = contact_dataset(run)
     f = c.friction_couple.values
     t = c.time.values
@@ -54,8 +55,9 @@ def test_recorded_contact_point_is_the_one_post_processing_finds(slipping_run):
     # from the recorded quaternion and position
     c = contact_dataset(slipping_run)
     recorded = slipping_run.contact_point.transpose("time", "horizontal").values
-    np.testing.assert_allclose(recorded, c.contact_floor.transpose("time", "horizontal").values,
-                               rtol=0, atol=1e-12)
+    np.testing.assert_allclose(
+        recorded, c.contact_floor.transpose("time", "horizontal").values, rtol=0, atol=1e-12
+    )
     assert np.ptp(recorded[:, 0]) > 0.01  # it moves: the check is not of constants
     assert slipping_run.contact_point.attrs["units"] == "m"
 
@@ -75,13 +77,15 @@ def test_friction_moment_accounts_for_the_vertical_angular_momentum(kl):
 
 
 def test_friction_impulses_are_recorded_whatever_the_stride(kl):
-    runs = [rs.simulate(kl, spin=5.0, roll=HALF_DEGREE, mu=0.3, t_end=4.0, record_every=k)
-            for k in (1, 7)]
+    runs = [
+        rs.simulate(kl, spin=5.0, roll=HALF_DEGREE, mu=0.3, t_end=4.0, record_every=k)
+        for k in (1, 7)
+    ]
     fine, coarse = (r.friction_impulse.values for r in runs)
     assert np.count_nonzero(np.abs(fine).sum(axis=1)) > 10  # this launch re-sticks often
     # sums over each coarse sample's window of fine steps ((k-1)*7, k*7]
     n = coarse.shape[0]
-    windows = np.add.reduceat(fine[1:7 * (n - 1) + 1], np.arange(0, 7 * (n - 1), 7))
+    windows = np.add.reduceat(fine[1 : 7 * (n - 1) + 1], np.arange(0, 7 * (n - 1), 7))
     np.testing.assert_allclose(coarse[1:], windows, rtol=1e-12, atol=1e-15)
     rolling = rs.simulate(kl, spin=5.0, roll=HALF_DEGREE, t_end=2.0)
     assert (rolling.friction_impulse.values == 0).all()
@@ -100,8 +104,9 @@ def test_time_series_panels_have_units_and_shade_slipping(slipping_run):
 
 def test_time_series_of_a_rolling_run_has_no_shading_and_picks_variables(kl):
     run = rs.simulate(kl, spin=-5.0, roll=HALF_DEGREE, t_end=1.0)
-    fig = time_series(run.merge(contact_dataset(run)),
-                      ["spin", "friction_force", "friction_couple"])
+    fig = time_series(
+        run.merge(contact_dataset(run)), ["spin", "friction_force", "friction_couple"]
+    )
     assert not any(ax.collections for ax in fig.axes)
     assert "[N m]" in fig.axes[2].get_ylabel().replace("\n", " ")
     assert [t.get_text() for t in fig.axes[1].get_legend().get_texts()] == ["X", "Y"]
@@ -147,7 +152,9 @@ def test_animation_has_the_requested_frames(tmp_path, slipping_run):
 
 def test_animation_refuses_bad_requests(tmp_path, slipping_run):
     n = slipping_run.sizes["time"]
-    with pytest.raises(ValueError, match=f"frames must be an integer from 1 to the run's {n}"):
+    with pytest.raises(
+        ValueError, match=f"frames must be an integer from 1 to the run's {n}"
+    ):
         animate(slipping_run, tmp_path / "a.gif", frames=n + 1)
     with pytest.raises(ValueError, match="suffix must be one of"):
         animate(slipping_run, tmp_path / "a.avi")
@@ -166,14 +173,30 @@ def test_cli_animate_from_options_and_from_a_file(tmp_path, capsys):
     from PIL import Image
 
     gif = tmp_path / "spin.gif"
-    assert main(["animate", "--spin", "-3", "--t-end", "1", "--frames", "4",
-                 "--out", str(gif)]) == 0
+    assert (
+        main(
+            ["animate", "--spin", "-3", "--t-end", "1", "--frames", "4", "--out", str(gif)]
+        )
+        == 0
+    )
     with Image.open(gif) as im:
         assert im.n_frames == 4
     nc = tmp_path / "run.nc"
     assert main(["simulate", "--t-end", "0.5", "--out", str(nc)]) == 0
-    assert main(["animate", "--run", str(nc), "--frames", "3", "--out",
-                 str(tmp_path / "file.gif")]) == 0
+    assert (
+        main(
+            [
+                "animate",
+                "--run",
+                str(nc),
+                "--frames",
+                "3",
+                "--out",
+                str(tmp_path / "file.gif"),
+            ]
+        )
+        == 0
+    )
     assert "3 frames" in capsys.readouterr().out
     assert main(["animate", "--run", str(nc), "--out", str(tmp_path / "x.webm")]) == 2
     assert "suffix must be one of" in capsys.readouterr().err
@@ -186,12 +209,18 @@ def test_a_map_over_mu_with_rolling_among_the_values(tmp_path):
     from rattlesweep.plot import reversal_map
     from rattlesweep.sweep import Sweep, run_sweep
 
-    s = Sweep(axes={"spin": {"start": -15, "stop": 15, "num": 5}, "mu": [0.1, 0.3, math.inf]},
-              fixed={"t_end": 1.0, "roll_deg": 0.5})
+    s = Sweep(
+        axes={"spin": {"start": -15, "stop": 15, "num": 5}, "mu": [0.1, 0.3, math.inf]},
+        fixed={"t_end": 1.0, "roll_deg": 0.5},
+    )
     ds = run_sweep(s, tmp_path / "mu", progress=False)
     fig = reversal_map(ds, x="launch_spin", y="mu")
     labels = [t.get_text() for t in fig.axes[0].get_yticklabels()]
     assert labels == ["0.1", "0.3", "∞"]
-    assert main(["plot", str(tmp_path / "mu" / "sweep.nc"), "--out",
-                 str(tmp_path / "map.png")]) == 0
+    assert (
+        main(
+            ["plot", str(tmp_path / "mu" / "sweep.nc"), "--out", str(tmp_path / "map.png")]
+        )
+        == 0
+    )
     assert (tmp_path / "map.png").stat().st_size > 0

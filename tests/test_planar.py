@@ -28,7 +28,9 @@ def _omega(body, rolling):
     d = 4 * body.b / (3 * math.pi)
     inertia = body.mass * ((body.a**2 + body.b**2) / 4 - d * d)
     stiffness = body.mass * G * (body.a**2 / body.b - (body.b - d))
-    return math.sqrt(stiffness / (inertia + (body.mass * (body.b - d) ** 2 if rolling else 0)))
+    return math.sqrt(
+        stiffness / (inertia + (body.mass * (body.b - d) ** 2 if rolling else 0))
+    )
 
 
 def _period(body, rolling):
@@ -40,6 +42,7 @@ def _rest_energy(body):
 
 
 # --- geometry ------------------------------------------------------------------------
+
 
 def test_homogeneous_body_has_the_half_ellipse_mass_properties():
     d = 4 * 0.05 / (3 * math.pi)
@@ -54,8 +57,14 @@ def test_homogeneous_body_has_the_half_ellipse_mass_properties():
     assert BODY.inertia == pytest.approx(j_c - BODY.mass * d * d, rel=1e-5)
 
 
-@pytest.mark.parametrize("body", [BODY, PlanarBody(0.05, 0.05, 2.0),
-                                  PlanarBody(0.06, 0.08, 1.0, com_depth=0.05, inertia=1e-3)])
+@pytest.mark.parametrize(
+    "body",
+    [
+        BODY,
+        PlanarBody(0.05, 0.05, 2.0),
+        PlanarBody(0.06, 0.08, 1.0, com_depth=0.05, inertia=1e-3),
+    ],
+)
 def test_height_and_contact_point_match_brute_force_over_the_edge(body):
     theta = np.linspace(-1.5, 1.5, 13)
     phi = np.linspace(math.pi, 2 * math.pi, 400_001)  # the curved edge, y <= 0
@@ -73,8 +82,9 @@ def test_height_and_contact_point_match_brute_force_over_the_edge(body):
     np.testing.assert_allclose(cp.body_y, y[low], atol=1e-5 * body.a)
     assert np.all(cp.body_y < 0)  # on the curved part while |theta| < pi/2
     # from_centre: offset from the centre of the flat edge, which sits d above G
-    np.testing.assert_allclose(cp.from_centre, cp.from_com + body.com_depth * np.sin(theta),
-                               rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(
+        cp.from_centre, cp.from_com + body.com_depth * np.sin(theta), rtol=1e-12, atol=1e-15
+    )
 
 
 def test_height_derivatives_match_finite_differences():
@@ -86,15 +96,24 @@ def test_height_derivatives_match_finite_differences():
     np.testing.assert_allclose(h1, fd1, rtol=0, atol=1e-10)
     np.testing.assert_allclose(h2, fd2, rtol=0, atol=1e-7)
     # and the lever arm is -h': the contact point's horizontal offset from G
-    np.testing.assert_allclose(BODY.contact_point(theta).from_com, -h1, rtol=1e-12, atol=1e-16)
+    np.testing.assert_allclose(
+        BODY.contact_point(theta).from_com, -h1, rtol=1e-12, atol=1e-16
+    )
 
 
 # --- conservative motion ----------------------------------------------------------------
 
+
 def test_rolling_and_frictionless_runs_conserve_energy():
     dt = _period(BODY, False) / 500
-    ds = run_planar_batch(BODY, theta=0.5, mu=[math.inf, 0.0], dt=dt,
-                          t_end=20 * _period(BODY, True), record_every=25)
+    ds = run_planar_batch(
+        BODY,
+        theta=0.5,
+        mu=[math.inf, 0.0],
+        dt=dt,
+        t_end=20 * _period(BODY, True),
+        record_every=25,
+    )
     assert (ds.status == 0).all()
     assert ds.slip_fraction.values.tolist() == [0.0, 1.0]
     energy = ds.energy.values
@@ -110,11 +129,15 @@ def test_convergence_order(method, order, n0, mu):
     t_end = 0.45 * _period(BODY, True)
     finals = []
     for n in (n0, 2 * n0, 4 * n0):
-        ds = run_planar_batch(BODY, theta=0.5, rate=1.0, mu=mu, dt=t_end / n, t_end=t_end,
-                              method=method)
+        ds = run_planar_batch(
+            BODY, theta=0.5, rate=1.0, mu=mu, dt=t_end / n, t_end=t_end, method=method
+        )
         assert int(ds.steps[0]) == n
-        finals.append(np.array([float(ds.final_angle[0]),
-                                float(ds.final_rate[0]) / _omega(BODY, True)]))
+        finals.append(
+            np.array(
+                [float(ds.final_angle[0]), float(ds.final_rate[0]) / _omega(BODY, True)]
+            )
+        )
     e1 = np.linalg.norm(finals[0] - finals[1])
     e2 = np.linalg.norm(finals[1] - finals[2])
     assert math.log2(e1 / e2) == pytest.approx(order, abs=0.2)
@@ -126,8 +149,10 @@ def test_located_switching_converges_at_fourth_order(mu):
     located inside its step, the angle history converges at RK4's order through them
     (a decision at step starts alone gives first order)."""
     dt, t_end = 2e-3, 3.0
-    runs = [simulate_planar(BODY, theta=0.3, mu=mu, dt=dt / k, t_end=t_end, record_every=k)
-            for k in (1, 2, 4, 64)]
+    runs = [
+        simulate_planar(BODY, theta=0.3, mu=mu, dt=dt / k, t_end=t_end, record_every=k)
+        for k in (1, 2, 4, 64)
+    ]
     switches = np.abs(np.diff(runs[-1].slipping.values)).sum()
     assert switches >= 30
     ref = runs[-1].angle.values
@@ -145,9 +170,17 @@ def test_located_switching_converges_at_fourth_order(mu):
 @pytest.mark.parametrize("rolling", [True, False])
 def test_small_amplitude_period_matches_closed_form(body, rolling):
     period = _period(body, rolling)
-    assert body.rocking_frequency(G, rolling) == pytest.approx(_omega(body, rolling), rel=1e-12)
-    ds = simulate_planar(body, theta=1e-3, mu=math.inf if rolling else 0.0, dt=period / 1000,
-                         t_end=6 * period, record_every=1)
+    assert body.rocking_frequency(G, rolling) == pytest.approx(
+        _omega(body, rolling), rel=1e-12
+    )
+    ds = simulate_planar(
+        body,
+        theta=1e-3,
+        mu=math.inf if rolling else 0.0,
+        dt=period / 1000,
+        t_end=6 * period,
+        record_every=1,
+    )
     angle, t = ds.angle.values, ds.time.values
     up = np.nonzero((angle[:-1] < 0) & (angle[1:] >= 0))[0]
     crossings = t[up] - angle[up] * (t[up + 1] - t[up]) / (angle[up + 1] - angle[up])
@@ -170,10 +203,12 @@ def test_frictionless_contact_keeps_horizontal_momentum():
 
 # --- Coulomb friction ----------------------------------------------------------------------
 
+
 def _max_rolling_demand(theta, t_end=0.3):
     """Largest |F|/N over a rolling (mu = inf) swing launched at rest from theta."""
-    ds = simulate_planar(BODY, theta=theta, t_end=t_end, dt=_period(BODY, True) / 1000,
-                         record_every=1)
+    ds = simulate_planar(
+        BODY, theta=theta, t_end=t_end, dt=_period(BODY, True) / 1000, record_every=1
+    )
     return float(np.abs(ds.friction_force / ds.normal_force).max())
 
 
@@ -181,8 +216,9 @@ def test_slipping_dissipates_until_the_rolling_demand_fits_the_friction():
     mu, theta0 = 0.3, 0.8
     assert _max_rolling_demand(theta0) > 1.5 * mu  # rolling would need more than mu gives
     period = _period(BODY, True)
-    ds = simulate_planar(BODY, theta=theta0, mu=mu, dt=period / 500, t_end=60 * period,
-                         record_every=1)
+    ds = simulate_planar(
+        BODY, theta=theta0, mu=mu, dt=period / 500, t_end=60 * period, record_every=1
+    )
     assert int(ds.status) == 0
     slipping, energy = ds.slipping.values, ds.energy.values
     e0 = energy[0]
@@ -202,25 +238,32 @@ def test_slipping_dissipates_until_the_rolling_demand_fits_the_friction():
     # turning points, where the rolling demand still just exceeds mu (with mu_s = mu the
     # excess, and so the slip, only dies out asymptotically)
     per = len(slipping) // 60
-    early, late = slipping[:5 * per].mean(), slipping[-5 * per:].mean()
+    early, late = slipping[: 5 * per].mean(), slipping[-5 * per :].mean()
     assert early > 0.5 and late < 0.2 * early
     # the amplitude has decayed to where a rolling swing needs about mu (just above)
-    amplitude = np.abs(ds.angle.values[-2 * per:]).max()
+    amplitude = np.abs(ds.angle.values[-2 * per :]).max()
     assert mu < _max_rolling_demand(amplitude) < 1.03 * mu
 
 
 def test_static_friction_above_kinetic_ends_in_pure_rolling():
     mu, mu_s = 0.25, 0.35
     period = _period(BODY, True)
-    ds = simulate_planar(BODY, theta=0.8, mu=mu, mu_static=mu_s, dt=period / 500,
-                         t_end=30 * period, record_every=1)
+    ds = simulate_planar(
+        BODY,
+        theta=0.8,
+        mu=mu,
+        mu_static=mu_s,
+        dt=period / 500,
+        t_end=30 * period,
+        record_every=1,
+    )
     slipping, energy = ds.slipping.values, ds.energy.values
     assert float(ds.slip_fraction) > 0.05
     last_slip = np.nonzero(slipping)[0][-1]
     assert last_slip < len(slipping) // 2  # every slip ended in the first half
-    tail = energy[last_slip + 1:]
+    tail = energy[last_slip + 1 :]
     assert np.ptp(tail) < 1e-9 * energy[0]  # then it rolls without loss
-    amplitude = np.abs(ds.angle.values[last_slip + 1:]).max()
+    amplitude = np.abs(ds.angle.values[last_slip + 1 :]).max()
     assert _max_rolling_demand(amplitude) < mu_s  # a slip can no longer start
 
 
@@ -230,8 +273,9 @@ def test_sliding_disc_ends_rolling_at_two_thirds_speed():
     # vanishes at t* = v0 / (3 mu g), after which it rolls at 2 v0 / 3.
     radius, v0, mu, dt = 0.2, 1.0, 0.3, 1e-4
     disc = PlanarBody(radius, radius, 1.0, com_depth=1e-9 * radius, inertia=radius**2 / 2)
-    ds = simulate_planar(disc, theta=0.0, velocity=v0, mu=mu, dt=dt, t_end=0.3,
-                         record_every=1)
+    ds = simulate_planar(
+        disc, theta=0.0, velocity=v0, mu=mu, dt=dt, t_end=0.3, record_every=1
+    )
     assert int(ds.status) == 0
     t_stick = v0 / (3 * mu * G)
     slipping = ds.slipping.values
@@ -252,7 +296,9 @@ def test_plastic_impulse_conserves_angular_momentum_about_the_contact_point():
         dv, dw = contact_impulse(m, inertia, h, h1, u)
         # G sits at (h', h) from P and moves at (vx, h' rate)
         l_p = (inertia + m * h1**2) * rate - m * h * vx
-        assert rate + dw == pytest.approx(l_p / (inertia + m * (h * h + h1 * h1)), rel=1e-12)
+        assert rate + dw == pytest.approx(
+            l_p / (inertia + m * (h * h + h1 * h1)), rel=1e-12
+        )
         assert vx + dv + (rate + dw) * h == pytest.approx(0.0, abs=1e-15)
 
         def kinetic(v, w):
@@ -267,18 +313,22 @@ def test_mirror_launch_gives_the_mirrored_trajectory():
     mirror = simulate_planar(BODY, theta=-0.7, rate=-2.0, velocity=-0.1, **kw)
     assert float(ds.slip_fraction) > 0.1
     for name in ("angle", "rate", "x_G", "velocity_x", "slip_velocity", "friction_force"):
-        np.testing.assert_allclose(mirror[name].values, -ds[name].values, rtol=1e-12,
-                                   atol=1e-15, err_msg=name)
+        np.testing.assert_allclose(
+            mirror[name].values, -ds[name].values, rtol=1e-12, atol=1e-15, err_msg=name
+        )
     for name in ("y_G", "normal_force", "energy", "slipping"):
-        np.testing.assert_allclose(mirror[name].values, ds[name].values, rtol=1e-12,
-                                   err_msg=name)
+        np.testing.assert_allclose(
+            mirror[name].values, ds[name].values, rtol=1e-12, err_msg=name
+        )
 
 
 # --- statuses, validation, batches ---------------------------------------------------
 
+
 def test_each_status_comes_from_a_launch_that_causes_it():
-    ds = run_planar_batch(BODY, theta=[0.3, 1.0, 1.0, np.nan], rate=[0.0, 10.0, 20.0, 0.0],
-                          mu=0.5, t_end=1.0)
+    ds = run_planar_batch(
+        BODY, theta=[0.3, 1.0, 1.0, np.nan], rate=[0.0, 10.0, 20.0, 0.0], mu=0.5, t_end=1.0
+    )
     names = [STATUS_NAMES[s] for s in ds.status.values]
     assert names == ["ok", "capsized", "lifted_off", "non_finite"]
     t_final = ds.t_final.values
@@ -294,37 +344,52 @@ def test_each_status_comes_from_a_launch_that_causes_it():
         simulate_planar(BODY, theta=1.0, rate=10.0, t_end=1.0)
 
 
-@pytest.mark.parametrize("make, message", [
-    (lambda: PlanarBody(0.1, 0.0, 1.0), r"b must be a finite number > 0, got 0\.0"),
-    (lambda: PlanarBody(-0.1, 0.05, 1.0), "a must be a finite number > 0"),
-    (lambda: PlanarBody(0.1, 0.05, math.nan), "mass must be a finite number > 0"),
-    (lambda: PlanarBody(0.1, 0.05, 1.0, com_depth=0.06, inertia=1e-3), "com_depth must be < b"),
-    (lambda: PlanarBody(0.1, 0.05, 1.0, com_depth=0.0, inertia=1e-3), "com_depth must be"),
-    (lambda: PlanarBody(0.1, 0.05, 1.0, com_depth=0.02), "com_depth needs inertia"),
-    (lambda: PlanarBody(0.1, 0.05, 1.0, inertia=-1.0), "inertia must be a finite number > 0"),
-    (lambda: PlanarBody(0.03, 0.1, 1.0), r"upright pose is unstable.*a\*\*2/b"),
-])
+@pytest.mark.parametrize(
+    "make, message",
+    [
+        (lambda: PlanarBody(0.1, 0.0, 1.0), r"b must be a finite number > 0, got 0\.0"),
+        (lambda: PlanarBody(-0.1, 0.05, 1.0), "a must be a finite number > 0"),
+        (lambda: PlanarBody(0.1, 0.05, math.nan), "mass must be a finite number > 0"),
+        (
+            lambda: PlanarBody(0.1, 0.05, 1.0, com_depth=0.06, inertia=1e-3),
+            "com_depth must be < b",
+        ),
+        (
+            lambda: PlanarBody(0.1, 0.05, 1.0, com_depth=0.0, inertia=1e-3),
+            "com_depth must be",
+        ),
+        (lambda: PlanarBody(0.1, 0.05, 1.0, com_depth=0.02), "com_depth needs inertia"),
+        (
+            lambda: PlanarBody(0.1, 0.05, 1.0, inertia=-1.0),
+            "inertia must be a finite number > 0",
+        ),
+        (lambda: PlanarBody(0.03, 0.1, 1.0), r"upright pose is unstable.*a\*\*2/b"),
+    ],
+)
 def test_bad_body_is_refused(make, message):
     with pytest.raises(ValueError, match=message):
         make()
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    (dict(theta=1.6), r"theta must be in \(-pi/2, pi/2\).*1\.6"),
-    (dict(theta=[0.1, -math.pi / 2]), r"theta must be in.*index \(1,\)"),
-    (dict(mu=-0.1), r"mu must be >= 0.*-0\.1"),
-    (dict(mu=0.5, mu_static=0.3), "mu_static must be >= mu"),
-    (dict(dt=0.0), "dt must be finite and > 0"),
-    (dict(dt=-1e-3), "dt must be finite and > 0"),
-    (dict(g=0.0), "g must be finite and > 0"),
-    (dict(t_end=math.inf), "t_end must be finite and > 0"),
-    (dict(velocity=0.1), "sliding launch.*finite mu_static"),
-    (dict(method="rk45"), "method must be one of"),
-    (dict(record_every=0), "record_every must be a positive integer"),
-    (dict(threads=0), "threads must be an integer"),
-    (dict(theta=[0.1, 0.2], mu=[0.1, 0.2, 0.3]), "cannot be broadcast"),
-    (dict(theta="steep"), "theta must be a number"),
-])
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (dict(theta=1.6), r"theta must be in \(-pi/2, pi/2\).*1\.6"),
+        (dict(theta=[0.1, -math.pi / 2]), r"theta must be in.*index \(1,\)"),
+        (dict(mu=-0.1), r"mu must be >= 0.*-0\.1"),
+        (dict(mu=0.5, mu_static=0.3), "mu_static must be >= mu"),
+        (dict(dt=0.0), "dt must be finite and > 0"),
+        (dict(dt=-1e-3), "dt must be finite and > 0"),
+        (dict(g=0.0), "g must be finite and > 0"),
+        (dict(t_end=math.inf), "t_end must be finite and > 0"),
+        (dict(velocity=0.1), "sliding launch.*finite mu_static"),
+        (dict(method="rk45"), "method must be one of"),
+        (dict(record_every=0), "record_every must be a positive integer"),
+        (dict(threads=0), "threads must be an integer"),
+        (dict(theta=[0.1, 0.2], mu=[0.1, 0.2, 0.3]), "cannot be broadcast"),
+        (dict(theta="steep"), "theta must be a number"),
+    ],
+)
 def test_bad_launch_is_refused_before_compute(kwargs, message):
     args = dict(theta=0.1, t_end=1.0)
     args.update(kwargs)
@@ -348,14 +413,23 @@ def test_same_launch_same_result_anywhere_in_the_batch():
     probe = dict(theta=0.7, rate=1.5, mu=0.2)
     for i in (0, BLOCK - 1, 2 * BLOCK + 3):
         theta[i], rate[i], mu[i] = probe["theta"], probe["rate"], probe["mu"]
-    bodies = np.array([BODY, PlanarBody(0.05, 0.05, 1.0)], dtype=object)[rng.integers(0, 2, n)]
+    bodies = np.array([BODY, PlanarBody(0.05, 0.05, 1.0)], dtype=object)[
+        rng.integers(0, 2, n)
+    ]
     bodies[[0, BLOCK - 1, 2 * BLOCK + 3]] = BODY
     kw = dict(t_end=1.0, dt=1e-3)
     ds = run_planar_batch(bodies, theta=theta, rate=rate, mu=mu, **kw)
     serial = run_planar_batch(bodies, theta=theta, rate=rate, mu=mu, parallel=False, **kw)
     alone = run_planar_batch(BODY, **probe, **kw)
-    names = ["final_angle", "final_rate", "energy_final", "slip_fraction", "max_angle",
-             "status", "t_final"]
+    names = [
+        "final_angle",
+        "final_rate",
+        "energy_final",
+        "slip_fraction",
+        "max_angle",
+        "status",
+        "t_final",
+    ]
     for name in names:
         np.testing.assert_array_equal(ds[name].values, serial[name].values)
         for i in (0, BLOCK - 1, 2 * BLOCK + 3):
@@ -363,11 +437,14 @@ def test_same_launch_same_result_anywhere_in_the_batch():
 
 
 def test_results_carry_units_inputs_and_shape():
-    ds = run_planar_batch(BODY, theta=[[0.1], [0.2]], rate=[0.0, 1.0, 2.0], mu=0.3,
-                          t_end=0.5, record_every=10)
+    ds = run_planar_batch(
+        BODY, theta=[[0.1], [0.2]], rate=[0.0, 1.0, 2.0], mu=0.3, t_end=0.5, record_every=10
+    )
     assert ds.sizes["trajectory"] == 6 and ds.attrs["batch_shape"] == [2, 3]
     assert ds.launch_angle.values.tolist() == [0.1, 0.1, 0.1, 0.2, 0.2, 0.2]
-    np.testing.assert_allclose(ds.launch_velocity, -ds.launch_rate * BODY.height(ds.launch_angle))
+    np.testing.assert_allclose(
+        ds.launch_velocity, -ds.launch_rate * BODY.height(ds.launch_angle)
+    )
     for name, var in {**ds.data_vars, **ds.coords}.items():
         if name not in ("trajectory", "body_name", "status"):
             assert "units" in var.attrs and "long_name" in var.attrs, name

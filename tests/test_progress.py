@@ -55,8 +55,14 @@ def test_the_runner_shows_every_tile_written_while_it_waits_for_the_next():
 
     out = io.StringIO()
     bar = Progress(3, 300, 0, 0, stream=out, every=0.2)
-    run_tiles(small_sweep(), [0, 1, 2], lambda tile: bar.update({"n": 100}), workers=1, compute=compute,
-              on_wait=bar.tick)
+    run_tiles(
+        small_sweep(),
+        [0, 1, 2],
+        lambda tile: bar.update({"n": 100}),
+        workers=1,
+        compute=compute,
+        on_wait=bar.tick,
+    )
     lines = [line.split("] ")[1].split(" tiles")[0] for line in out.getvalue().splitlines()]
     # tile 1, written within 0.2 s of tile 0, is shown before tile 2 ends
     assert lines == ["1/3", "2/3", "3/3"]

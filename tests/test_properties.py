@@ -32,15 +32,35 @@ from rattlesweep.core.workspace import NON_FINITE, OK
 from rattlesweep import CoarseStepWarning
 from rattlesweep.rattleback.launch import quaternion_from_angles
 from rattlesweep.planar.batch import prepare as prepare_planar
-from strategies import (LAUNCH_ARGS, any_scalar, any_vector, arbitrary_inertia,
-                        arbitrary_value, finite, valid_bodies, valid_launch)
+from strategies import (
+    LAUNCH_ARGS,
+    any_scalar,
+    any_vector,
+    arbitrary_inertia,
+    arbitrary_value,
+    finite,
+    valid_bodies,
+    valid_launch,
+)
 
 pytestmark = pytest.mark.filterwarnings("ignore::RuntimeWarning")
 
 # observables every trajectory has, compared bit for bit between batch arrangements
-OBSERVABLES = ("first_reversal_time", "n_reversals", "initial_spin", "final_spin",
-               "mean_final_spin", "max_tilt", "energy_initial", "energy_final",
-               "energy_lost", "slip_fraction", "t_final", "steps", "status")
+OBSERVABLES = (
+    "first_reversal_time",
+    "n_reversals",
+    "initial_spin",
+    "final_spin",
+    "mean_final_spin",
+    "max_tilt",
+    "energy_initial",
+    "energy_final",
+    "energy_lost",
+    "slip_fraction",
+    "t_final",
+    "steps",
+    "status",
+)
 
 ENERGY_RTOL = 1e-7
 """A run's energy may rise above its launch value by this fraction of it before the
@@ -59,8 +79,9 @@ def names_one_of(exc: Exception, names) -> bool:
 
 
 def assert_names(exc: Exception, names) -> None:
-    assert names_one_of(exc, names), (f"{type(exc).__name__}: {exc}\n does not name any "
-                                      f"of {sorted(names)}")
+    assert names_one_of(exc, names), (
+        f"{type(exc).__name__}: {exc}\n does not name any of {sorted(names)}"
+    )
 
 
 def energy_rise(ds) -> np.ndarray:
@@ -129,7 +150,9 @@ def rerun_batch(run, ds, kw):
 
 def assert_same_results(a, b, err="") -> None:
     for name in OBSERVABLES:
-        np.testing.assert_array_equal(a[name].values, b[name].values, err_msg=f"{name} {err}")
+        np.testing.assert_array_equal(
+            a[name].values, b[name].values, err_msg=f"{name} {err}"
+        )
 
 
 # --- bodies ---------------------------------------------------------------------------
@@ -138,16 +161,22 @@ BODY_NAMES = {"a", "b", "c", "mass", "com", "inertia", "delta", "full_ellipsoid"
 
 @given(
     kind=st.sampled_from(["explicit", "semi", "ellipsoid", "masses"]),
-    a=any_scalar(finite(0.01, 0.3)), b=any_scalar(finite(0.005, 0.1)),
-    c=any_scalar(finite(0.005, 0.1)), mass=any_scalar(finite(0.01, 2.0)),
+    a=any_scalar(finite(0.01, 0.3)),
+    b=any_scalar(finite(0.005, 0.1)),
+    c=any_scalar(finite(0.005, 0.1)),
+    mass=any_scalar(finite(0.01, 2.0)),
     delta=any_scalar(finite(-1.0, 1.0)),
-    com=any_vector(3, finite(-0.01, 0.01)), inertia=arbitrary_inertia(),
+    com=any_vector(3, finite(-0.01, 0.01)),
+    inertia=arbitrary_inertia(),
     full=st.booleans(),
-    masses=st.lists(st.tuples(any_scalar(finite(0.001, 0.1)),
-                              any_vector(3, finite(-0.01, 0.01))), max_size=3),
+    masses=st.lists(
+        st.tuples(any_scalar(finite(0.001, 0.1)), any_vector(3, finite(-0.01, 0.01))),
+        max_size=3,
+    ),
 )
-def test_any_body_is_refused_by_name_or_usable(kind, a, b, c, mass, delta, com, inertia,
-                                                full, masses):
+def test_any_body_is_refused_by_name_or_usable(
+    kind, a, b, c, mass, delta, com, inertia, full, masses
+):
     """A body constructor either refuses its input with a ValueError naming a parameter,
     or makes a body whose derived quantities are finite and positive."""
     try:
@@ -177,8 +206,12 @@ def test_any_body_is_refused_by_name_or_usable(kind, a, b, c, mass, delta, com, 
         assert all(math.isfinite(f) and f >= 0 for f in freqs)
     assert math.isfinite(body.misalignment) and math.isfinite(body.com_height)
     assert body.com_height > 0
-    assert rs.Body(body.a, body.b, body.c, body.mass, body.com, body.inertia,
-                   body.full_ellipsoid) == body
+    assert (
+        rs.Body(
+            body.a, body.b, body.c, body.mass, body.com, body.inertia, body.full_ellipsoid
+        )
+        == body
+    )
 
 
 @given(body=valid_bodies(), data=st.data())
@@ -196,9 +229,11 @@ def _run_or_validate(body, kw):
     coarse step. An accepted launch that would take more than 5000 steps is checked by
     the validation alone (batch.max_steps) and run with an end time of at most 5000 of
     its steps (a strong gravity's default step can be far below a microsecond)."""
-    launch = {k: v for k, v in kw.items() if k not in ("method", "record_every",
-                                                       "reversal_band", "parallel",
-                                                       "threads")}
+    launch = {
+        k: v
+        for k, v in kw.items()
+        if k not in ("method", "record_every", "reversal_band", "parallel", "threads")
+    }
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", CoarseStepWarning)
         steps = batch.max_steps(body, **launch)
@@ -211,8 +246,18 @@ def _run_or_validate(body, kw):
     return ds, kw, coarse
 
 
-ACCURACY_NEUTRAL = {"method", "record_every", "reversal_band", "parallel", "threads", "mu",
-                    "mu_static", "mu_spin", "mu_roll", "damping"}
+ACCURACY_NEUTRAL = {
+    "method",
+    "record_every",
+    "reversal_band",
+    "parallel",
+    "threads",
+    "mu",
+    "mu_static",
+    "mu_spin",
+    "mu_roll",
+    "damping",
+}
 """Arguments that cannot take a valid launch out of what its step resolves."""
 
 
@@ -227,8 +272,9 @@ def _check_accepted(body, ds, kw, coarse, changed):
                 assert np.all(np.isfinite(ds[name].values[ok])), name
     else:
         shrink = 2.0 if kw.get("method") == "euler" else 8.0
-        check_trajectories(ds, rerun_batch(functools.partial(rs.run_batch, body), ds, kw),
-                           shrink)
+        check_trajectories(
+            ds, rerun_batch(functools.partial(rs.run_batch, body), ds, kw), shrink
+        )
 
 
 @given(body=valid_bodies(), data=st.data())
@@ -236,8 +282,9 @@ def test_bad_launch_arguments_are_refused_by_name(body, data):
     """A valid launch with some arguments replaced by arbitrary values: a ValueError that
     names one of the replaced arguments, or a run whose ok trajectories are clean."""
     kw = data.draw(valid_launch(body))
-    changed = data.draw(st.lists(st.sampled_from(LAUNCH_ARGS), min_size=1, max_size=3,
-                                 unique=True))
+    changed = data.draw(
+        st.lists(st.sampled_from(LAUNCH_ARGS), min_size=1, max_size=3, unique=True)
+    )
     for name in changed:
         kw[name] = data.draw(arbitrary_value(name), label=name)
     try:
@@ -258,11 +305,19 @@ def test_one_bad_argument_is_named(body, data):
     kw = data.draw(valid_launch(body))
     name = data.draw(st.sampled_from(LAUNCH_ARGS))
     kw[name] = data.draw(arbitrary_value(name), label=name)
-    partners = {"spin": {"omega"}, "omega": {"spin"}, "orientation": {"roll", "pitch"},
-                "roll": {"orientation"}, "pitch": {"orientation"}, "yaw": {"orientation"},
-                "mu": {"mu_static", "velocity"}, "mu_static": {"velocity"},
-                "velocity": {"mu_static"}, "t_end": {"record_every"},
-                "dt": {"record_every"}}
+    partners = {
+        "spin": {"omega"},
+        "omega": {"spin"},
+        "orientation": {"roll", "pitch"},
+        "roll": {"orientation"},
+        "pitch": {"orientation"},
+        "yaw": {"orientation"},
+        "mu": {"mu_static", "velocity"},
+        "mu_static": {"velocity"},
+        "velocity": {"mu_static"},
+        "t_end": {"record_every"},
+        "dt": {"record_every"},
+    }
     try:
         ds, kw, coarse = _run_or_validate(body, kw)
     except ValueError as exc:
@@ -290,8 +345,11 @@ def batches(draw, max_size: int = 8):
         if "spin" in keys and "spin" not in kw:
             kw["spin"] = float(kw.pop("omega")[2])
         if "orientation" in keys and "orientation" not in kw:
-            kw["orientation"] = tuple(quaternion_from_angles(
-                kw.pop("roll"), kw.pop("pitch"), kw.pop("yaw")).tolist())
+            kw["orientation"] = tuple(
+                quaternion_from_angles(
+                    kw.pop("roll"), kw.pop("pitch"), kw.pop("yaw")
+                ).tolist()
+            )
         if "roll" in keys and "roll" not in kw:
             kw.pop("orientation")
             kw.update(roll=0.01, pitch=0.0, yaw=0.0)
@@ -356,23 +414,33 @@ def test_results_do_not_depend_on_position_in_the_batch(data, parallel, seed):
 
 
 SCALAR_ARGS = ("spin", "roll", "pitch", "mu", "damping", "g", "t_end")
-VALID = {"spin": finite(-30, 30), "roll": finite(-0.1, 0.1), "pitch": finite(-0.1, 0.1),
-         "mu": st.sampled_from([0.0, 0.2, 1.0, math.inf]), "damping": finite(0, 1e-4),
-         "g": finite(3.0, 20.0), "t_end": finite(0.001, 0.02)}
+VALID = {
+    "spin": finite(-30, 30),
+    "roll": finite(-0.1, 0.1),
+    "pitch": finite(-0.1, 0.1),
+    "mu": st.sampled_from([0.0, 0.2, 1.0, math.inf]),
+    "damping": finite(0, 1e-4),
+    "g": finite(3.0, 20.0),
+    "t_end": finite(0.001, 0.02),
+}
 
 
-@given(data=st.data(),
-       shapes=hnp.mutually_broadcastable_shapes(num_shapes=len(SCALAR_ARGS) + 1,
-                                                 min_dims=0, max_dims=3, min_side=0,
-                                                 max_side=3))
+@given(
+    data=st.data(),
+    shapes=hnp.mutually_broadcastable_shapes(
+        num_shapes=len(SCALAR_ARGS) + 1, min_dims=0, max_dims=3, min_side=0, max_side=3
+    ),
+)
 def test_broadcasting(data, shapes):
     """Inputs of any broadcast-compatible shapes (empty and size-1 axes included) give
     one trajectory per element of their broadcast shape, each labelled with its inputs
     and with the result of that launch alone."""
     arg_shapes, body_shape = shapes.input_shapes[:-1], shapes.input_shapes[-1]
     shape = shapes.result_shape
-    kw = {name: data.draw(hnp.arrays(float, s, elements=VALID[name]), label=name)
-          for name, s in zip(SCALAR_ARGS, arg_shapes)}
+    kw = {
+        name: data.draw(hnp.arrays(float, s, elements=VALID[name]), label=name)
+        for name, s in zip(SCALAR_ARGS, arg_shapes)
+    }
     presets = [rs.Body.preset(p) for p in ("toy", "kane_levinson")]
     bodies = np.empty(body_shape, dtype=object)
     for idx in np.ndindex(body_shape):
@@ -389,21 +457,29 @@ def test_broadcasting(data, shapes):
     launch_names = {"spin": "launch_spin", "roll": "roll_deg", "pitch": "pitch_deg"}
     for name, values in kw.items():
         given = np.degrees(values) if name in ("roll", "pitch") else values
-        np.testing.assert_array_equal(ds[launch_names.get(name, name)].values,
-                                      np.broadcast_to(given, shape).ravel())
+        np.testing.assert_array_equal(
+            ds[launch_names.get(name, name)].values, np.broadcast_to(given, shape).ravel()
+        )
     flat_bodies = np.broadcast_to(bodies, shape).ravel()
     np.testing.assert_array_equal(ds.body_name.values, [b.name for b in flat_bodies])
     check_trajectories(ds, rerun_batch(functools.partial(rs.run_batch, body_arg), ds, kw))
     if n:
         i = data.draw(st.integers(0, n - 1))
-        one = rs.run_batch(flat_bodies[i], **{k: np.broadcast_to(v, shape).ravel()[i]
-                                              for k, v in kw.items()})
+        one = rs.run_batch(
+            flat_bodies[i],
+            **{k: np.broadcast_to(v, shape).ravel()[i] for k, v in kw.items()},
+        )
         assert_same_results(ds.isel(trajectory=[i]), one)
 
 
-@given(data=st.data(), shapes=st.lists(hnp.array_shapes(min_dims=1, max_dims=2,
-                                                        min_side=0, max_side=3),
-                                       min_size=2, max_size=2))
+@given(
+    data=st.data(),
+    shapes=st.lists(
+        hnp.array_shapes(min_dims=1, max_dims=2, min_side=0, max_side=3),
+        min_size=2,
+        max_size=2,
+    ),
+)
 def test_incompatible_shapes_are_refused_by_name(data, shapes):
     try:
         np.broadcast_shapes(*shapes)
@@ -425,18 +501,38 @@ def test_simulate_records_a_clean_history(body, data):
     kw = data.draw(valid_launch(body, max_steps=300))
     run = rs.simulate(body, record_every=1, **kw)
     ds = rs.run_batch(body, record_every=1, **kw)
-    check_trajectories(ds, rerun_batch(functools.partial(rs.run_batch, body, record_every=1),
-                                       ds, kw))
+    check_trajectories(
+        ds, rerun_batch(functools.partial(rs.run_batch, body, record_every=1), ds, kw)
+    )
     for name in OBSERVABLES:
         np.testing.assert_array_equal(run[name].values, ds[name].values[0], err_msg=name)
     np.testing.assert_array_equal(run.energy.values, ds.energy.values[0])
 
 
 # --- the planar model -----------------------------------------------------------------
-PLANAR_OBSERVABLES = ("energy_initial", "energy_final", "energy_lost", "slip_fraction",
-                      "max_angle", "final_angle", "final_rate", "t_final", "steps",
-                      "status")
-PLANAR_ARGS = ("theta", "rate", "velocity", "mu", "mu_static", "mu_roll", "g", "dt", "t_end")
+PLANAR_OBSERVABLES = (
+    "energy_initial",
+    "energy_final",
+    "energy_lost",
+    "slip_fraction",
+    "max_angle",
+    "final_angle",
+    "final_rate",
+    "t_final",
+    "steps",
+    "status",
+)
+PLANAR_ARGS = (
+    "theta",
+    "rate",
+    "velocity",
+    "mu",
+    "mu_static",
+    "mu_roll",
+    "g",
+    "dt",
+    "t_end",
+)
 
 
 @st.composite
@@ -444,8 +540,13 @@ def planar_launch(draw, body):
     g = draw(finite(1.0, 20.0))
     dt0 = body.default_dt(g)
     mu = draw(st.sampled_from([0.0, 0.2, 0.5, math.inf]) | finite(0.0, 2.0))
-    kw = {"theta": draw(finite(-1.2, 1.2)), "rate": draw(finite(-5.0, 5.0)), "mu": mu,
-          "g": g, "dt": draw(finite(0.1, 1.0)) * dt0}
+    kw = {
+        "theta": draw(finite(-1.2, 1.2)),
+        "rate": draw(finite(-5.0, 5.0)),
+        "mu": mu,
+        "g": g,
+        "dt": draw(finite(0.1, 1.0)) * dt0,
+    }
     kw["t_end"] = draw(st.integers(1, 300)) * kw["dt"]
     if math.isfinite(mu) and draw(st.booleans()):
         kw["mu_static"] = mu + draw(finite(0.0, 0.5))
@@ -455,8 +556,7 @@ def planar_launch(draw, body):
     return kw
 
 
-@given(a=finite(0.02, 0.3), ratio=finite(0.1, 1.3), mass=finite(0.01, 2.0),
-       data=st.data())
+@given(a=finite(0.02, 0.3), ratio=finite(0.1, 1.3), mass=finite(0.01, 2.0), data=st.data())
 def test_planar_launches(a, ratio, mass, data):
     """The planar model: a valid launch with at most one argument replaced by an arbitrary
     value is refused naming it, or runs clean; results do not depend on the position."""
@@ -464,8 +564,12 @@ def test_planar_launches(a, ratio, mass, data):
     kw = data.draw(planar_launch(body))
     bad = data.draw(st.none() | st.sampled_from(PLANAR_ARGS))
     if bad is not None:
-        kw[bad] = data.draw(any_scalar(finite(-1, 1)) if bad not in ("dt", "t_end")
-                            else any_scalar(finite(1e-4, 1e-2)), label=bad)
+        kw[bad] = data.draw(
+            any_scalar(finite(-1, 1))
+            if bad not in ("dt", "t_end")
+            else any_scalar(finite(1e-4, 1e-2)),
+            label=bad,
+        )
     partners = {"mu": {"mu_static"}, "mu_static": {"velocity"}, "velocity": {"mu_static"}}
     try:
         with warnings.catch_warnings(record=True) as caught:
@@ -485,8 +589,10 @@ def test_planar_launches(a, ratio, mass, data):
     if not caught and bad not in ("theta", "rate", "velocity", "g", "dt"):
         check_energy(ds, rerun_batch(functools.partial(rs.run_planar_batch, body), ds, kw))
     if ds.sizes["trajectory"] >= 2:
-        rev = rs.run_planar_batch(body, **{k: (np.asarray(v)[..., ::-1] if np.ndim(v) else v)
-                                            for k, v in kw.items()})
+        rev = rs.run_planar_batch(
+            body,
+            **{k: (np.asarray(v)[..., ::-1] if np.ndim(v) else v) for k, v in kw.items()},
+        )
         for name in PLANAR_OBSERVABLES:
             np.testing.assert_array_equal(ds[name].values[::-1], rev[name].values)
 
@@ -505,8 +611,14 @@ def test_a_launch_whose_energy_overflows_is_non_finite():
     velocity (0, 1e300) ran frictionless and came back ok with an infinite energy) is
     refused to run and gets the non_finite status."""
     toy = rs.Body.preset("toy")
-    ds = rs.run_batch(toy, spin=0.0, velocity=[(0.0, 1e300), (0.0, 0.01)], mu=0.0,
-                      mu_static=0.0, t_end=0.01)
+    ds = rs.run_batch(
+        toy,
+        spin=0.0,
+        velocity=[(0.0, 1e300), (0.0, 0.01)],
+        mu=0.0,
+        mu_static=0.0,
+        t_end=0.01,
+    )
     assert list(ds.status.values) == [NON_FINITE, OK]  # and a clean neighbour
     assert int(ds.steps[0]) == 0 and np.isnan(ds.energy_initial.values[0])
     assert np.isfinite(ds.energy_final.values[1])

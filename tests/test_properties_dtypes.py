@@ -15,10 +15,21 @@ from rattlesweep.sweep import Sweep
 from strategies import finite
 
 TOY = rs.Body.preset("toy")
-VALID = {"spin": finite(-30, 30), "mu": finite(0.05, 1.0), "damping": finite(0, 1e-4),
-         "g": finite(5.0, 15.0), "roll": finite(-0.1, 0.1)}
-KL = dict(a=0.2, b=0.03, c=0.02, mass=1.0, com=(0.0, 0.0, -0.01),
-          inertia=np.diag([1e-4, 2e-3, 2e-3]))
+VALID = {
+    "spin": finite(-30, 30),
+    "mu": finite(0.05, 1.0),
+    "damping": finite(0, 1e-4),
+    "g": finite(5.0, 15.0),
+    "roll": finite(-0.1, 0.1),
+}
+KL = dict(
+    a=0.2,
+    b=0.03,
+    c=0.02,
+    mass=1.0,
+    com=(0.0, 0.0, -0.01),
+    inertia=np.diag([1e-4, 2e-3, 2e-3]),
+)
 
 
 def real_forms(x: float) -> st.SearchStrategy:
@@ -33,12 +44,26 @@ def real_forms(x: float) -> st.SearchStrategy:
 def bad_forms(x: float) -> st.SearchStrategy:
     """``x`` as what is not a real number: bools, complex numbers, strings, and arrays
     or lists holding one of them."""
-    return st.sampled_from([
-        bool(x), np.bool_(x), complex(x, 0.0), complex(x, 1.0), np.complex128(x),
-        np.complex64(x), np.array(x, dtype=complex), np.array([x, x], dtype=complex),
-        str(x), np.str_(str(x)), np.array(str(x)), np.array([True, False]), [x, True],
-        [x, str(x)], np.array([x, "1"], dtype=object), [complex(x, 0.0)],
-    ])
+    return st.sampled_from(
+        [
+            bool(x),
+            np.bool_(x),
+            complex(x, 0.0),
+            complex(x, 1.0),
+            np.complex128(x),
+            np.complex64(x),
+            np.array(x, dtype=complex),
+            np.array([x, x], dtype=complex),
+            str(x),
+            np.str_(str(x)),
+            np.array(str(x)),
+            np.array([True, False]),
+            [x, True],
+            [x, str(x)],
+            np.array([x, "1"], dtype=object),
+            [complex(x, 0.0)],
+        ]
+    )
 
 
 @given(data=st.data(), name=st.sampled_from(sorted(VALID)))
@@ -56,13 +81,18 @@ def test_real_types_run_as_their_float64_value(data, name):
 def test_non_real_types_are_refused_by_name_everywhere(data, name):
     x = data.draw(VALID[name], label="value")
     value = data.draw(bad_forms(x), label="form")
-    with pytest.raises(ValueError, match=rf"^{name} must be a number or an array of "
-                                         r"numbers \(real numbers"):
+    with pytest.raises(
+        ValueError,
+        match=rf"^{name} must be a number or an array of "
+        r"numbers \(real numbers",
+    ):
         rs.run_batch(TOY, t_end=0.005, **{"spin": 3.0, name: value})
     if np.ndim(value) == 0:
         with pytest.raises(ValueError, match=rf"fixed\.{name}: must be a number"):
-            Sweep(axes={"spin" if name != "spin" else "mu": [1.0]},
-                  fixed={"t_end": 0.01, name: value})
+            Sweep(
+                axes={"spin" if name != "spin" else "mu": [1.0]},
+                fixed={"t_end": 0.01, name: value},
+            )
         with pytest.raises(ValueError, match=r"^a must be a finite number > 0"):
             rs.Body(**{**KL, "a": value})
 

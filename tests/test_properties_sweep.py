@@ -39,19 +39,29 @@ def check_sweep(sweep: rs.Sweep, run: bool) -> None:
     if not sweep.simulates:  # no t_end (a corrupted file may lose it): stability maps only
         return
     bodies, kwargs = sweep.points(0, sweep.size)
-    direct = rs.run_batch(bodies, method=sweep.method, reversal_band=sweep.reversal_band,
-                          **kwargs)
-    check_trajectories(direct, rerun_batch(functools.partial(
-        rs.run_batch, bodies, method=sweep.method, reversal_band=sweep.reversal_band),
-        direct, kwargs), shrink=2.0 if sweep.method == "euler" else 8.0)
+    direct = rs.run_batch(
+        bodies, method=sweep.method, reversal_band=sweep.reversal_band, **kwargs
+    )
+    check_trajectories(
+        direct,
+        rerun_batch(
+            functools.partial(
+                rs.run_batch, bodies, method=sweep.method, reversal_band=sweep.reversal_band
+            ),
+            direct,
+            kwargs,
+        ),
+        shrink=2.0 if sweep.method == "euler" else 8.0,
+    )
     if not run:
         return
     with tempfile.TemporaryDirectory() as tmp:
         ds = run_sweep(sweep, tmp, progress=False, workers=1, command="test")
         assert ds.outcome.shape == sweep.shape
         for name in OBSERVABLES:
-            np.testing.assert_array_equal(ds[name].values.ravel(), direct[name].values,
-                                          err_msg=name)
+            np.testing.assert_array_equal(
+                ds[name].values.ravel(), direct[name].values, err_msg=name
+            )
         again = run_sweep(sweep, tmp, progress=False, workers=1, command="test")
         for name in OBSERVABLES:
             np.testing.assert_array_equal(again[name].values, ds[name].values)

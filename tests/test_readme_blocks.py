@@ -34,7 +34,9 @@ def python_blocks(text: str) -> list[str]:
 
 
 def test_blocks_are_found():
-    blocks = python_blocks("x\n```python\na = 1\n```\n```bash\nls\n```\n```python\nb\n```\n")
+    blocks = python_blocks(
+        "x\n```python\na = 1\n```\n```bash\nls\n```\n```python\nb\n```\n"
+    )
     assert blocks == ["a = 1\n", "b\n"]
 
 
@@ -46,8 +48,14 @@ def test_python_blocks_run_as_pasted(page, tmp_path):
     for key in ("NUMBA_CACHE_DIR", "NUMBA_NUM_THREADS", "PYTHONPATH"):
         if key in os.environ:
             env[key] = os.environ[key]
-    result = subprocess.run([sys.executable, "-c", RUNNER, *blocks], cwd=tmp_path, env=env,
-                            capture_output=True, text=True, timeout=300)
+    result = subprocess.run(
+        [sys.executable, "-c", RUNNER, *blocks],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-5000:]
 
 
@@ -55,10 +63,14 @@ def test_readme_is_a_front_page_with_the_two_commands():
     text = (ROOT / "README.md").read_text()
     assert len(text.encode()) <= 8192
     commands = re.findall(r"^```bash\n(.*?)\n```", text, flags=re.S | re.M)
-    main_job = ("python3 -m venv .venv && .venv/bin/pip install -e . && "
-                ".venv/bin/rattlesweep demo --out rattlesweep-demo")
-    tests = ("python3 -m venv .venv && .venv/bin/pip install -e '.[test,docs]' && "
-             ".venv/bin/python -m pytest")
+    main_job = (
+        "python3 -m venv .venv && .venv/bin/pip install -e . && "
+        ".venv/bin/rattlesweep demo --out rattlesweep-demo"
+    )
+    tests = (
+        "python3 -m venv .venv && .venv/bin/pip install -e '.[test,docs]' && "
+        ".venv/bin/python -m pytest"
+    )
     assert commands == [main_job, tests]
     assert tests in (ROOT / ".ci" / "run").read_text()  # CI runs the README's command
     assert "docs/gallery/reversal_map.png" in text
@@ -67,9 +79,15 @@ def test_readme_is_a_front_page_with_the_two_commands():
 
 
 def test_no_page_points_at_the_developers_shared_folder():
-    pages = [ROOT / "README.md", *(ROOT / "docs").rglob("*.md"),
-             *(ROOT / "notebooks").glob("*.ipynb")]
+    pages = [
+        ROOT / "README.md",
+        *(ROOT / "docs").rglob("*.md"),
+        *(ROOT / "notebooks").glob("*.ipynb"),
+    ]
     pages = [p for p in pages if "_build" not in p.parts and "generated" not in p.parts]
-    found = [p.relative_to(ROOT) for p in pages
-             if re.search(r"MODEL\.md|shared folder", p.read_text())]
+    found = [
+        p.relative_to(ROOT)
+        for p in pages
+        if re.search(r"MODEL\.md|shared folder", p.read_text())
+    ]
     assert not found

@@ -19,21 +19,33 @@ from sweep_helpers import assert_same_file, file_stats
 
 # --- the level algorithm on synthetic maps ----------------------------------------------
 
+
 class Synthetic:
     """A map known at every point of a finest grid (x, y, a batch dimension of 2), and
     the refinement's state over it: ``simulate`` copies the truth at given points."""
 
     def __init__(self, outcome, time, levels, shape=(129, 97, 2)):
         self.levels = Levels(shape, (0, 1), levels)
-        x, y, m = np.meshgrid(np.linspace(-1, 1, shape[0]), np.linspace(-1, 1, shape[1]),
-                              np.arange(shape[2]), indexing="ij")
-        self.truth = {"outcome": outcome(x, y, m).astype(np.int8),
-                      "first_reversal_time": time(x, y, m)}
-        self.truth["t_final"] = np.where(np.isnan(self.truth["first_reversal_time"]), 5.0,
-                                         self.truth["first_reversal_time"])
+        x, y, m = np.meshgrid(
+            np.linspace(-1, 1, shape[0]),
+            np.linspace(-1, 1, shape[1]),
+            np.arange(shape[2]),
+            indexing="ij",
+        )
+        self.truth = {
+            "outcome": outcome(x, y, m).astype(np.int8),
+            "first_reversal_time": time(x, y, m),
+        }
+        self.truth["t_final"] = np.where(
+            np.isnan(self.truth["first_reversal_time"]),
+            5.0,
+            self.truth["first_reversal_time"],
+        )
         self.truth["steps"] = np.round(100 * self.truth["t_final"]).astype(np.int64)
-        self.values = {k: np.full(shape, -1 if v.dtype.kind == "i" else np.nan, v.dtype)
-                       for k, v in self.truth.items()}
+        self.values = {
+            k: np.full(shape, -1 if v.dtype.kind == "i" else np.nan, v.dtype)
+            for k, v in self.truth.items()
+        }
         self.computed = np.zeros(shape, dtype=bool)
         self.planned = []
 
@@ -56,7 +68,7 @@ class Synthetic:
 
 
 def disc(x, y, m):
-    return (x - 0.2 * m) ** 2 + y ** 2 < 0.4
+    return (x - 0.2 * m) ** 2 + y**2 < 0.4
 
 
 def linear_time(x, y, m):
@@ -73,12 +85,19 @@ def test_refinement_resolves_a_boundary_and_fills_agreeing_cells_from_their_corn
     y = np.linspace(-1, 1, 97)[last[1]]
     assert np.all(np.abs(np.hypot(x, y) - math.sqrt(0.4)) < 0.2)
     # interpolation between agreeing corners reproduces a linear field exactly
-    inside = disc(*np.meshgrid(np.linspace(-1, 1, 129), np.linspace(-1, 1, 97),
-                               np.arange(2), indexing="ij"))
+    inside = disc(
+        *np.meshgrid(
+            np.linspace(-1, 1, 129), np.linspace(-1, 1, 97), np.arange(2), indexing="ij"
+        )
+    )
     filled = inside & ~run.computed
     assert filled.sum() > 1000
-    np.testing.assert_allclose(run.values["first_reversal_time"][filled],
-                               run.truth["first_reversal_time"][filled], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(
+        run.values["first_reversal_time"][filled],
+        run.truth["first_reversal_time"][filled],
+        rtol=0,
+        atol=1e-12,
+    )
     # integers come from a corner of the cell
     steps = run.values["steps"][filled]
     assert np.all((steps >= 100 * 2.0 - 100) & (steps <= 100 * 3.1))
@@ -103,6 +122,7 @@ def test_a_band_thinner_than_a_cell_along_a_boundary_is_found():
 def test_an_island_inside_one_agreeing_cell_is_missed():
     """The limit of refinement from a coarse grid: a feature that no declared point and
     no neighbour of a boundary cell touches is not seen."""
+
     def outcome(x, y, m):
         island = np.hypot(x + 0.81, y - 0.81) < 0.045  # between declared points
         return np.where(disc(x, y, m), 1, np.where(island, 4, 0))
@@ -125,7 +145,9 @@ def test_reversal_time_jump_refines_inside_one_outcome():
     jumps = Synthetic(outcome, time, levels=2).run(jump=0.5)
     assert jumps.computed.sum() > 2 * jumps.levels.level0().size
     error = np.abs(jumps.values["first_reversal_time"] - jumps.truth["first_reversal_time"])
-    error_plain = np.abs(plain.values["first_reversal_time"] - plain.truth["first_reversal_time"])
+    error_plain = np.abs(
+        plain.values["first_reversal_time"] - plain.truth["first_reversal_time"]
+    )
     assert np.mean(error > 0.5) < 0.25 * np.mean(error_plain > 0.5)
 
 
@@ -156,26 +178,43 @@ def test_refine_and_stop_in_the_configuration():
     # every declared value is on the finest grid
     np.testing.assert_allclose(fine.grid_axes[0].values[::4], s.grid_axes[0].values)
     np.testing.assert_allclose(fine.grid_axes[1].values[::4], s.grid_axes[1].values)
-    stopped = Sweep(**{**s.to_dict(), "stop": "first_reversal",
-                       "refine": {"levels": 1, "axes": ["delta_deg"],
-                                  "reversal_time_jump": 0.5}})
+    stopped = Sweep(
+        **{
+            **s.to_dict(),
+            "stop": "first_reversal",
+            "refine": {"levels": 1, "axes": ["delta_deg"], "reversal_time_jump": 0.5},
+        }
+    )
     assert stopped.finest().shape == (9, 9) and stopped.finest().stop == "first_reversal"
-    assert "stop = \"first_reversal\"" in stopped.to_toml()
+    assert 'stop = "first_reversal"' in stopped.to_toml()
     assert Sweep.from_toml(stopped.to_toml()) == stopped
     # a sweep without either keeps the configuration (and hash) it had before them
     plain = Sweep(**{k: v for k, v in s.to_dict().items() if k != "refine"})
-    assert set(plain.to_dict()) == {"name", "method", "reversal_band", "tile_size", "output",
-                                    "repeats", "seed", "axes", "fixed", "random"}
+    assert set(plain.to_dict()) == {
+        "name",
+        "method",
+        "reversal_band",
+        "tile_size",
+        "output",
+        "repeats",
+        "seed",
+        "axes",
+        "fixed",
+        "random",
+    }
 
 
-@pytest.mark.parametrize("refine, message", [
-    ({"levels": 0}, "refine.levels must be an integer from 1"),
-    ({"levels": 2, "axes": ["mu"]}, "refine.axes: 'mu' is not an axis"),
-    ({"levels": 2, "axes": "spin"}, "refine.axes must be a list"),
-    ({"levels": 2, "typo": 1}, r"refine: unknown keys \['typo'\]"),
-    ({"levels": 2, "reversal_time_jump": 0}, "refine.reversal_time_jump must be"),
-    ("three", "refine must be a table"),
-])
+@pytest.mark.parametrize(
+    "refine, message",
+    [
+        ({"levels": 0}, "refine.levels must be an integer from 1"),
+        ({"levels": 2, "axes": ["mu"]}, "refine.axes: 'mu' is not an axis"),
+        ({"levels": 2, "axes": "spin"}, "refine.axes must be a list"),
+        ({"levels": 2, "typo": 1}, r"refine: unknown keys \['typo'\]"),
+        ({"levels": 2, "reversal_time_jump": 0}, "refine.reversal_time_jump must be"),
+        ("three", "refine must be a table"),
+    ],
+)
 def test_bad_refine_tables_name_the_key(refine, message):
     with pytest.raises(ValueError, match=message):
         Sweep(**{**Sweep.from_toml(SMALL).to_dict(), "refine": refine})
@@ -184,9 +223,14 @@ def test_bad_refine_tables_name_the_key(refine, message):
 def test_refine_needs_ranges_and_netcdf():
     base = Sweep.from_toml(SMALL).to_dict()
     with pytest.raises(ValueError, match="'mu' is not a range"):
-        Sweep(**{**base, "axes": {**base["axes"], "mu": [0.3, 0.5]},
-                 "fixed": {k: v for k, v in base["fixed"].items() if k != "mu"},
-                 "refine": {"levels": 1, "axes": ["mu"]}})
+        Sweep(
+            **{
+                **base,
+                "axes": {**base["axes"], "mu": [0.3, 0.5]},
+                "fixed": {k: v for k, v in base["fixed"].items() if k != "mu"},
+                "refine": {"levels": 1, "axes": ["mu"]},
+            }
+        )
     with pytest.raises(ValueError, match="written as netCDF"):
         Sweep(**{**base, "output": "zarr"})
     with pytest.raises(ValueError, match="stop must be one of 'first_reversal'"):
@@ -194,6 +238,7 @@ def test_refine_needs_ranges_and_netcdf():
 
 
 # --- refined sweeps end to end -----------------------------------------------------------
+
 
 @pytest.fixture(scope="module")
 def small_runs(tmp_path_factory):
@@ -214,8 +259,9 @@ def test_refined_result_is_the_full_map_where_simulated(small_runs):
     # the declared grid is simulated, and simulated points are the full run's, bit for bit
     assert sim[::4, ::4].all()
     for name in full.data_vars:
-        np.testing.assert_array_equal(refined[name].values[sim], full[name].values[sim],
-                                      err_msg=name)
+        np.testing.assert_array_equal(
+            refined[name].values[sim], full[name].values[sim], err_msg=name
+        )
     # inputs are never filled: the default time step is exact everywhere
     np.testing.assert_array_equal(refined.dt.values, full.dt.values)
     c = compare_with_full(refined, full)
@@ -236,8 +282,9 @@ def test_refined_sweep_with_random_draws_has_them_at_every_point(tmp_path):
     assert ds.sizes == {"launch_spin": 13, "delta_deg": 2, "mu": 2, "repeat": 2}
     assert 0 < ds.attrs["points_simulated"] < fine.size
     (rp,) = fine.random_params
-    np.testing.assert_array_equal(ds.roll_deg.values.ravel(),
-                                  rp.draw(fine.seed, np.arange(fine.size)))
+    np.testing.assert_array_equal(
+        ds.roll_deg.values.ravel(), rp.draw(fine.seed, np.arange(fine.size))
+    )
 
 
 def test_refined_sweep_resumes_level_by_level(small_runs, tmp_path):
@@ -269,8 +316,22 @@ def test_cli_refine_stop_info_plot(tmp_path, capsys):
     config = tmp_path / "small.toml"
     config.write_text(SMALL)
     out = tmp_path / "run"
-    assert main(["sweep", str(config), "--out", str(out), "--refine", "1",
-                 "--stop", "first_reversal", "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "sweep",
+                str(config),
+                "--out",
+                str(out),
+                "--refine",
+                "1",
+                "--stop",
+                "first_reversal",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     printed = capsys.readouterr().out
     assert "17 x 9" not in printed and "153 points (" in printed and "simulated" in printed
     stored = Sweep.from_toml(out / "sweep.toml")
@@ -292,9 +353,11 @@ def test_cli_refine_stop_info_plot(tmp_path, capsys):
 
 # --- acceptance (slow): the demo map against the full grid --------------------------------
 
+
 @pytest.mark.slow
-@pytest.mark.skipif(not os.environ.get("RATTLESWEEP_SLOW"),
-                    reason="slow: set RATTLESWEEP_SLOW=1 to run")
+@pytest.mark.skipif(
+    not os.environ.get("RATTLESWEEP_SLOW"), reason="slow: set RATTLESWEEP_SLOW=1 to run"
+)
 def test_demo_map_refined_three_levels_matches_the_full_grid(tmp_path):
     from rattlesweep.sweep.demo import DEMO_TOML
 

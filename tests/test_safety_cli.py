@@ -18,8 +18,20 @@ def config(tmp_path):
 
 
 def test_negative_refine_is_refused_not_dropped(tmp_path, config, capsys):
-    assert main(["sweep", str(config), "--out", str(tmp_path / "o"), "--refine", "-1",
-                 "--quiet"]) == 2
+    assert (
+        main(
+            [
+                "sweep",
+                str(config),
+                "--out",
+                str(tmp_path / "o"),
+                "--refine",
+                "-1",
+                "--quiet",
+            ]
+        )
+        == 2
+    )
     assert "--refine must be an integer >= 0" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
 
@@ -58,20 +70,24 @@ def test_info_counts_only_complete_tiles(tmp_path, config, capsys):
     capsys.readouterr()
     assert main(["info", str(out)]) == 0
     n = len(tiles)
-    assert f"tiles written: {n - 2} of {n} (complete and readable), 1 damaged" in \
-        capsys.readouterr().out
+    assert (
+        f"tiles written: {n - 2} of {n} (complete and readable), 1 damaged"
+        in capsys.readouterr().out
+    )
 
 
 # --- info and plot say when an output is damaged ----------------------------------------
 
+
 def _corrupt(path, at=40_000, n=3_000):
     data = bytearray(path.read_bytes())
-    data[at:at + n] = b"\xff" * n
+    data[at : at + n] = b"\xff" * n
     path.write_bytes(bytes(data))
 
 
 def test_info_and_plot_of_a_directory_with_a_corrupt_sweep_nc_say_it_is_damaged(
-        tmp_path, config, capsys):
+    tmp_path, config, capsys
+):
     out = tmp_path / "o"
     assert main(["sweep", str(config), "--out", str(out), "--quiet"]) == 0
     _corrupt(out / "sweep.nc")
@@ -88,8 +104,9 @@ def test_info_and_plot_of_a_directory_with_a_corrupt_sweep_nc_say_it_is_damaged(
     assert "sweep.nc cannot be read in full" in err and "rattlesweep resume" in err
 
 
-def test_info_of_a_finished_directory_names_a_deleted_tile_as_missing(tmp_path, config,
-                                                                        capsys):
+def test_info_of_a_finished_directory_names_a_deleted_tile_as_missing(
+    tmp_path, config, capsys
+):
     out = tmp_path / "o"
     assert main(["sweep", str(config), "--out", str(out), "--quiet"]) == 0
     (out / "tiles" / "tile-000001.nc").unlink()
@@ -109,26 +126,32 @@ def test_info_of_a_sound_output_warns_of_nothing(tmp_path, config, capsys):
     assert capsys.readouterr().err == ""
 
 
-def test_info_of_a_zarr_store_with_a_chunk_deleted_says_which_tile(tmp_path, config,
-                                                                  capsys):
+def test_info_of_a_zarr_store_with_a_chunk_deleted_says_which_tile(
+    tmp_path, config, capsys
+):
     pytest.importorskip("zarr")
     store = tmp_path / "z.zarr"
-    assert main(["sweep", str(config), "--out", str(store), "--output", "zarr",
-                 "--quiet"]) == 0
+    assert (
+        main(["sweep", str(config), "--out", str(store), "--output", "zarr", "--quiet"])
+        == 0
+    )
     chunks = sorted(store.glob("outcome/c/*/*/*/*"))
     chunks[2].unlink()
     capsys.readouterr()
     assert main(["info", str(store)]) == 0
     captured = capsys.readouterr()
     assert "not computed" in captured.out  # what the store reads as, now explained:
-    assert f"rattlesweep info: warning: {store} is damaged (3 of 4 tiles verified" in \
-        captured.err
+    assert (
+        f"rattlesweep info: warning: {store} is damaged (3 of 4 tiles verified"
+        in captured.err
+    )
     assert "damaged: tile 2: chunk outcome/c/2" in captured.err
     assert f"`rattlesweep resume {store}` recomputes" in captured.err
 
 
 def test_verify_says_1_tile_and_not_computed_yet_for_an_unfinished_directory(
-        tmp_path, config, capsys):
+    tmp_path, config, capsys
+):
     out = tmp_path / "o"
     assert main(["sweep", str(config), "--out", str(out), "--quiet"]) == 0
     (out / "sweep.nc").unlink()  # as before the merge
@@ -142,8 +165,10 @@ def test_verify_says_1_tile_and_not_computed_yet_for_an_unfinished_directory(
 
 # --- a netCDF sweep writes only into a directory of its own ------------------------------
 
-def test_a_directory_holding_other_files_is_refused_and_left_untouched(tmp_path, config,
-                                                                        capsys):
+
+def test_a_directory_holding_other_files_is_refused_and_left_untouched(
+    tmp_path, config, capsys
+):
     mine = tmp_path / "mine"
     (mine / "data").mkdir(parents=True)
     (mine / "notes.txt").write_text("keep")
@@ -151,8 +176,7 @@ def test_a_directory_holding_other_files_is_refused_and_left_untouched(tmp_path,
     before = sorted(p.relative_to(mine) for p in mine.rglob("*"))
     assert main(["sweep", str(config), "--out", str(mine), "--quiet"]) == 2
     err = capsys.readouterr().err
-    assert (f"output {mine} holds 3 other files (the first: data/) and no sweep.toml"
-            in err)
+    assert f"output {mine} holds 3 other files (the first: data/) and no sweep.toml" in err
     assert "Give a new or empty directory" in err
     assert sorted(p.relative_to(mine) for p in mine.rglob("*")) == before  # no lock either
     (mine / "data").rmdir()
@@ -176,6 +200,7 @@ def test_an_empty_directory_or_one_a_killed_start_left_is_used(tmp_path, config)
 
 # --- messages that say what is wrong -----------------------------------------------------
 
+
 @pytest.mark.parametrize("refine", [None, "1"])
 def test_a_file_where_the_tiles_directory_goes_is_named(tmp_path, config, capsys, refine):
     out = tmp_path / "o"
@@ -195,9 +220,20 @@ def test_a_long_run_warning_is_one_line_of_the_command(tmp_path):
     config.write_text(small_sweep(fixed={"t_end": 1.0, "damping": 1e3}).to_toml())
     in_the_way = tmp_path / "a-file"
     in_the_way.write_text("")  # the sweep is refused after its announcement
-    done = subprocess.run([sys.executable, "-m", "rattlesweep.cli", "sweep", str(config),
-                           "--out", str(in_the_way)], capture_output=True, text=True,
-                          timeout=120)
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "rattlesweep.cli",
+            "sweep",
+            str(config),
+            "--out",
+            str(in_the_way),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert done.returncode == 2
     warning, error = done.stderr.splitlines()
     assert warning.startswith("rattlesweep: warning: this sweep takes up to ")

@@ -55,8 +55,9 @@ def _interrupt(config, out, delay):
     except subprocess.TimeoutExpired:
         proc.kill()
         proc.communicate()
-        pytest.fail(f"Ctrl-C {delay} s after the first tile: still running after "
-                    f"{EXIT_WITHIN} s")
+        pytest.fail(
+            f"Ctrl-C {delay} s after the first tile: still running after {EXIT_WITHIN} s"
+        )
     return proc.returncode, time.monotonic() - t0, err
 
 
@@ -95,8 +96,9 @@ def test_ctrl_c_always_stops_a_sweep_of_many_small_tiles(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(not os.environ.get("RATTLESWEEP_SLOW"),
-                    reason="slow: set RATTLESWEEP_SLOW=1 to run")
+@pytest.mark.skipif(
+    not os.environ.get("RATTLESWEEP_SLOW"), reason="slow: set RATTLESWEEP_SLOW=1 to run"
+)
 def test_ctrl_c_at_many_instants(tmp_path):
     _check_interrupts(tmp_path, [i * 0.004 for i in range(40)])
 
@@ -121,8 +123,9 @@ def test_a_second_ctrl_c_ends_a_sweep_whose_tiles_run_for_hours(tmp_path):
     out = tmp_path / "out"
     proc = start_sweep(config, out, 2)
     deadline = time.monotonic() + 120
-    while (time.monotonic() < deadline and proc.poll() is None
-           and not (out / "tiles").is_dir()):
+    while (
+        time.monotonic() < deadline and proc.poll() is None and not (out / "tiles").is_dir()
+    ):
         time.sleep(0.01)
     time.sleep(1.0)  # the tiles are computing now
     proc.send_signal(signal.SIGINT)
@@ -148,15 +151,20 @@ def test_ctrl_c_starts_no_more_tiles(tmp_path):
     written; the tiles queued behind them are dropped (a hostile trial saw 2 tiles start
     after the signal)."""
     config = tmp_path / "slow.toml"
-    config.write_text('name = "slow tiles"\ntile_size = 2\n[axes]\n'
-                      'spin = { start = -20, stop = 20, num = 24 }\n'
-                      '[fixed]\nt_end = 1.0\ndt = 2e-7\n')
+    config.write_text(
+        'name = "slow tiles"\ntile_size = 2\n[axes]\n'
+        "spin = { start = -20, stop = 20, num = 24 }\n"
+        "[fixed]\nt_end = 1.0\ndt = 2e-7\n"
+    )
     out = tmp_path / "out"
     proc = start_sweep(config, out, 2)
     tiles = out / "tiles"
     deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and proc.poll() is None and not list(
-            tiles.glob("tile-*.nc")):
+    while (
+        time.monotonic() < deadline
+        and proc.poll() is None
+        and not list(tiles.glob("tile-*.nc"))
+    ):
         time.sleep(0.002)
     at_signal = len(list(tiles.glob("tile-*.nc")))
     proc.send_signal(signal.SIGINT)

@@ -23,10 +23,13 @@ def test_billions_of_steps_are_announced_before_the_run():
     # damping = 1e3 makes the default step 2.75e-10 s: 3.6e9 steps for 1 s of motion
     with warnings.catch_warnings():
         warnings.simplefilter("error", LongRunWarning)  # stop at the announcement
-        with pytest.raises(LongRunWarning, match=r"this batch takes 3\.63e\+09 steps in "
-                           r"all \(1 launch; the longest t_end = 1 s / dt = 2\.75e-10 s "
-                           r"\(the body's default step at g = 9\.81, damping = 1000\) = "
-                           r"3,630,359,508 steps\).*roughly 60\.5 core-minutes"):
+        with pytest.raises(
+            LongRunWarning,
+            match=r"this batch takes 3\.63e\+09 steps in "
+            r"all \(1 launch; the longest t_end = 1 s / dt = 2\.75e-10 s "
+            r"\(the body's default step at g = 9\.81, damping = 1000\) = "
+            r"3,630,359,508 steps\).*roughly 60\.5 core-minutes",
+        ):
             rs.run_batch(TOY, spin=5.0, t_end=1.0, damping=1e3)
     with warnings.catch_warnings():
         warnings.simplefilter("error", LongRunWarning)
@@ -36,12 +39,17 @@ def test_billions_of_steps_are_announced_before_the_run():
 def test_a_long_sweep_is_announced_before_anything_is_written(tmp_path):
     from rattlesweep.sweep import Sweep, run_sweep
 
-    s = Sweep(axes={"spin": {"start": 1, "stop": 5, "num": 4}},
-              fixed={"t_end": 1.0, "damping": 1e3})
+    s = Sweep(
+        axes={"spin": {"start": 1, "stop": 5, "num": 4}},
+        fixed={"t_end": 1.0, "damping": 1e3},
+    )
     assert s.max_steps == 3_630_359_508
     with warnings.catch_warnings():
         warnings.simplefilter("error", LongRunWarning)
-        with pytest.raises(LongRunWarning, match=r"this sweep takes up to 1\.45e\+10 steps "
-                           r"\(4 launches, the longest 3,630,359,508 steps\)"):
+        with pytest.raises(
+            LongRunWarning,
+            match=r"this sweep takes up to 1\.45e\+10 steps "
+            r"\(4 launches, the longest 3,630,359,508 steps\)",
+        ):
             run_sweep(s, tmp_path / "out", progress=False)
     assert not (tmp_path / "out").exists()

@@ -90,8 +90,11 @@ def test_netcdf_directory_verified_tile_by_tile_and_merged_file(tmp_path, capsys
 
 # --- a sweep never destroys what it cannot show it wrote -------------------------------
 
+
 def _tree(root):
-    return {str(p.relative_to(root)): p.read_bytes() for p in root.rglob("*") if p.is_file()}
+    return {
+        str(p.relative_to(root)): p.read_bytes() for p in root.rglob("*") if p.is_file()
+    }
 
 
 def test_zarr_store_with_damaged_root_metadata_is_refused_not_wiped(tmp_path):
@@ -99,8 +102,11 @@ def test_zarr_store_with_damaged_root_metadata_is_refused_not_wiped(tmp_path):
     run_sweep(as_zarr(small_sweep(tile_size=3)), store, progress=False)
     (store / "zarr.json").write_text("{broken")
     before = _tree(store)
-    with pytest.raises(ValueError, match=r"a\.zarr holds a zarr store whose root metadata "
-                                         r"cannot be read.*not overwriting it"):
+    with pytest.raises(
+        ValueError,
+        match=r"a\.zarr holds a zarr store whose root metadata "
+        r"cannot be read.*not overwriting it",
+    ):
         run_sweep(as_zarr(small_sweep(tile_size=4)), store, progress=False)
     assert _tree(store) == before
 
@@ -120,8 +126,11 @@ def test_netcdf_directory_without_config_keeps_results_it_cannot_claim(tmp_path)
         path.unlink()
     (tmp_path / RESULT_NAME).rename(out / RESULT_NAME)
     merged = (out / RESULT_NAME).read_bytes()
-    with pytest.raises(ValueError, match=r"holds sweep\.nc but no sweep\.toml.*not "
-                                         r"overwriting it"):
+    with pytest.raises(
+        ValueError,
+        match=r"holds sweep\.nc but no sweep\.toml.*not "
+        r"overwriting it",
+    ):
         run_sweep(small_sweep(tile_size=4), out, progress=False)
     assert (out / RESULT_NAME).read_bytes() == merged
     assert not (out / "sweep.toml").exists()
@@ -197,8 +206,10 @@ def test_zarr_coordinates_damaged_are_found_refused_and_rewritten(tmp_path, caps
     assert main(["resume", str(store), "--quiet"]) == 0
     assert verify(store).ok
     export(store, tmp_path / "again.nc")
-    with xr.open_dataset(tmp_path / "reference.nc") as a, \
-            xr.open_dataset(tmp_path / "again.nc") as b:
+    with (
+        xr.open_dataset(tmp_path / "reference.nc") as a,
+        xr.open_dataset(tmp_path / "again.nc") as b,
+    ):
         xr.testing.assert_identical(without_history(a), without_history(b))
 
 

@@ -21,8 +21,9 @@ from sweep_helpers import without_config
 
 pytest.importorskip("zarr")
 pytest.importorskip("s3fs", reason="the S3 tests need s3fs (the test extra)")
-moto_server = pytest.importorskip("moto.server", reason="the S3 tests need moto[server] "
-                                  "(the test extra)")
+moto_server = pytest.importorskip(
+    "moto.server", reason="the S3 tests need moto[server] (the test extra)"
+)
 boto3 = pytest.importorskip("boto3")
 
 BUCKET = "rattlesweep-test"
@@ -48,23 +49,36 @@ def s3():
     server.start()
     host, port = server.get_host_and_port()
     url = f"http://{host}:{port}"
-    boto3.client("s3", endpoint_url=url, aws_access_key_id="testing",
-                 aws_secret_access_key="testing",
-                 region_name="us-east-1").create_bucket(Bucket=BUCKET)
+    boto3.client(
+        "s3",
+        endpoint_url=url,
+        aws_access_key_id="testing",
+        aws_secret_access_key="testing",
+        region_name="us-east-1",
+    ).create_bucket(Bucket=BUCKET)
     yield url
     server.stop()
 
 
 def _options(url):
-    return {"key": "testing", "secret": "testing", "endpoint_url": url,
-            "client_kwargs": {"region_name": "us-east-1"}}
+    return {
+        "key": "testing",
+        "secret": "testing",
+        "endpoint_url": url,
+        "client_kwargs": {"region_name": "us-east-1"},
+    }
 
 
 def _env(url):
     """What a user's shell would set: credentials and the endpoint, for the CLI (fsspec
     reads FSSPEC_S3_* as s3fs arguments)."""
-    return {**os.environ, "FSSPEC_S3_KEY": "testing", "FSSPEC_S3_SECRET": "testing",
-            "FSSPEC_S3_ENDPOINT_URL": url, "AWS_DEFAULT_REGION": "us-east-1"}
+    return {
+        **os.environ,
+        "FSSPEC_S3_KEY": "testing",
+        "FSSPEC_S3_SECRET": "testing",
+        "FSSPEC_S3_ENDPOINT_URL": url,
+        "AWS_DEFAULT_REGION": "us-east-1",
+    }
 
 
 def _fs(url):
@@ -74,7 +88,8 @@ def _fs(url):
 
 
 def test_zarr_sweep_into_s3_killed_verified_resumed_exported_and_damage_found(
-        s3, tmp_path, monkeypatch, capsys):
+    s3, tmp_path, monkeypatch, capsys
+):
     config = tmp_path / "s3.toml"
     config.write_text(S3_TOML)
     sweep = Sweep.from_toml(config)
@@ -83,9 +98,23 @@ def test_zarr_sweep_into_s3_killed_verified_resumed_exported_and_damage_found(
     opts = _options(s3)
 
     # the CLI, as a user runs it, killed (SIGKILL: no cleanup) after a few tiles
-    proc = subprocess.Popen([sys.executable, "-m", "rattlesweep.cli", "sweep", str(config),
-                             "--out", store, "--workers", "1", "--quiet"], env=_env(s3),
-                            stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "rattlesweep.cli",
+            "sweep",
+            str(config),
+            "--out",
+            store,
+            "--workers",
+            "1",
+            "--quiet",
+        ],
+        env=_env(s3),
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and proc.poll() is None:
         if len(fs.find(f"{BUCKET}/run.zarr/status/c", refresh=True)) >= 2:
@@ -102,23 +131,31 @@ def test_zarr_sweep_into_s3_killed_verified_resumed_exported_and_damage_found(
         export(store, tmp_path / "early.nc", opts)
 
     # resume, through the CLI with the endpoint from the environment
-    resumed = subprocess.run([sys.executable, "-m", "rattlesweep.cli", "resume", store,
-                              "--quiet"], env=_env(s3), capture_output=True, text=True,
-                             timeout=300)
+    resumed = subprocess.run(
+        [sys.executable, "-m", "rattlesweep.cli", "resume", store, "--quiet"],
+        env=_env(s3),
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert resumed.returncode == 0, resumed.stderr
     assert verify(store, opts).ok
     # the other commands in this process, configured as fsspec reads FSSPEC_S3_*
     import fsspec.config
 
-    monkeypatch.setitem(fsspec.config.conf, "s3", {"key": "testing", "secret": "testing",
-                                                   "endpoint_url": s3})
+    monkeypatch.setitem(
+        fsspec.config.conf,
+        "s3",
+        {"key": "testing", "secret": "testing", "endpoint_url": s3},
+    )
     assert main(["verify", store]) == 0
     assert f"{sweep.n_tiles} of {sweep.n_tiles} tiles verified" in capsys.readouterr().out
 
     # the exported file equals a local netCDF sweep of the same configuration
     export(store, tmp_path / "s3.nc", opts)
-    local = run_sweep(Sweep(**{**sweep.to_dict(), "output": "netcdf"}), tmp_path / "local",
-                      progress=False)
+    local = run_sweep(
+        Sweep(**{**sweep.to_dict(), "output": "netcdf"}), tmp_path / "local", progress=False
+    )
     with xr.open_dataset(tmp_path / "s3.nc") as got:
         xr.testing.assert_identical(without_config(got.load()), without_config(local))
 
@@ -133,11 +170,16 @@ def test_zarr_sweep_into_s3_killed_verified_resumed_exported_and_damage_found(
     assert main(["verify", store]) == 1
     assert "damaged: tile 3: chunk final_spin/" in capsys.readouterr().out
     assert main(["export", store, str(tmp_path / "bad.nc")]) == 2
-    assert "1 of 8 tiles are missing or damaged (tile 3: chunk final_spin/" in \
-        capsys.readouterr().err
+    assert (
+        "1 of 8 tiles are missing or damaged (tile 3: chunk final_spin/"
+        in capsys.readouterr().err
+    )
     assert not (tmp_path / "bad.nc").exists()
     run_sweep(sweep, store, storage_options=opts, progress=False)
     assert verify(store, opts).ok
     export(store, tmp_path / "again.nc", opts)
-    with xr.open_dataset(tmp_path / "s3.nc") as a, xr.open_dataset(tmp_path / "again.nc") as b:
+    with (
+        xr.open_dataset(tmp_path / "s3.nc") as a,
+        xr.open_dataset(tmp_path / "again.nc") as b,
+    ):
         xr.testing.assert_identical(without_config(a.load()), without_config(b.load()))

@@ -41,8 +41,9 @@ SCRIPT = textwrap.dedent("""
 
 def test_parallel_run_batch_from_three_threads_under_workqueue():
     env = {**os.environ, "NUMBA_THREADING_LAYER": "workqueue", "NUMBA_NUM_THREADS": "2"}
-    proc = subprocess.run([sys.executable, "-c", SCRIPT], env=env, capture_output=True,
-                          text=True, timeout=300)
+    proc = subprocess.run(
+        [sys.executable, "-c", SCRIPT], env=env, capture_output=True, text=True, timeout=300
+    )
     # without the lock numba aborts the process: "The workqueue threading layer is not
     # threadsafe and may not be accessed concurrently by multiple threads"
     assert proc.returncode == 0, proc.stderr[-3000:]

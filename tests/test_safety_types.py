@@ -9,27 +9,56 @@ import rattlesweep as rs
 from rattlesweep.sweep import Sweep
 
 TOY = rs.Body.preset("toy")
-KL = dict(a=0.2, b=0.03, c=0.02, mass=1.0, com=(0.0, 0.0, -0.01),
-          inertia=np.diag([1e-4, 2e-3, 2e-3]))
-REAL = (r"must be a number or an array of numbers \(real numbers: not booleans, strings "
-        r"or complex numbers\)")
+KL = dict(
+    a=0.2,
+    b=0.03,
+    c=0.02,
+    mass=1.0,
+    com=(0.0, 0.0, -0.01),
+    inertia=np.diag([1e-4, 2e-3, 2e-3]),
+)
+REAL = (
+    r"must be a number or an array of numbers \(real numbers: not booleans, strings "
+    r"or complex numbers\)"
+)
 
 
-@pytest.mark.parametrize("name, value", [
-    ("spin", np.array([1 + 1j, 2.0])), ("spin", 2 + 0j), ("spin", np.complex128(2)),
-    ("spin", True), ("spin", np.bool_(True)), ("spin", np.array([True, False])),
-    ("spin", "5"), ("spin", np.array(["5"])), ("mu", [0.3, True]), ("mu", [0.3, "0.4"]),
-    ("t_end", "1"), ("damping", False), ("roll", [[0.1], [0.2, 0.3]]),
-])
+@pytest.mark.parametrize(
+    "name, value",
+    [
+        ("spin", np.array([1 + 1j, 2.0])),
+        ("spin", 2 + 0j),
+        ("spin", np.complex128(2)),
+        ("spin", True),
+        ("spin", np.bool_(True)),
+        ("spin", np.array([True, False])),
+        ("spin", "5"),
+        ("spin", np.array(["5"])),
+        ("mu", [0.3, True]),
+        ("mu", [0.3, "0.4"]),
+        ("t_end", "1"),
+        ("damping", False),
+        ("roll", [[0.1], [0.2, 0.3]]),
+    ],
+)
 def test_run_batch_refuses_what_is_not_a_real_number(name, value):
     kwargs = {"t_end": 0.01, name: value}
     with pytest.raises(ValueError, match=rf"^{name} {REAL}, got "):
         rs.run_batch(TOY, **kwargs)
 
 
-@pytest.mark.parametrize("value", [np.float32(2.5), np.float64(2.5), np.int64(2),
-                                   np.array(2.5), np.array([1, 2]), [1.0, np.float32(2)],
-                                   np.arange(3, dtype=np.int32)])
+@pytest.mark.parametrize(
+    "value",
+    [
+        np.float32(2.5),
+        np.float64(2.5),
+        np.int64(2),
+        np.array(2.5),
+        np.array([1, 2]),
+        [1.0, np.float32(2)],
+        np.arange(3, dtype=np.int32),
+    ],
+)
 def test_run_batch_takes_numpy_scalars_0d_arrays_and_integer_arrays(value):
     ds = rs.run_batch(TOY, spin=value, t_end=0.01)
     assert np.array_equal(ds.launch_spin.values, np.ravel(np.asarray(value, dtype=float)))
@@ -37,14 +66,18 @@ def test_run_batch_takes_numpy_scalars_0d_arrays_and_integer_arrays(value):
 
 @pytest.mark.parametrize("flag", ["false", "true", 0, 1, None, np.array(False)])
 def test_full_ellipsoid_takes_booleans_only(flag):
-    with pytest.raises(ValueError, match=rf"full_ellipsoid must be a boolean \(true or "
-                                         rf"false\), got {re_escape(flag)}"):
+    with pytest.raises(
+        ValueError,
+        match=rf"full_ellipsoid must be a boolean \(true or "
+        rf"false\), got {re_escape(flag)}",
+    ):
         rs.Body(**KL, full_ellipsoid=flag)
     assert rs.Body(**KL, full_ellipsoid=np.bool_(False)).full_ellipsoid is False
 
 
 def re_escape(value):
     import re
+
     return re.escape(repr(value))
 
 
@@ -70,9 +103,16 @@ def test_body_dimensions_and_sweep_values_refuse_the_same(value):
         Sweep(axes={"spin": [1.0, value]}, fixed={"t_end": 1.0})
 
 
-@pytest.mark.parametrize("name, value", [("parallel", "false"), ("parallel", 0),
-                                         ("threads", True), ("reversal_band", "0.1"),
-                                         ("reversal_band", True)])
+@pytest.mark.parametrize(
+    "name, value",
+    [
+        ("parallel", "false"),
+        ("parallel", 0),
+        ("threads", True),
+        ("reversal_band", "0.1"),
+        ("reversal_band", True),
+    ],
+)
 def test_run_batch_options_take_their_own_types(name, value):
     with pytest.raises(ValueError, match=rf"{name} must be"):
         rs.run_batch(TOY, spin=1.0, t_end=0.01, **{name: value})

@@ -35,9 +35,9 @@ def kernel_jacobian(body, spin, damping=0.0, h=1e-6):
     prep = prepare(body, orientation=q, omega=omega, damping=damping, t_end=1.0)
     D = np.zeros_like(prep.Y)
     rolling_derivative(RATTLEBACK, prep.P, prep.Y, D)
-    Y = prep.Y.transpose(1, 0, 2).reshape(L.N_STATE, -1)[:, :len(x)]
-    Dn = D.transpose(1, 0, 2).reshape(L.N_STATE, -1)[:, :len(x)]
-    q, qd = Y[L.Q0:L.Q0 + 4], Dn[L.Q0:L.Q0 + 4]
+    Y = prep.Y.transpose(1, 0, 2).reshape(L.N_STATE, -1)[:, : len(x)]
+    Dn = D.transpose(1, 0, 2).reshape(L.N_STATE, -1)[:, : len(x)]
+    q, qd = Y[L.Q0 : L.Q0 + 4], Dn[L.Q0 : L.Q0 + 4]
     # γ̇ from the kernel's quaternion rate: γx = 2(q1 q3 − q0 q2), γy = 2(q2 q3 + q0 q1)
     gx_dot = 2 * (qd[1] * q[3] + q[1] * qd[3] - qd[0] * q[2] - q[0] * qd[2])
     gy_dot = 2 * (qd[2] * q[3] + q[2] * qd[3] + qd[0] * q[1] + q[0] * qd[1])
@@ -67,8 +67,11 @@ def test_zero_spin_frequencies_equal_the_closed_forms():
     np.testing.assert_allclose(lam.real, 0.0, atol=1e-12 * wp)
     # coupled modes (I_xy != 0) agree with the body's own generalised eigenproblem
     for preset in (KL, TOY, GOLDEN):
-        np.testing.assert_allclose(st.zero_spin_frequencies(preset),
-                                   preset.small_oscillation_frequencies(), rtol=1e-10)
+        np.testing.assert_allclose(
+            st.zero_spin_frequencies(preset),
+            preset.small_oscillation_frequencies(),
+            rtol=1e-10,
+        )
 
 
 def test_zero_misalignment_gives_zero_growth():
@@ -98,12 +101,16 @@ def test_trace_identity():
         for damping in (0.0, 3e-5):
             lam = st.eigen(body, spins, damping=damping)["eigenvalues"]
             expected = st.trace_identity(body, spins, damping=damping)
-            np.testing.assert_allclose(lam.real.sum(axis=-1), expected, rtol=1e-9,
-                                       atol=1e-12 * np.abs(lam).max())
+            np.testing.assert_allclose(
+                lam.real.sum(axis=-1), expected, rtol=1e-9, atol=1e-12 * np.abs(lam).max()
+            )
         # without damping the trace is a fixed multiple of I_xy n l (a^2 - b^2)
         ratio = st.trace_identity(body, spins[spins != 0]) / (
-            body.inertia[0, 1] * spins[spins != 0] * body.com_height
-            * (body.a**2 - body.b**2))
+            body.inertia[0, 1]
+            * spins[spins != 0]
+            * body.com_height
+            * (body.a**2 - body.b**2)
+        )
         np.testing.assert_allclose(ratio, ratio[0], rtol=1e-12)
         assert ratio[0] > 0
 
@@ -114,7 +121,9 @@ def test_small_spin_closed_form_converges_to_the_eigenvalues():
         for n in (0.4, 0.2, 0.1):
             exact = st.eigen(body, n)
             p, r = st.small_spin_growth_rates(body, n)
-            errors.append(abs(p - exact["pitch_growth_rate"]) / abs(exact["pitch_growth_rate"]))
+            errors.append(
+                abs(p - exact["pitch_growth_rate"]) / abs(exact["pitch_growth_rate"])
+            )
             assert r == pytest.approx(float(exact["roll_growth_rate"]), rel=0.01)
         assert errors[-1] < 1e-3
         # the expansion is first order in n and the real part has no n^2 term, so the
@@ -132,8 +141,9 @@ def measured_growth(body, spin, t_end, amplitude=1e-7):
     v = vec[:, k].real if abs(vec[:, k].real).max() > 1e-3 else vec[:, k].imag
     v = amplitude * v / np.hypot(v[0], v[1])
     q = quaternion_from_angles(np.array([v[1]]), np.array([-v[0]]), np.zeros(1))[0]
-    run = rs.simulate(body, orientation=q, omega=(v[2], v[3], spin), t_end=t_end,
-                      record_every=1)
+    run = rs.simulate(
+        body, orientation=q, omega=(v[2], v[3], spin), t_end=t_end, record_every=1
+    )
     tilt, t = run.tilt.values, run.time.values
     peak = (tilt[1:-1] > tilt[:-2]) & (tilt[1:-1] >= tilt[2:])
     tp, yp = t[1:-1][peak], tilt[1:-1][peak]
@@ -161,12 +171,19 @@ def test_asymptotically_stable_sense_decays_in_simulation():
 
 
 def test_bad_inputs_are_refused():
-    off_axis = rs.Body(0.05, 0.01, 0.01, 0.01, (0.001, 0.0, -0.003),
-                       np.diag([1e-6, 8e-6, 8.5e-6]))
+    off_axis = rs.Body(
+        0.05, 0.01, 0.01, 0.01, (0.001, 0.0, -0.003), np.diag([1e-6, 8e-6, 8.5e-6])
+    )
     with pytest.raises(ValueError, match="com x = y = 0"):
         st.eigen(off_axis, 1.0)
-    tilted = rs.Body(0.05, 0.01, 0.01, 0.01, (0.0, 0.0, -0.003),
-                     [[1e-6, 0, 1e-7], [0, 8e-6, 0], [1e-7, 0, 8.5e-6]])
+    tilted = rs.Body(
+        0.05,
+        0.01,
+        0.01,
+        0.01,
+        (0.0, 0.0, -0.003),
+        [[1e-6, 0, 1e-7], [0, 8e-6, 0], [1e-7, 0, 8.5e-6]],
+    )
     with pytest.raises(ValueError, match="I_xz = I_yz = 0"):
         st.linearisation(tilted, 1.0)
     with pytest.raises(ValueError, match="spin must be finite"):
@@ -186,16 +203,21 @@ def test_stability_dataset_on_a_sweep_grid_and_cli(tmp_path, capsys):
     toml.write_text(
         "[axes]\nspin = { start = -20, stop = 20, num = 9 }\n"
         "delta_deg = { start = -6, stop = 6, num = 5 }\n"
-        "[fixed]\nt_end = 3.0\nroll_deg = 0.5\n")
+        "[fixed]\nt_end = 3.0\nroll_deg = 0.5\n"
+    )
     sweep = Sweep.from_toml(toml)
     ds = st.stability_dataset(sweep)
     assert ds.growth_rate.dims == ("launch_spin", "delta_deg")
-    assert ds.delta_deg.attrs["units"] == "degree" and ds.growth_rate.attrs["units"] == "s-1"
+    assert (
+        ds.delta_deg.attrs["units"] == "degree" and ds.growth_rate.attrs["units"] == "s-1"
+    )
     # one point against a direct evaluation
     body = rs.Body.semi_ellipsoid(TOY.a, TOY.b, TOY.c, TOY.mass, math.radians(-3.0))
     direct = st.eigen(body, 15.0)
     point = ds.sel(launch_spin=15.0, delta_deg=-3.0)
-    assert float(point.growth_rate) == pytest.approx(float(direct["growth_rate"]), rel=1e-12)
+    assert float(point.growth_rate) == pytest.approx(
+        float(direct["growth_rate"]), rel=1e-12
+    )
     assert int(point["mode"]) == int(direct["mode"])
     assert np.all(ds.sel(delta_deg=0.0).growth_rate == pytest.approx(0.0, abs=1e-9))
     # a stability-only configuration needs no t_end
@@ -223,10 +245,32 @@ def test_stability_dataset_on_a_sweep_grid_and_cli(tmp_path, capsys):
     out = tmp_path / "stab.nc"
     assert main(["stability", str(toml), "--out", str(out)]) == 0
     assert "unstable" in capsys.readouterr().out
-    assert main(["plot", str(out), "--overlay", str(tmp_path / "sim" / "sweep.nc"),
-                 "--out", str(tmp_path / "m.png")]) == 0
-    assert main(["plot", str(out), "--versus", str(tmp_path / "sim" / "sweep.nc"),
-                 "--out", str(tmp_path / "v.png")]) == 0
+    assert (
+        main(
+            [
+                "plot",
+                str(out),
+                "--overlay",
+                str(tmp_path / "sim" / "sweep.nc"),
+                "--out",
+                str(tmp_path / "m.png"),
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(
+            [
+                "plot",
+                str(out),
+                "--versus",
+                str(tmp_path / "sim" / "sweep.nc"),
+                "--out",
+                str(tmp_path / "v.png"),
+            ]
+        )
+        == 0
+    )
     assert (tmp_path / "m.png").stat().st_size > 10_000
     assert (tmp_path / "v.png").stat().st_size > 10_000
 

@@ -18,13 +18,20 @@ from rattlesweep.cli import main
 from rattlesweep.sweep import OUTCOME_NAMES, Sweep, classify, resume, run_sweep
 from rattlesweep.sweep.grid import uniform01
 from rattlesweep.sweep.run import RESULT_NAME
-from sweep_helpers import (KILL_TOML, assert_same_file, file_stats, small_sweep, start_sweep,
-                           without_history)
+from sweep_helpers import (
+    KILL_TOML,
+    assert_same_file,
+    file_stats,
+    small_sweep,
+    start_sweep,
+    without_history,
+)
 
 TOY = rs.Body.preset("toy")
 
 
 # --- specification ---------------------------------------------------------------------
+
 
 def test_toml_maps_one_to_one_onto_sweep():
     s = small_sweep()
@@ -46,31 +53,45 @@ def test_toml_maps_one_to_one_onto_sweep():
     """)
     from_text = Sweep.from_toml(text)
     assert from_text.axes == s.axes and from_text.random == s.random
-    assert from_text.differences(s) == ["name: 't' -> 'sweep'",
-                                        f"tile_size: {from_text.tile_size} -> 5",
-                                        "repeats: 1 -> 2", "seed: 0 -> 7"]
+    assert from_text.differences(s) == [
+        "name: 't' -> 'sweep'",
+        f"tile_size: {from_text.tile_size} -> 5",
+        "repeats: 1 -> 2",
+        "seed: 0 -> 7",
+    ]
     # a 32-point grid gets the smallest automatic tile
     assert from_text.tile_size == 256 and from_text.n_tiles == 1
 
 
 def test_automatic_tile_size():
-    big = Sweep(axes={"spin": {"start": -30, "stop": 30, "num": 224},
-                      "delta_deg": {"start": -8, "stop": 8, "num": 224}, "mu": [0.3, math.inf]},
-                fixed={"t_end": 2.0})
+    big = Sweep(
+        axes={
+            "spin": {"start": -30, "stop": 30, "num": 224},
+            "delta_deg": {"start": -8, "stop": 8, "num": 224},
+            "mu": [0.3, math.inf],
+        },
+        fixed={"t_end": 2.0},
+    )
     steps = math.ceil(2.0 / TOY.default_dt())
     assert big.tile_size % 32 == 0
     assert big.n_tiles >= 16  # enough tasks to balance the workers
     assert big.tile_size * steps <= 2e7 + 32 * steps  # about 2 s of kernel time per tile
     long = Sweep(axes=big.axes, fixed={"t_end": 60.0})
-    assert long.tile_size * math.ceil(60.0 / TOY.default_dt()) <= 2e7 + 32 * 60.0 / TOY.default_dt()
+    assert (
+        long.tile_size * math.ceil(60.0 / TOY.default_dt())
+        <= 2e7 + 32 * 60.0 / TOY.default_dt()
+    )
     assert long.n_tiles > big.n_tiles
 
 
 def test_units_and_degree_names_convert_to_the_same_si_values():
     by_name = Sweep(axes={"delta_deg": [2.0, 4.0]}, fixed={"t_end": 1.0})
-    by_units = Sweep(axes={"delta": {"values": [2.0, 4.0], "units": "deg"}},
-                     fixed={"t_end": 1.0})
-    rad = Sweep(axes={"delta": [math.radians(2.0), math.radians(4.0)]}, fixed={"t_end": 1.0})
+    by_units = Sweep(
+        axes={"delta": {"values": [2.0, 4.0], "units": "deg"}}, fixed={"t_end": 1.0}
+    )
+    rad = Sweep(
+        axes={"delta": [math.radians(2.0), math.radians(4.0)]}, fixed={"t_end": 1.0}
+    )
     for s in (by_name, by_units):
         np.testing.assert_allclose(s.grid_axes[0].si, rad.grid_axes[0].si, rtol=1e-15)
         assert s.grid_axes[0].units == "degree"
@@ -81,44 +102,82 @@ def test_units_and_degree_names_convert_to_the_same_si_values():
 
 
 def test_ranges_are_inclusive_linear_or_log():
-    s = Sweep(axes={"spin": {"start": -2.0, "stop": 2.0, "num": 5},
-                    "damping": {"start": 1e-6, "stop": 1e-4, "num": 3, "scale": "log"}},
-              fixed={"t_end": 1.0})
+    s = Sweep(
+        axes={
+            "spin": {"start": -2.0, "stop": 2.0, "num": 5},
+            "damping": {"start": 1e-6, "stop": 1e-4, "num": 3, "scale": "log"},
+        },
+        fixed={"t_end": 1.0},
+    )
     np.testing.assert_allclose(s.grid_axes[0].values, [-2, -1, 0, 1, 2])
     np.testing.assert_allclose(s.grid_axes[1].values, [1e-6, 1e-5, 1e-4])
     assert s.shape == (5, 3) and s.size == 15 and s.dims == ("launch_spin", "damping")
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    (dict(axes={"spni": [1.0]}), r"axes\.spni: unknown parameter 'spni' \(did you mean 'spin'"),
-    (dict(axes={"spin": []}), r"axes\.spin: axis is empty"),
-    (dict(axes={"spin": {"start": 5, "stop": -5, "num": 3}}), r"axes\.spin: range is inverted"),
-    (dict(axes={"spin": {"start": 1, "stop": 2}}), r"axes\.spin: a range needs start, stop, num"),
-    (dict(axes={"spin": {"start": 1, "stop": 2, "num": 0}}), r"axes\.spin: num must be"),
-    (dict(axes={"mass": [0.01, -0.02]}), r"axes\.mass: mass must be finite and > 0; got -0\.02"),
-    (dict(axes={"spin": [1.0, 1.0]}), r"axes\.spin: axis has duplicate values"),
-    (dict(axes={"spin": [1.0, float("nan")]}), r"axes\.spin: values must not be NaN"),
-    (dict(axes={"b": [[1, 2], 0.0096]}), r"axes\.b: values must be numbers"),
-    (dict(axes={"mu": {"start": 1.0, "stop": 0.0, "num": 1, "scale": "log"}}),
-     r"axes\.mu: a log range needs start > 0 and stop > 0"),
-    (dict(axes={"spin": {"values": [1.0], "units": "furlong"}}), r"units 'furlong' are not "
-     r"allowed for 'spin'"),
-    (dict(axes={"mu": [0.2, 0.5]}, fixed={"t_end": 1.0, "mu_static": 0.3}),
-     r"mu_static must be >= mu.*sweep corner mu=0\.5"),
-    (dict(axes={"roll_deg": [0.0, 95.0]}), r"tilt.*rim.*sweep corner roll_deg=95"),
-    (dict(axes={"c": [0.011, 0.05]}), r"(radius|curvature).*sweep corner c=0\.05"),
-    (dict(axes={"delta_deg": [1.0], "delta": [0.1]}), r"'delta' is already given"),
-    (dict(axes={"delta_deg": [1.0]}, fixed={"t_end": 1.0, "body": "golden"}),
-     r"either a body or the semi-ellipsoid"),
-    (dict(axes={"spin": [1.0]}, repeats=3), r"repeats = 3 needs at least one \[random\]"),
-    (dict(axes={"spin": [1.0]}, random={"roll": {"uniform": [0.2, 0.1]}}),
-     r"random\.roll: uniform range is inverted"),
-    (dict(axes={"spin": [1.0]}, fixed={"t_end": 1.0, "body": "nope"}),
-     r"fixed\.body: preset name 'nope' is unknown"),
-    (dict(axes={"spin": [1.0]}, method="rk45"), "method must be one of"),
-    (dict(axes={"spin": [1.0]}, tile_size=0), "tile_size must be an integer >= 1"),
-    (dict(axes={}), "at least one axis"),
-])
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (
+            dict(axes={"spni": [1.0]}),
+            r"axes\.spni: unknown parameter 'spni' \(did you mean 'spin'",
+        ),
+        (dict(axes={"spin": []}), r"axes\.spin: axis is empty"),
+        (
+            dict(axes={"spin": {"start": 5, "stop": -5, "num": 3}}),
+            r"axes\.spin: range is inverted",
+        ),
+        (
+            dict(axes={"spin": {"start": 1, "stop": 2}}),
+            r"axes\.spin: a range needs start, stop, num",
+        ),
+        (
+            dict(axes={"spin": {"start": 1, "stop": 2, "num": 0}}),
+            r"axes\.spin: num must be",
+        ),
+        (
+            dict(axes={"mass": [0.01, -0.02]}),
+            r"axes\.mass: mass must be finite and > 0; got -0\.02",
+        ),
+        (dict(axes={"spin": [1.0, 1.0]}), r"axes\.spin: axis has duplicate values"),
+        (dict(axes={"spin": [1.0, float("nan")]}), r"axes\.spin: values must not be NaN"),
+        (dict(axes={"b": [[1, 2], 0.0096]}), r"axes\.b: values must be numbers"),
+        (
+            dict(axes={"mu": {"start": 1.0, "stop": 0.0, "num": 1, "scale": "log"}}),
+            r"axes\.mu: a log range needs start > 0 and stop > 0",
+        ),
+        (
+            dict(axes={"spin": {"values": [1.0], "units": "furlong"}}),
+            r"units 'furlong' are not "
+            r"allowed for 'spin'",
+        ),
+        (
+            dict(axes={"mu": [0.2, 0.5]}, fixed={"t_end": 1.0, "mu_static": 0.3}),
+            r"mu_static must be >= mu.*sweep corner mu=0\.5",
+        ),
+        (dict(axes={"roll_deg": [0.0, 95.0]}), r"tilt.*rim.*sweep corner roll_deg=95"),
+        (dict(axes={"c": [0.011, 0.05]}), r"(radius|curvature).*sweep corner c=0\.05"),
+        (dict(axes={"delta_deg": [1.0], "delta": [0.1]}), r"'delta' is already given"),
+        (
+            dict(axes={"delta_deg": [1.0]}, fixed={"t_end": 1.0, "body": "golden"}),
+            r"either a body or the semi-ellipsoid",
+        ),
+        (
+            dict(axes={"spin": [1.0]}, repeats=3),
+            r"repeats = 3 needs at least one \[random\]",
+        ),
+        (
+            dict(axes={"spin": [1.0]}, random={"roll": {"uniform": [0.2, 0.1]}}),
+            r"random\.roll: uniform range is inverted",
+        ),
+        (
+            dict(axes={"spin": [1.0]}, fixed={"t_end": 1.0, "body": "nope"}),
+            r"fixed\.body: preset name 'nope' is unknown",
+        ),
+        (dict(axes={"spin": [1.0]}, method="rk45"), "method must be one of"),
+        (dict(axes={"spin": [1.0]}, tile_size=0), "tile_size must be an integer >= 1"),
+        (dict(axes={}), "at least one axis"),
+    ],
+)
 def test_configuration_errors_name_the_key(kwargs, message):
     args = dict(fixed={"t_end": 1.0})
     args.update(kwargs)
@@ -143,20 +202,42 @@ def test_bad_toml_is_refused_before_any_compute(tmp_path, capsys):
 
 # --- execution -------------------------------------------------------------------------
 
+
 def test_sweep_equals_run_batch_on_the_same_points(tmp_path):
     s = small_sweep()
     ds = run_sweep(s, tmp_path, progress=False, workers=2)
     assert ds.sizes == {"launch_spin": 4, "delta_deg": 2, "mu": 2, "repeat": 2}
     # rebuild every point's inputs independently from the result's own coordinates
     grid = ds[["roll_deg"]].to_dataframe().reset_index()
-    bodies = np.array([rs.Body.semi_ellipsoid(TOY.a, TOY.b, TOY.c, TOY.mass,
-                                              math.radians(d)) for d in grid.delta_deg],
-                      dtype=object)
-    ref = rs.run_batch(bodies, spin=grid.launch_spin.values, mu=grid.mu.values,
-                       roll=np.radians(grid.roll_deg.values), t_end=3.0, damping=1e-7)
-    for name in ("first_reversal_time", "n_reversals", "final_spin", "mean_final_spin",
-                 "max_tilt", "energy_lost", "slip_fraction", "status", "steps"):
-        np.testing.assert_array_equal(ds[name].values.ravel(), ref[name].values, err_msg=name)
+    bodies = np.array(
+        [
+            rs.Body.semi_ellipsoid(TOY.a, TOY.b, TOY.c, TOY.mass, math.radians(d))
+            for d in grid.delta_deg
+        ],
+        dtype=object,
+    )
+    ref = rs.run_batch(
+        bodies,
+        spin=grid.launch_spin.values,
+        mu=grid.mu.values,
+        roll=np.radians(grid.roll_deg.values),
+        t_end=3.0,
+        damping=1e-7,
+    )
+    for name in (
+        "first_reversal_time",
+        "n_reversals",
+        "final_spin",
+        "mean_final_spin",
+        "max_tilt",
+        "energy_lost",
+        "slip_fraction",
+        "status",
+        "steps",
+    ):
+        np.testing.assert_array_equal(
+            ds[name].values.ravel(), ref[name].values, err_msg=name
+        )
     np.testing.assert_array_equal(ds.dt.values.ravel(), ref.dt.values)
     # the draws are in range, differ between repeats, and the grid is not trivial
     assert np.all((ds.roll_deg >= 0.3) & (ds.roll_deg < 0.8))
@@ -193,8 +274,16 @@ def test_outcome_classes():
     spin0 = np.array([5.0, 5.0, 5.0, 5.0, 0.0, 5.0, 5.0, 5.0])
     got = classify(status, n_rev, final, spin0, 0.05)
     names = [OUTCOME_NAMES[k] for k in got]
-    assert names == ["no_reversal", "reversed", "several_reversals", "stopped",
-                     "no_reversal", "capsized", "lifted_off", "numerical_failure"]
+    assert names == [
+        "no_reversal",
+        "reversed",
+        "several_reversals",
+        "stopped",
+        "no_reversal",
+        "capsized",
+        "lifted_off",
+        "numerical_failure",
+    ]
 
 
 def test_written_file_carries_cf_metadata_and_configuration(tmp_path):
@@ -204,13 +293,25 @@ def test_written_file_carries_cf_metadata_and_configuration(tmp_path):
     with netCDF4.Dataset(path) as nc:
         assert nc.data_model == "NETCDF4"
         assert nc.variables["first_reversal_time"].filters()["zlib"]
-        assert nc.variables["outcome"].dimensions == ("launch_spin", "delta_deg", "mu", "repeat")
+        assert nc.variables["outcome"].dimensions == (
+            "launch_spin",
+            "delta_deg",
+            "mu",
+            "repeat",
+        )
         assert nc.variables["launch_spin"].units == "rad s-1"
         assert nc.variables["delta_deg"].units == "degree"
         assert nc.getncattr("Conventions").startswith("CF-")
         assert "rattlesweep sweep test.toml" in nc.getncattr("history")
-        for key in ("rattlesweep_version", "numba_version", "numpy_version", "xarray_version",
-                    "dask_version", "netCDF4_version", "python_version"):
+        for key in (
+            "rattlesweep_version",
+            "numba_version",
+            "numpy_version",
+            "xarray_version",
+            "dask_version",
+            "netCDF4_version",
+            "python_version",
+        ):
             assert nc.getncattr(key)
     with xr.open_dataset(path) as ds:
         assert Sweep.from_toml(ds.attrs["sweep_config"]) == s
@@ -229,12 +330,25 @@ def test_written_file_carries_cf_metadata_and_configuration(tmp_path):
 
 # --- resume ----------------------------------------------------------------------------
 
+
 def test_sigkill_then_resume_gives_the_uninterrupted_file(tmp_path):
     config = tmp_path / "kill.toml"
     config.write_text(KILL_TOML)
     killed = tmp_path / "killed"
-    proc = subprocess.Popen([sys.executable, "-m", "rattlesweep.cli", "sweep", str(config),
-                             "--out", str(killed), "--workers", "1", "--quiet"])
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "rattlesweep.cli",
+            "sweep",
+            str(config),
+            "--out",
+            str(killed),
+            "--workers",
+            "1",
+            "--quiet",
+        ]
+    )
     tiles = killed / "tiles"
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and proc.poll() is None:
@@ -276,11 +390,18 @@ def test_corrupt_tile_is_recomputed_and_changed_config_refused(tmp_path):
     assert changed == {victim.name}
     assert victim.stat().st_size > size // 2
     assert not list(tiles.glob(".*.tmp"))
-    xr.testing.assert_identical(without_history(reference),
-                                without_history(xr.open_dataset(tmp_path / RESULT_NAME).load()))
+    xr.testing.assert_identical(
+        without_history(reference),
+        without_history(xr.open_dataset(tmp_path / RESULT_NAME).load()),
+    )
 
-    other = small_sweep(axes={"spin": {"start": -12.0, "stop": 12.0, "num": 5},
-                              "delta_deg": [-4.0, 3.0], "mu": [0.3, math.inf]})
+    other = small_sweep(
+        axes={
+            "spin": {"start": -12.0, "stop": 12.0, "num": 5},
+            "delta_deg": [-4.0, 3.0],
+            "mu": [0.3, math.inf],
+        }
+    )
     with pytest.raises(ValueError, match=r"different sweep.*axes\.spin\.num: 4 -> 5"):
         run_sweep(other, tmp_path, progress=False)
 
@@ -320,6 +441,7 @@ def test_run_sweep_argument_errors(tmp_path):
 
 # --- maps and CLI ----------------------------------------------------------------------
 
+
 def test_reversal_map_categorical_continuous_and_facets(tmp_path):
     from rattlesweep.plot import reversal_map
 
@@ -333,8 +455,9 @@ def test_reversal_map_categorical_continuous_and_facets(tmp_path):
     legend = {t.get_text() for t in fig.legends[0].get_texts()}
     present = {OUTCOME_NAMES[k].replace("_", " ") for k in np.unique(ds.outcome)}
     assert legend == present
-    fig = reversal_map(ds, "launch_spin", "delta_deg", "max_tilt", select={"mu": 0.3},
-                       reduce="mean")
+    fig = reversal_map(
+        ds, "launch_spin", "delta_deg", "max_tilt", select={"mu": 0.3}, reduce="mean"
+    )
     colorbar = [ax for ax in fig.axes if ax.get_ylabel().startswith("largest tilt")]
     assert colorbar and colorbar[0].get_ylabel().endswith("[rad]")
     with pytest.raises(ValueError, match=r"also varies along \['mu', 'repeat'\]"):
@@ -347,7 +470,9 @@ def test_cli_demo_info_plot(tmp_path, capsys):
     out = tmp_path / "demo"
     assert main(["demo", "--out", str(out), "--quiet"]) == 0
     printed = capsys.readouterr().out
-    assert (out / RESULT_NAME).exists() and (out / "reversal_map.png").stat().st_size > 10_000
+    assert (out / RESULT_NAME).exists() and (
+        out / "reversal_map.png"
+    ).stat().st_size > 10_000
     assert "reversed" in printed
     assert main(["info", str(out / RESULT_NAME)]) == 0
     info = capsys.readouterr().out
@@ -357,8 +482,11 @@ def test_cli_demo_info_plot(tmp_path, capsys):
     assert main(["info", str(out)]) == 0
     assert capsys.readouterr().out == info
     # a reader that goes away (``rattlesweep info DIR | head -1``) is no error
-    reader = subprocess.Popen([sys.executable, "-m", "rattlesweep.cli", "info", str(out)],
-                              stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    reader = subprocess.Popen(
+        [sys.executable, "-m", "rattlesweep.cli", "info", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
     reader.stdout.close()
     err = reader.stderr.read().decode()
     assert reader.wait(timeout=120) == 0 and err == "", err
@@ -376,8 +504,21 @@ def test_cli_demo_info_plot(tmp_path, capsys):
     assert main(["demo", "--out", str(out), "--quiet"]) == 0  # resumes: merges again
     capsys.readouterr()
     png = tmp_path / "t.png"
-    assert main(["plot", str(out / RESULT_NAME), "--var", "first_reversal_time",
-                 "--facet", "mu", "--out", str(png)]) == 0
+    assert (
+        main(
+            [
+                "plot",
+                str(out / RESULT_NAME),
+                "--var",
+                "first_reversal_time",
+                "--facet",
+                "mu",
+                "--out",
+                str(png),
+            ]
+        )
+        == 0
+    )
     assert png.stat().st_size > 10_000
     assert main(["plot", str(out / RESULT_NAME), "--x", "nope"]) == 2
     capsys.readouterr()

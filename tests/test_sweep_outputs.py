@@ -21,8 +21,14 @@ from rattlesweep.sweep.lock import LOCK_NAME, SweepLocked
 from rattlesweep.sweep.lock import SweepLock as SweepLock_
 from rattlesweep.sweep.run import RESULT_NAME, export
 from rattlesweep.sweep.tiles import NOT_COMPUTED, compute_tile
-from sweep_helpers import (KILL_TOML, as_zarr, file_stats, small_sweep, without_config,
-                           without_history)
+from sweep_helpers import (
+    KILL_TOML,
+    as_zarr,
+    file_stats,
+    small_sweep,
+    without_config,
+    without_history,
+)
 
 zarr = pytest.importorskip("zarr")
 
@@ -30,11 +36,17 @@ from rattlesweep.sweep.zarr_store import DONE_ARRAY, ZarrStore, tiles_done  # no
 
 
 def _cli(*args, **kwargs) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "rattlesweep.cli", *args],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kwargs)
+    return subprocess.Popen(
+        [sys.executable, "-m", "rattlesweep.cli", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        **kwargs,
+    )
 
 
 # --- zarr ------------------------------------------------------------------------------
+
 
 def test_zarr_output_equals_netcdf_output_and_exports_to_the_same_file(tmp_path, capsys):
     s = small_sweep()
@@ -62,18 +74,33 @@ def test_zarr_output_equals_netcdf_output_and_exports_to_the_same_file(tmp_path,
     # the CLI chooses zarr by --output, or by the configuration's own key
     config = tmp_path / "s.toml"
     config.write_text(s.to_toml())
-    assert main(["sweep", str(config), "--out", str(tmp_path / "cli.zarr"), "--output",
-                 "zarr", "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "sweep",
+                str(config),
+                "--out",
+                str(tmp_path / "cli.zarr"),
+                "--output",
+                "zarr",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     config.write_text(z.to_toml())
     assert 'output = "zarr"' in z.to_toml()
-    assert main(["sweep", str(config), "--out", str(tmp_path / "toml.zarr"), "--quiet"]) == 0
+    assert (
+        main(["sweep", str(config), "--out", str(tmp_path / "toml.zarr"), "--quiet"]) == 0
+    )
     for name in ("cli.zarr", "toml.zarr"):
         with xr.open_zarr(tmp_path / name) as ds:
             xr.testing.assert_identical(without_config(nc), without_config(ds.load()))
 
 
 def test_zarr_store_read_half_way_is_consistent_and_resume_computes_only_the_rest(
-        tmp_path, capsys):
+    tmp_path, capsys
+):
     s = as_zarr(small_sweep(tile_size=3))
     reference = run_sweep(small_sweep(tile_size=3), tmp_path / "reference", progress=False)
     path = tmp_path / "half.zarr"
@@ -100,24 +127,29 @@ def test_zarr_store_read_half_way_is_consistent_and_resume_computes_only_the_res
     assert set(half.data_vars) == set(reference.data_vars)
     np.testing.assert_array_equal(half.status.values != NOT_COMPUTED, complete)
     for name in reference.data_vars:
-        np.testing.assert_array_equal(half[name].values[complete],
-                                      reference[name].values[complete], err_msg=name)
+        np.testing.assert_array_equal(
+            half[name].values[complete], reference[name].values[complete], err_msg=name
+        )
     untouched = ~complete
     untouched[region] = False
     assert np.all(half.outcome.values[untouched] == NOT_COMPUTED)
     assert np.all(np.isnan(half.final_spin.values[untouched]))
     assert np.all(half.n_reversals.values[untouched] == -1)
-    np.testing.assert_array_equal(tiles_done(str(path), s.n_tiles),
-                                  np.isin(np.arange(s.n_tiles), written))
+    np.testing.assert_array_equal(
+        tiles_done(str(path), s.n_tiles), np.isin(np.arange(s.n_tiles), written)
+    )
 
     chunks_before = file_stats(path, "*")
     ds = resume(path)
-    assert f"resuming: {len(written)} of {s.n_tiles} tiles already done" in \
-        capsys.readouterr().err
+    assert (
+        f"resuming: {len(written)} of {s.n_tiles} tiles already done"
+        in capsys.readouterr().err
+    )
     after = file_stats(path, "*")
     for tile in written:  # their chunks were not written again
-        key = "status/c/" + "/".join(str(r.start // b) for r, b in
-                                      zip(s.tile_region(tile), s.tile_shape))
+        key = "status/c/" + "/".join(
+            str(r.start // b) for r, b in zip(s.tile_region(tile), s.tile_shape)
+        )
         assert after[key] == chunks_before[key]
     xr.testing.assert_identical(without_config(reference), without_config(ds.load()))
     assert tiles_done(str(path), s.n_tiles).all()
@@ -161,22 +193,29 @@ HOLD = textwrap.dedent("""
 
 @pytest.mark.parametrize("output", ["netcdf", "zarr"])
 def test_a_held_lock_refuses_a_second_sweep_and_a_killed_holder_leaves_it_stale(
-        tmp_path, output):
+    tmp_path, output
+):
     s = small_sweep(output=output)
     out = tmp_path / "out"
     lock = out / LOCK_NAME if output == "netcdf" else tmp_path / "out.lock"
     lock.parent.mkdir(exist_ok=True)
-    holder = subprocess.Popen([sys.executable, "-c", HOLD, str(lock)], stdout=subprocess.PIPE,
-                              text=True)
+    holder = subprocess.Popen(
+        [sys.executable, "-c", HOLD, str(lock)], stdout=subprocess.PIPE, text=True
+    )
     try:
         assert holder.stdout.readline().strip() == "held"
-        with pytest.raises(SweepLocked, match=rf"{out} is in use by another sweep: process "
-                           rf"{holder.pid} on this host"):
+        with pytest.raises(
+            SweepLocked,
+            match=rf"{out} is in use by another sweep: process "
+            rf"{holder.pid} on this host",
+        ):
             run_sweep(s, out, progress=False)
-        assert sorted(os.listdir(tmp_path)) == (["out"] if output == "netcdf" else
-                                                ["out.lock"])
-        assert output == "zarr" or os.listdir(out) == [LOCK_NAME], "a refused sweep writes "\
-            "nothing"
+        assert sorted(os.listdir(tmp_path)) == (
+            ["out"] if output == "netcdf" else ["out.lock"]
+        )
+        assert output == "zarr" or os.listdir(out) == [LOCK_NAME], (
+            "a refused sweep writes nothing"
+        )
     finally:
         holder.send_signal(signal.SIGKILL)
         holder.wait()
@@ -200,10 +239,21 @@ def test_stale_and_foreign_locks(tmp_path):
     with SweepLock(tmp_path):
         pass
     # a lock taken on another host cannot be checked from here
-    lock.write_text(json.dumps({"host": "elsewhere", "pid": 12, "since": "2026-01-01T00:00",
-                                "command": "rattlesweep sweep x.toml"}))
-    with pytest.raises(SweepLocked, match=rf"process 12 on elsewhere, since 2026-01-01T00:00 "
-                       rf"\(rattlesweep sweep x.toml\); if that process is gone, remove {lock}"):
+    lock.write_text(
+        json.dumps(
+            {
+                "host": "elsewhere",
+                "pid": 12,
+                "since": "2026-01-01T00:00",
+                "command": "rattlesweep sweep x.toml",
+            }
+        )
+    )
+    with pytest.raises(
+        SweepLocked,
+        match=rf"process 12 on elsewhere, since 2026-01-01T00:00 "
+        rf"\(rattlesweep sweep x.toml\); if that process is gone, remove {lock}",
+    ):
         SweepLock(tmp_path).acquire()
     assert lock.exists()
 
@@ -212,8 +262,10 @@ def test_two_sweeps_started_at_once_into_one_directory(tmp_path):
     config = tmp_path / "kill.toml"
     config.write_text(KILL_TOML)
     out = tmp_path / "out"
-    procs = [_cli("sweep", str(config), "--out", str(out), "--workers", "1", "--quiet")
-             for _ in range(2)]
+    procs = [
+        _cli("sweep", str(config), "--out", str(out), "--workers", "1", "--quiet")
+        for _ in range(2)
+    ]
     results = [(p.wait(timeout=300), p.stderr.read()) for p in procs]
     for p in procs:
         p.stdout.close()
@@ -248,46 +300,69 @@ def test_a_full_disk_stops_with_a_clear_error_and_resume_completes(tmp_path, out
     own) that fills up mid-sweep; a resume after it is enlarged completes the sweep."""
     if shutil.which("unshare") is None:
         pytest.skip("needs unshare (util-linux)")
-    s = small_sweep(tile_size=3, output=output,
-                    fixed={"t_end": 1.0, "damping": 1e-7})
+    s = small_sweep(tile_size=3, output=output, fixed={"t_end": 1.0, "damping": 1e-7})
     config = tmp_path / "s.toml"
     config.write_text(s.to_toml())
     reference = run_sweep(s, tmp_path / "reference", progress=False)
     # a tmpfs stores every file in whole pages; room for about half the output
-    pages = sum(-(-f.stat().st_size // 4096) for f in (tmp_path / "reference").rglob("*")
-                if f.is_file())
+    pages = sum(
+        -(-f.stat().st_size // 4096)
+        for f in (tmp_path / "reference").rglob("*")
+        if f.is_file()
+    )
     size = 4096 * max(2, pages // 2)
     mnt, log = tmp_path / "mnt", tmp_path / "log"
     mnt.mkdir()
     log.mkdir()
-    env = dict(os.environ, SIZE=str(size), MNT=str(mnt), LOG=str(log), PY=sys.executable,
-               CONFIG=str(config))
-    run = subprocess.run(["unshare", "--user", "--map-root-user", "--mount", "bash", "-c",
-                          FULL_DISK], env=env, capture_output=True, text=True, timeout=300)
+    env = dict(
+        os.environ,
+        SIZE=str(size),
+        MNT=str(mnt),
+        LOG=str(log),
+        PY=sys.executable,
+        CONFIG=str(config),
+    )
+    run = subprocess.run(
+        ["unshare", "--user", "--map-root-user", "--mount", "bash", "-c", FULL_DISK],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     if run.returncode == 77 or not (log / "first.rc").exists():
         pytest.skip(f"cannot mount a tmpfs in a user namespace here: {run.stderr[-300:]}")
     first_err = (log / "first.err").read_text()
     assert (log / "first.rc").read_text().strip() == "2", first_err
-    assert "No space left on device" in first_err and "tiles written before are intact" \
-        in first_err and "rattlesweep resume" in first_err, first_err
+    assert (
+        "No space left on device" in first_err
+        and "tiles written before are intact" in first_err
+        and "rattlesweep resume" in first_err
+    ), first_err
     assert "Traceback" not in first_err
     info = (log / "info.out").read_text()
-    assert "tiles written:" in info or "tiles written;" in info, info + (log / "listing"
-                                                                         ).read_text()
+    assert "tiles written:" in info or "tiles written;" in info, (
+        info + (log / "listing").read_text()
+    )
     assert (log / "resume.rc").read_text().strip() == "0", (log / "resume.err").read_text()
     if output == "netcdf":
         with xr.open_dataset(log / "result" / RESULT_NAME) as ds:
-            xr.testing.assert_identical(without_history(reference), without_history(ds.load()))
+            xr.testing.assert_identical(
+                without_history(reference), without_history(ds.load())
+            )
         assert not list((log / "result" / "tiles").glob(".*.tmp"))
     else:
         with xr.open_zarr(log / "result") as ds:
-            xr.testing.assert_identical(without_config(reference.load()),
-                                        without_config(ds.load()))
+            xr.testing.assert_identical(
+                without_config(reference.load()), without_config(ds.load())
+            )
 
 
 # --- an edited or corrupted sweep.toml --------------------------------------------------
 
-def test_corrupted_or_edited_sweep_toml_gets_a_clear_error_and_loses_no_tile(tmp_path, capsys):
+
+def test_corrupted_or_edited_sweep_toml_gets_a_clear_error_and_loses_no_tile(
+    tmp_path, capsys
+):
     s = small_sweep()
     out = tmp_path / "out"
     run_sweep(s, out, progress=False)
@@ -297,9 +372,15 @@ def test_corrupted_or_edited_sweep_toml_gets_a_clear_error_and_loses_no_tile(tmp
     tiles = file_stats(out / "tiles", "*.nc")
 
     for damage, message in [
-        (original[: len(original) // 2], r"sweep\.toml is not a valid sweep configuration "
-         r"\(cannot parse .* as TOML"),
-        (b"\xff\xfe garbage", r"is not a valid sweep configuration \(cannot parse .*not UTF-8"),
+        (
+            original[: len(original) // 2],
+            r"sweep\.toml is not a valid sweep configuration "
+            r"\(cannot parse .* as TOML",
+        ),
+        (
+            b"\xff\xfe garbage",
+            r"is not a valid sweep configuration \(cannot parse .*not UTF-8",
+        ),
         (original.replace("t_end = 3.0", "t_end = -3.0"), r"fixed\.t_end"),
         (original.replace("[axes]", "[axes]\nspni = [1.0]"), r"unknown parameter 'spni'"),
     ]:

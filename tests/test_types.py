@@ -30,9 +30,21 @@ def test_mypy_finds_no_error(tmp_path):
         pytest.skip("the sources are not next to the tests")
     # a fresh cache: the check does not depend on, or leave, state in the checkout
     result = subprocess.run(
-        [sys.executable, "-m", "mypy", "--config-file", str(ROOT / "pyproject.toml"),
-         "--cache-dir", str(tmp_path / "mypy-cache"), str(PACKAGE)],
-        cwd=ROOT, capture_output=True, text=True, timeout=600)
+        [
+            sys.executable,
+            "-m",
+            "mypy",
+            "--config-file",
+            str(ROOT / "pyproject.toml"),
+            "--cache-dir",
+            str(tmp_path / "mypy-cache"),
+            str(PACKAGE),
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert result.returncode == 0, result.stdout + result.stderr
 
 
@@ -45,9 +57,13 @@ def test_constructor_signature_for_type_checkers_is_the_dataclass_one(cls):
     typed = None
     for node in ast.walk(ast.parse(source)):
         if isinstance(node, ast.ClassDef) and node.name == cls.__name__:
-            typed = next(f for block in node.body if isinstance(block, ast.If)
-                         for f in block.body
-                         if isinstance(f, ast.FunctionDef) and f.name == "__init__")
+            typed = next(
+                f
+                for block in node.body
+                if isinstance(block, ast.If)
+                for f in block.body
+                if isinstance(f, ast.FunctionDef) and f.name == "__init__"
+            )
     assert typed is not None
     args = typed.args.args[1:]
     defaults = [None] * (len(args) - len(typed.args.defaults)) + typed.args.defaults

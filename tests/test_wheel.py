@@ -65,10 +65,12 @@ except PermissionError:
 
 
 def _run(cmd, **kwargs) -> subprocess.CompletedProcess:
-    proc = subprocess.run([str(c) for c in cmd], capture_output=True, text=True,
-                          timeout=600, **kwargs)
+    proc = subprocess.run(
+        [str(c) for c in cmd], capture_output=True, text=True, timeout=600, **kwargs
+    )
     assert proc.returncode == 0, (
-        f"{cmd} exited with {proc.returncode}:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}")
+        f"{cmd} exited with {proc.returncode}:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
+    )
     return proc
 
 
@@ -92,8 +94,11 @@ def matplotlib_dir(tmp_path_factory) -> Path:
 
 
 def _source_modules() -> set[str]:
-    return {p.relative_to(SRC.parent).as_posix() for p in SRC.rglob("*.py")
-            if "__pycache__" not in p.parts}
+    return {
+        p.relative_to(SRC.parent).as_posix()
+        for p in SRC.rglob("*.py")
+        if "__pycache__" not in p.parts
+    }
 
 
 def test_build_makes_a_wheel_and_an_sdist(dist):
@@ -113,21 +118,32 @@ def test_build_makes_a_wheel_and_an_sdist(dist):
     missing = _source_modules() - names
     assert not missing, f"modules missing from the wheel: {sorted(missing)}"
     assert "rattlesweep/py.typed" in names
-    assert re.search(r"^\[console_scripts\]\s*^rattlesweep = rattlesweep\.cli:run$",
-                     entry_points, re.MULTILINE), entry_points
+    assert re.search(
+        r"^\[console_scripts\]\s*^rattlesweep = rattlesweep\.cli:run$",
+        entry_points,
+        re.MULTILINE,
+    ), entry_points
     assert f"\nVersion: {version}\n" in metadata
     assert "\nLicense-Expression: MIT\n" in metadata
 
     with tarfile.open(sdist) as tf:
         top = f"rattlesweep-{version}/"
         members = {m.name.removeprefix(top) for m in tf.getmembers()}
-    for name in ("README.md", "CITATION.cff", "CHANGELOG.md", "pyproject.toml",
-                 "tests/conftest.py", "tests/data/reference_runs.npz",
-                 "tests/test_wheel.py"):
+    for name in (
+        "README.md",
+        "CITATION.cff",
+        "CHANGELOG.md",
+        "pyproject.toml",
+        "tests/conftest.py",
+        "tests/data/reference_runs.npz",
+        "tests/test_wheel.py",
+    ):
         assert name in members, f"{name} missing from the sdist"
     assert not {f"src/{m}" for m in _source_modules()} - members
     for archive, held in ((wheel, names), (sdist, members)):
-        cached = [n for n in held if "__pycache__" in n or n.endswith((".nbi", ".nbc", ".pyc"))]
+        cached = [
+            n for n in held if "__pycache__" in n or n.endswith((".nbi", ".nbc", ".pyc"))
+        ]
         assert not cached, f"{archive.name} holds cache files: {cached[:5]}"
 
 
@@ -148,8 +164,19 @@ class Installed:
         log = (self.home / f"{out}.log").open("w")
         with log:
             return subprocess.Popen(
-                [*self.prefix, str(self.python.parent / "rattlesweep"), "demo", "--out", out],
-                cwd=self.home, env=self.env, stdout=log, stderr=subprocess.STDOUT, text=True)
+                [
+                    *self.prefix,
+                    str(self.python.parent / "rattlesweep"),
+                    "demo",
+                    "--out",
+                    out,
+                ],
+                cwd=self.home,
+                env=self.env,
+                stdout=log,
+                stderr=subprocess.STDOUT,
+                text=True,
+            )
 
     def finish_demo(self, proc: subprocess.Popen, out: str) -> tuple[dict, str]:
         """Wait for the demo; the cache files it saved and loaded, and the outcome counts
@@ -157,7 +184,8 @@ class Installed:
         proc.wait(timeout=600)
         output = (self.home / f"{out}.log").read_text()
         assert proc.returncode == 0, (
-            f"{proc.args} exited with {proc.returncode}:\n{output[-5000:]}")
+            f"{proc.args} exited with {proc.returncode}:\n{output[-5000:]}"
+        )
         assert (self.home / out / "sweep.nc").stat().st_size > 0
         assert (self.home / out / "reversal_map.png").stat().st_size > 0
         events = {"saved to": [], "loaded from": []}
@@ -178,24 +206,47 @@ def _install(wheel: Path, home: Path, matplotlib_dir: Path) -> Installed:
     """A fresh venv in ``home`` with the wheel installed and the running interpreter's
     dependencies reachable."""
     env = {k: v for k, v in os.environ.items() if not k.startswith(("NUMBA_", "PYTHON"))}
-    env.update(XDG_CACHE_HOME=str(home / "user-cache"), MPLCONFIGDIR=str(matplotlib_dir),
-               NUMBA_DEBUG_CACHE="1")
+    env.update(
+        XDG_CACHE_HOME=str(home / "user-cache"),
+        MPLCONFIGDIR=str(matplotlib_dir),
+        NUMBA_DEBUG_CACHE="1",
+    )
     _run([sys.executable, "-m", "venv", home / "venv"], env=env)
     python = home / "venv" / "bin" / "python"
-    _run([python, "-m", "pip", "install", "--no-deps", "--no-index",
-          "--disable-pip-version-check", "--quiet", wheel], env=env)
-    purelib = Path(_run([python, "-c", "import sysconfig; "
-                         "print(sysconfig.get_paths()['purelib'])"], env=env).stdout.strip())
-    deps = [*site.getsitepackages(), sysconfig.get_paths()["purelib"],
-            sysconfig.get_paths()["platlib"]]
+    _run(
+        [
+            python,
+            "-m",
+            "pip",
+            "install",
+            "--no-deps",
+            "--no-index",
+            "--disable-pip-version-check",
+            "--quiet",
+            wheel,
+        ],
+        env=env,
+    )
+    purelib = Path(
+        _run(
+            [python, "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+            env=env,
+        ).stdout.strip()
+    )
+    deps = [
+        *site.getsitepackages(),
+        sysconfig.get_paths()["purelib"],
+        sysconfig.get_paths()["platlib"],
+    ]
     if site.ENABLE_USER_SITE:
         deps.append(site.getusersitepackages())
     deps = [d for d in dict.fromkeys(deps) if Path(d).is_dir()]
     # written after the install, so that pip does not see this checkout's rattlesweep
     (purelib / "zz_test_wheel_dependencies.pth").write_text("\n".join(deps) + "\n")
     package = purelib / "rattlesweep"
-    imported = _run([python, "-c", "import rattlesweep; print(rattlesweep.__file__)"],
-                    env=env)
+    imported = _run(
+        [python, "-c", "import rattlesweep; print(rattlesweep.__file__)"], env=env
+    )
     assert Path(imported.stdout.strip()) == package / "__init__.py"
     return Installed(python, package, home, env)
 
@@ -221,9 +272,17 @@ def _make_read_only(installed: Installed) -> None:
 
     def read_only_under(prefix: list[str]) -> bool:
         proc = subprocess.run(
-            [*prefix, str(installed.python), "-c", READ_ONLY_PROBE,
-             str(package / "core" / "__pycache__")],
-            capture_output=True, text=True, env=installed.env)
+            [
+                *prefix,
+                str(installed.python),
+                "-c",
+                READ_ONLY_PROBE,
+                str(package / "core" / "__pycache__"),
+            ],
+            capture_output=True,
+            text=True,
+            env=installed.env,
+        )
         return proc.stdout.strip() == "read-only"
 
     if read_only_under([]):
@@ -238,9 +297,14 @@ def _make_read_only(installed: Installed) -> None:
 
 
 def _snapshot(package: Path) -> dict[str, tuple[bool, int, int]]:
-    return {p.relative_to(package).as_posix(): (p.is_dir(), p.stat().st_size,
-                                                p.stat().st_mtime_ns)
-            for p in package.rglob("*")}
+    return {
+        p.relative_to(package).as_posix(): (
+            p.is_dir(),
+            p.stat().st_size,
+            p.stat().st_mtime_ns,
+        )
+        for p in package.rglob("*")
+    }
 
 
 @pytest.fixture(scope="module")
@@ -256,8 +320,10 @@ def installs(dist, tmp_path_factory, matplotlib_dir):
         untouched = _snapshot(read_only.package)
         started = [(i, i.start_demo("first")) for i in (writable, read_only)]
         firsts = [i.finish_demo(proc, "first") for i, proc in started]
-        yield {"writable": (writable, *firsts[0]),
-               "read-only": (read_only, *firsts[1], untouched)}
+        yield {
+            "writable": (writable, *firsts[0]),
+            "read-only": (read_only, *firsts[1], untouched),
+        }
     finally:
         for _, proc in started:  # the other demo, when one failed
             if proc.poll() is None:
@@ -301,6 +367,8 @@ def test_read_only_installation_caches_its_kernels_per_user(installs):
 
     second, summary_again = installed.demo("second")
     assert not second["saved to"], second["saved to"][:3]
-    assert _all_under(second["loaded from"], installed.user_cache), second["loaded from"][:3]
+    assert _all_under(second["loaded from"], installed.user_cache), second["loaded from"][
+        :3
+    ]
     assert summary_again == summary
     assert _snapshot(installed.package) == untouched

@@ -6,9 +6,23 @@ import os
 import sys
 import tempfile
 
-_EVENTS = {"open", "os.mkdir", "os.rename", "os.remove", "os.rmdir", "os.link",
-           "os.symlink", "os.truncate", "os.chmod", "os.utime", "os.listdir", "os.scandir",
-           "shutil.copyfile", "shutil.rmtree", "shutil.move"}
+_EVENTS = {
+    "open",
+    "os.mkdir",
+    "os.rename",
+    "os.remove",
+    "os.rmdir",
+    "os.link",
+    "os.symlink",
+    "os.truncate",
+    "os.chmod",
+    "os.utime",
+    "os.listdir",
+    "os.scandir",
+    "shutil.copyfile",
+    "shutil.rmtree",
+    "shutil.move",
+}
 _touched: list[str] = []
 
 

@@ -28,8 +28,15 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["jax_x64", "initial_state", "final_spin", "vmap_runner", "diffrax_runner",
-           "soa_runner", "spin_history"]
+__all__ = [
+    "jax_x64",
+    "initial_state",
+    "final_spin",
+    "vmap_runner",
+    "diffrax_runner",
+    "soa_runner",
+    "spin_history",
+]
 
 
 def jax_x64():
@@ -46,8 +53,13 @@ def initial_state(quaternion, omega) -> np.ndarray:
 
 
 def _constants(body, g):
-    return (float(body.mass), float(g), np.array([body.a ** 2, body.b ** 2, body.c ** 2]),
-            np.asarray(body.com, dtype=float), np.asarray(body.inertia, dtype=float))
+    return (
+        float(body.mass),
+        float(g),
+        np.array([body.a**2, body.b**2, body.c**2]),
+        np.asarray(body.com, dtype=float),
+        np.asarray(body.inertia, dtype=float),
+    )
 
 
 def _vector_rhs(body, g):
@@ -61,21 +73,31 @@ def _vector_rhs(body, g):
         q, w = y[:4], y[4:]
         q0, q1, q2, q3 = q
         s = 2.0 / (q @ q)
-        up = jnp.stack([s * (q1 * q3 - q0 * q2), s * (q2 * q3 + q0 * q1),
-                        1.0 - s * (q1 * q1 + q2 * q2)])
+        up = jnp.stack(
+            [
+                s * (q1 * q3 - q0 * q2),
+                s * (q2 * q3 + q0 * q1),
+                1.0 - s * (q1 * q1 + q2 * q2),
+            ]
+        )
         an = A * up
         sigma = jnp.sqrt(up @ an)
         rho = -an / sigma - G
         dup = jnp.cross(up, w)
-        dsp = -A * dup / sigma + an * ((an @ dup) / sigma ** 3)
+        dsp = -A * dup / sigma + an * ((an @ dup) / sigma**3)
         wv = jnp.cross(w, jnp.cross(w, rho) + dsp)
         M = I + m * ((rho @ rho) * eye - jnp.outer(rho, rho))
         wdot = jnp.linalg.solve(M, -jnp.cross(w, I @ w) + m * jnp.cross(rho, g * up - wv))
-        qdot = 0.5 * jnp.stack([-q1 * w[0] - q2 * w[1] - q3 * w[2],
-                                q0 * w[0] + q2 * w[2] - q3 * w[1],
-                                q0 * w[1] + q3 * w[0] - q1 * w[2],
-                                q0 * w[2] + q1 * w[1] - q2 * w[0]])
+        qdot = 0.5 * jnp.stack(
+            [
+                -q1 * w[0] - q2 * w[1] - q3 * w[2],
+                q0 * w[0] + q2 * w[2] - q3 * w[1],
+                q0 * w[1] + q3 * w[0] - q1 * w[2],
+                q0 * w[2] + q1 * w[1] - q2 * w[0],
+            ]
+        )
         return jnp.concatenate([qdot, wdot])
+
     return rhs
 
 
@@ -87,8 +109,11 @@ def final_spin(states) -> np.ndarray:
 def _spin(q0, q1, q2, q3, w0, w1, w2):
     """n = omega . Z from components (arrays or scalars)."""
     s = 2.0 / (q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
-    return (w0 * s * (q1 * q3 - q0 * q2) + w1 * s * (q2 * q3 + q0 * q1)
-            + w2 * (1.0 - s * (q1 * q1 + q2 * q2)))
+    return (
+        w0 * s * (q1 * q3 - q0 * q2)
+        + w1 * s * (q2 * q3 + q0 * q1)
+        + w2 * (1.0 - s * (q1 * q1 + q2 * q2))
+    )
 
 
 def _reversal_update(jnp, k, dt, n0, band, prev, n, last_zero, t_rev):
@@ -122,11 +147,14 @@ def vmap_runner(body, dt, nsteps, g=9.81, band=0.05):
             y = y + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
             y = y.at[:4].divide(jnp.sqrt(y[:4] @ y[:4]))
             n = _spin(*y)
-            last_zero, t_rev = _reversal_update(jnp, k, dt, n0, band, prev, n, last_zero,
-                                                t_rev)
+            last_zero, t_rev = _reversal_update(
+                jnp, k, dt, n0, band, prev, n, last_zero, t_rev
+            )
             return y, n, last_zero, t_rev
+
         y, _, _, t_rev = jax.lax.fori_loop(0, nsteps, step, (y0, n0, jnp.nan, jnp.nan))
         return y, t_rev
+
     return jax.jit(jax.vmap(one))
 
 
@@ -143,7 +171,8 @@ def diffrax_runner(body, dt, nsteps, g=9.81):
             c=np.array([0.5, 0.5, 1.0]),
             b_sol=np.array([1.0, 2.0, 2.0, 1.0]) / 6.0,
             b_error=np.zeros(4),  # fixed steps: no error estimate is used
-            a_lower=(np.array([0.5]), np.array([0.0, 0.5]), np.array([0.0, 0.0, 1.0])))
+            a_lower=(np.array([0.5]), np.array([0.0, 0.5]), np.array([0.0, 0.0, 1.0])),
+        )
         interpolation_cls = diffrax.ThirdOrderHermitePolynomialInterpolation.from_k
 
         def order(self, terms):
@@ -152,10 +181,19 @@ def diffrax_runner(body, dt, nsteps, g=9.81):
     term, solver = diffrax.ODETerm(lambda t, y, args: rhs(y)), RK4()
 
     def one(y0):
-        sol = diffrax.diffeqsolve(term, solver, 0.0, nsteps * dt, dt, y0,
-                                  stepsize_controller=diffrax.ConstantStepSize(),
-                                  saveat=diffrax.SaveAt(t1=True), max_steps=nsteps + 1)
+        sol = diffrax.diffeqsolve(
+            term,
+            solver,
+            0.0,
+            nsteps * dt,
+            dt,
+            y0,
+            stepsize_controller=diffrax.ConstantStepSize(),
+            saveat=diffrax.SaveAt(t1=True),
+            max_steps=nsteps + 1,
+        )
         return sol.ys[-1]
+
     return jax.jit(jax.vmap(one))
 
 
@@ -173,21 +211,38 @@ def _soa_rhs(body, g):
 
     def rhs(q0, q1, q2, q3, w0, w1, w2):
         s = 2.0 / (q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
-        u0, u1, u2 = s * (q1 * q3 - q0 * q2), s * (q2 * q3 + q0 * q1), 1.0 - s * (
-            q1 * q1 + q2 * q2)
+        u0, u1, u2 = (
+            s * (q1 * q3 - q0 * q2),
+            s * (q2 * q3 + q0 * q1),
+            1.0 - s * (q1 * q1 + q2 * q2),
+        )
         n0, n1, n2 = a0 * u0, a1 * u1, a2 * u2
         inv = lax.rsqrt(u0 * n0 + u1 * n1 + u2 * n2)
         r0, r1, r2 = -n0 * inv - g0, -n1 * inv - g1, -n2 * inv - g2
         d0, d1, d2 = cross(u0, u1, u2, w0, w1, w2)
-        f = (n0 * d0 + n1 * d1 + n2 * d2) * inv ** 3
-        p0, p1, p2 = -a0 * d0 * inv + n0 * f, -a1 * d1 * inv + n1 * f, -a2 * d2 * inv + n2 * f
+        f = (n0 * d0 + n1 * d1 + n2 * d2) * inv**3
+        p0, p1, p2 = (
+            -a0 * d0 * inv + n0 * f,
+            -a1 * d1 * inv + n1 * f,
+            -a2 * d2 * inv + n2 * f,
+        )
         c0, c1, c2 = cross(w0, w1, w2, r0, r1, r2)
         v0, v1, v2 = cross(w0, w1, w2, c0 + p0, c1 + p1, c2 + p2)
         rr = r0 * r0 + r1 * r1 + r2 * r2
         m00, m01, m02 = i00 + m * (rr - r0 * r0), i01 - m * r0 * r1, i02 - m * r0 * r2
-        m11, m12, m22 = i11 + m * (rr - r1 * r1), i12 - m * r1 * r2, i22 + m * (rr - r2 * r2)
-        h0, h1, h2 = cross(w0, w1, w2, i00 * w0 + i01 * w1 + i02 * w2,
-                           i10 * w0 + i11 * w1 + i12 * w2, i20 * w0 + i21 * w1 + i22 * w2)
+        m11, m12, m22 = (
+            i11 + m * (rr - r1 * r1),
+            i12 - m * r1 * r2,
+            i22 + m * (rr - r2 * r2),
+        )
+        h0, h1, h2 = cross(
+            w0,
+            w1,
+            w2,
+            i00 * w0 + i01 * w1 + i02 * w2,
+            i10 * w0 + i11 * w1 + i12 * w2,
+            i20 * w0 + i21 * w1 + i22 * w2,
+        )
         t0, t1, t2 = cross(r0, r1, r2, g * u0 - v0, g * u1 - v1, g * u2 - v2)
         b0, b1, b2 = m * t0 - h0, m * t1 - h1, m * t2 - h2
         # M is symmetric: its inverse is the adjugate (cofactors) over the determinant
@@ -197,9 +252,16 @@ def _soa_rhs(body, g):
         e0 = (k00 * b0 + k01 * b1 + k02 * b2) * det
         e1 = (k01 * b0 + k11 * b1 + k12 * b2) * det
         e2 = (k02 * b0 + k12 * b1 + k22 * b2) * det
-        return (0.5 * (-q1 * w0 - q2 * w1 - q3 * w2), 0.5 * (q0 * w0 + q2 * w2 - q3 * w1),
-                0.5 * (q0 * w1 + q3 * w0 - q1 * w2), 0.5 * (q0 * w2 + q1 * w1 - q2 * w0),
-                e0, e1, e2)
+        return (
+            0.5 * (-q1 * w0 - q2 * w1 - q3 * w2),
+            0.5 * (q0 * w0 + q2 * w2 - q3 * w1),
+            0.5 * (q0 * w1 + q3 * w0 - q1 * w2),
+            0.5 * (q0 * w2 + q1 * w1 - q2 * w0),
+            e0,
+            e1,
+            e2,
+        )
+
     return rhs
 
 
@@ -214,10 +276,13 @@ def _soa_step(rhs, dt):
         k2 = rhs(*axpy(0.5 * dt, y, k1))
         k3 = rhs(*axpy(0.5 * dt, y, k2))
         k4 = rhs(*axpy(dt, y, k3))
-        y = tuple(yi + dt / 6.0 * (a + 2.0 * b + 2.0 * c + d)
-                  for yi, a, b, c, d in zip(y, k1, k2, k3, k4))
+        y = tuple(
+            yi + dt / 6.0 * (a + 2.0 * b + 2.0 * c + d)
+            for yi, a, b, c, d in zip(y, k1, k2, k3, k4)
+        )
         inv = lax.rsqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2] + y[3] * y[3])
         return tuple(qi * inv for qi in y[:4]) + y[4:]
+
     return step
 
 
@@ -231,8 +296,9 @@ def soa_runner(body, dt, nsteps, g=9.81, band=0.05, devices=None):
 
     step = _soa_step(_soa_rhs(body, g), dt)
     devices = jax.devices() if devices is None else devices
-    sharding = NamedSharding(jax.sharding.Mesh(np.array(devices), ("batch",)),
-                             PartitionSpec("batch"))
+    sharding = NamedSharding(
+        jax.sharding.Mesh(np.array(devices), ("batch",)), PartitionSpec("batch")
+    )
 
     @jax.jit
     def run(y0):
@@ -243,9 +309,11 @@ def soa_runner(body, dt, nsteps, g=9.81, band=0.05, devices=None):
             y, prev, last_zero, t_rev = carry
             y = step(y)
             n = _spin(*y)
-            last_zero, t_rev = _reversal_update(jnp, k, dt, n0, band, prev, n, last_zero,
-                                                t_rev)
+            last_zero, t_rev = _reversal_update(
+                jnp, k, dt, n0, band, prev, n, last_zero, t_rev
+            )
             return y, n, last_zero, t_rev
+
         nan = jnp.full_like(n0, jnp.nan)
         y, _, _, t_rev = jax.lax.fori_loop(0, nsteps, body_fn, (y0, n0, nan, nan))
         return jnp.stack(y, axis=1), t_rev
@@ -253,9 +321,11 @@ def soa_runner(body, dt, nsteps, g=9.81, band=0.05, devices=None):
     def call(states):
         states = np.asarray(states, dtype=float)
         if states.shape[0] % len(devices):
-            raise ValueError(f"batch {states.shape[0]} is not a multiple of the "
-                             f"{len(devices)} devices")
+            raise ValueError(
+                f"batch {states.shape[0]} is not a multiple of the {len(devices)} devices"
+            )
         return run(jax.device_put(states, sharding))
+
     return call
 
 
@@ -270,5 +340,7 @@ def spin_history(body, dt, nsteps, state, g=9.81) -> np.ndarray:
         def scan_fn(y, _):
             y = step(y)
             return y, _spin(*y)
+
         return jax.lax.scan(scan_fn, tuple(y0), None, length=nsteps)[1]
+
     return np.concatenate([[_spin(*state)], np.asarray(run(np.asarray(state, float)))])

@@ -24,8 +24,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Contact", "DEFAULT", "mjcf", "build", "physics_state", "launch_states",
-           "check_same_start", "spin_histories", "spin_of_states"]
+__all__ = [
+    "Contact",
+    "DEFAULT",
+    "mjcf",
+    "build",
+    "physics_state",
+    "launch_states",
+    "check_same_start",
+    "spin_histories",
+    "spin_of_states",
+]
 
 
 @dataclass(frozen=True)
@@ -42,8 +51,9 @@ class Contact:
 
     def label(self) -> str:
         extra = (f", noslip {self.noslip}" if self.noslip else "") + (
-            f", impratio {self.impratio:g}" if self.impratio != 1.0 else "")
-        return (f"{self.integrator}, solref {self.timeconst:g}, dt {self.dt:g}{extra}")
+            f", impratio {self.impratio:g}" if self.impratio != 1.0 else ""
+        )
+        return f"{self.integrator}, solref {self.timeconst:g}, dt {self.dt:g}{extra}"
 
 
 DEFAULT = Contact(0.02, 0.002, "Euler")  # MuJoCo's own defaults
@@ -51,6 +61,7 @@ DEFAULT = Contact(0.02, 0.002, "Euler")  # MuJoCo's own defaults
 
 def mjcf(body, mu: float, contact: Contact, g: float = 9.81) -> str:
     """The MJCF text of `body` on a floor with friction coefficient `mu`."""
+
     def nums(*values):
         return " ".join(repr(float(v)) for v in values)
 
@@ -101,10 +112,13 @@ def launch_states(model, start) -> np.ndarray:
     """MuJoCo full-physics states (N, nstate) of rattlesweep launches: `start` is a
     ``run_batch(..., record_every=1)`` result at t = 0, over ``trajectory`` or one of its
     trajectories (variables quaternion, omega, position, velocity)."""
+
     def pick(name):
         return np.atleast_2d(start[name].values)
-    return physics_state(model, pick("quaternion"), pick("omega"), pick("position"),
-                         pick("velocity"))
+
+    return physics_state(
+        model, pick("quaternion"), pick("omega"), pick("position"), pick("velocity")
+    )
 
 
 def check_same_start(model, body, state, contact_point, spin, tol=1e-9) -> dict:
@@ -119,6 +133,7 @@ def check_same_start(model, body, state, contact_point, spin, tol=1e-9) -> dict:
     data = mujoco.MjData(model)
     mujoco.mj_setState(model, data, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
     mujoco.mj_forward(model, data)
+
     def matrix(quaternion):
         out = np.empty(9)
         mujoco.mju_quat2Mat(out, quaternion)
@@ -132,15 +147,22 @@ def check_same_start(model, body, state, contact_point, spin, tol=1e-9) -> dict:
     found = {
         "mass": abs(model.body_mass[1] / body.mass - 1.0),
         "com": float(np.max(np.abs(com_from_c - np.asarray(body.com)))),
-        "inertia": float(np.max(np.abs(inertia - body.inertia)) / np.max(np.abs(body.inertia))),
+        "inertia": float(
+            np.max(np.abs(inertia - body.inertia)) / np.max(np.abs(body.inertia))
+        ),
         "contacts": int(data.ncon),
         "contact_distance": float(abs(data.contact.dist[0])) if data.ncon else np.inf,
         "contact_point": float(np.max(np.abs(data.contact.pos[0, :2] - contact_point)))
-        if data.ncon else np.inf,
+        if data.ncon
+        else np.inf,
         # velocity of the material point at the contact, v_G + omega x (P - G)
-        "contact_velocity": float(np.linalg.norm(
-            data.qvel[:3] + np.cross(omega_world, data.contact.pos[0] - data.qpos[:3])))
-        if data.ncon else np.inf,
+        "contact_velocity": float(
+            np.linalg.norm(
+                data.qvel[:3] + np.cross(omega_world, data.contact.pos[0] - data.qpos[:3])
+            )
+        )
+        if data.ncon
+        else np.inf,
         "spin": float(abs(omega_world[2] - spin)),
     }
     bad = {k: v for k, v in found.items() if (v != 1 if k == "contacts" else v > tol)}
@@ -153,13 +175,18 @@ def spin_of_states(states) -> np.ndarray:
     qpos (7), qvel (6), ...)."""
     w, x, y, z = np.moveaxis(states[..., 4:8], -1, 0)
     norm = w * w + x * x + y * y + z * z
-    up = np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), norm - 2 * (x * x + y * y)],
-                  axis=-1) / norm[..., None]
+    up = (
+        np.stack(
+            [2 * (x * z - w * y), 2 * (y * z + w * x), norm - 2 * (x * x + y * y)], axis=-1
+        )
+        / norm[..., None]
+    )
     return (up * states[..., 11:14]).sum(-1)
 
 
-def spin_histories(model, states, nstep: int, threads: int = 1,
-                   chunk: int = 4096) -> np.ndarray:
+def spin_histories(
+    model, states, nstep: int, threads: int = 1, chunk: int = 4096
+) -> np.ndarray:
     """n (rad/s) at every step 0..nstep of each state (N, nstate), from
     ``mujoco.rollout`` on `threads` threads, `chunk` steps per call (the rollout returns
     every step's full state; chunks bound its memory)."""
@@ -173,8 +200,9 @@ def spin_histories(model, states, nstep: int, threads: int = 1,
     done, current = 0, states
     while done < nstep:
         n = min(chunk, nstep - done)
-        out, _ = rollout.rollout(model, datas, current, nstep=n,
-                                 persistent_pool=threads > 1)
-        spins[:, done + 1:done + n + 1] = spin_of_states(out)
+        out, _ = rollout.rollout(
+            model, datas, current, nstep=n, persistent_pool=threads > 1
+        )
+        spins[:, done + 1 : done + n + 1] = spin_of_states(out)
         current, done = out[:, -1], done + n
     return spins

@@ -14,20 +14,57 @@ from typing import TYPE_CHECKING, Any
 
 from ._version import __version__
 
-__all__ = ["Body", "CoarseStepWarning", "DesignRefused", "LongRunWarning", "PRESETS",
-           "PlanarBody", "Sweep", "SweepLocked", "SweepWriteError", "UnitsWarning",
-           "decode", "design", "planar", "plot", "resume", "run_batch", "run_planar_batch",
-           "run_sweep", "simulate", "simulate_planar", "stability", "sweep", "to_csv",
-           "to_table", "unstack", "__version__"]
+__all__ = [
+    "Body",
+    "CoarseStepWarning",
+    "DesignRefused",
+    "LongRunWarning",
+    "PRESETS",
+    "PlanarBody",
+    "Sweep",
+    "SweepLocked",
+    "SweepWriteError",
+    "UnitsWarning",
+    "decode",
+    "design",
+    "planar",
+    "plot",
+    "resume",
+    "run_batch",
+    "run_planar_batch",
+    "run_sweep",
+    "simulate",
+    "simulate_planar",
+    "stability",
+    "sweep",
+    "to_csv",
+    "to_table",
+    "unstack",
+    "__version__",
+]
 
-_FROM = {"Body": ".rattleback", "PRESETS": ".rattleback", "run_batch": ".rattleback",
-         "simulate": ".rattleback", "UnitsWarning": ".rattleback", "decode": ".tidy",
-         "to_csv": ".tidy", "to_table": ".tidy", "unstack": ".tidy",
-         "PlanarBody": ".planar", "run_planar_batch": ".planar",
-         "simulate_planar": ".planar", "Sweep": ".sweep", "resume": ".sweep.run",
-         "run_sweep": ".sweep.run", "CoarseStepWarning": "._steps",
-         "LongRunWarning": "._steps", "SweepWriteError": ".sweep.store",
-         "SweepLocked": ".sweep.lock", "DesignRefused": ".design.constraints"}
+_FROM = {
+    "Body": ".rattleback",
+    "PRESETS": ".rattleback",
+    "run_batch": ".rattleback",
+    "simulate": ".rattleback",
+    "UnitsWarning": ".rattleback",
+    "decode": ".tidy",
+    "to_csv": ".tidy",
+    "to_table": ".tidy",
+    "unstack": ".tidy",
+    "PlanarBody": ".planar",
+    "run_planar_batch": ".planar",
+    "simulate_planar": ".planar",
+    "Sweep": ".sweep",
+    "resume": ".sweep.run",
+    "run_sweep": ".sweep.run",
+    "CoarseStepWarning": "._steps",
+    "LongRunWarning": "._steps",
+    "SweepWriteError": ".sweep.store",
+    "SweepLocked": ".sweep.lock",
+    "DesignRefused": ".design.constraints",
+}
 """Each name of the package and the module it comes from."""
 
 if TYPE_CHECKING:
@@ -48,8 +85,10 @@ else:
     def __getattr__(name: str) -> Any:
         if name in _FROM:
             value = getattr(importlib.import_module(_FROM[name], __name__), name)
-        elif not name.startswith("_") and importlib.util.find_spec(
-                f"{__name__}.{name}") is not None:
+        elif (
+            not name.startswith("_")
+            and importlib.util.find_spec(f"{__name__}.{name}") is not None
+        ):
             value = importlib.import_module(f".{name}", __name__)  # a module: rs.stability
         else:
             raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

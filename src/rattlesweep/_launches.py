@@ -14,8 +14,16 @@ import numpy as np
 from ._validation import as_float_array, check_memory, fail_where
 from .inputs import Input, check_rules
 
-__all__ = ["LAUNCH_BYTES", "Launches", "as_bodies", "broadcast_inputs", "check_common",
-           "check_launches", "distinct_bodies", "launches"]
+__all__ = [
+    "LAUNCH_BYTES",
+    "Launches",
+    "as_bodies",
+    "broadcast_inputs",
+    "check_common",
+    "check_launches",
+    "distinct_bodies",
+    "launches",
+]
 
 
 def as_bodies(body: object, cls: type) -> np.ndarray:
@@ -30,8 +38,9 @@ def as_bodies(body: object, cls: type) -> np.ndarray:
         raise ValueError(f"body must be a {name} or a non-empty array of {name} objects")
     for item in arr.flat:
         if not isinstance(item, cls):
-            raise ValueError(f"body must be a {name} or an array of {name} objects, "
-                             f"got {item!r}")
+            raise ValueError(
+                f"body must be a {name} or an array of {name} objects, got {item!r}"
+            )
     return arr
 
 
@@ -44,8 +53,11 @@ def distinct_bodies(bodies: Sequence[Any] | np.ndarray) -> tuple[list[Any], np.n
     holds the first item seen of each.
     """
     seen: dict[tuple[Any, str], int] = {}
-    index = np.fromiter((seen.setdefault((b, b.name), len(seen)) for b in bodies),
-                        dtype=np.intp, count=len(bodies))
+    index = np.fromiter(
+        (seen.setdefault((b, b.name), len(seen)) for b in bodies),
+        dtype=np.intp,
+        count=len(bodies),
+    )
     return [body for body, _ in seen], index
 
 
@@ -59,33 +71,50 @@ def check_launches(n: int, shapes: Mapping[str, tuple[int, ...]]) -> None:
     not fit in the memory available, naming the inputs that set its size."""
     big = {k: v for k, v in shapes.items() if math.prod(v) > 1}
     named = ", ".join(f"{k} {v}" for k, v in big.items()) or "the inputs"
-    check_memory("launches", f"{n:,} (the broadcast of {named})", n * LAUNCH_BYTES,
-                 f"a batch of {n:,} launches",
-                 "run fewer at once (a sweep runs them in tiles: rattlesweep.Sweep)")
+    check_memory(
+        "launches",
+        f"{n:,} (the broadcast of {named})",
+        n * LAUNCH_BYTES,
+        f"a batch of {n:,} launches",
+        "run fewer at once (a sweep runs them in tiles: rattlesweep.Sweep)",
+    )
 
 
-def broadcast_inputs(bodies: np.ndarray, scalars: Mapping[str, Any],
-                     vectors: Mapping[str, np.ndarray] | None = None
-                     ) -> tuple[tuple[int, ...], int, np.ndarray, dict[str, np.ndarray],
-                                dict[str, np.ndarray]]:
+def broadcast_inputs(
+    bodies: np.ndarray,
+    scalars: Mapping[str, Any],
+    vectors: Mapping[str, np.ndarray] | None = None,
+) -> tuple[tuple[int, ...], int, np.ndarray, dict[str, np.ndarray], dict[str, np.ndarray]]:
     """Broadcast bodies (object array), scalar inputs and vector inputs (broadcast on
     their leading axes) together. Returns (shape, n, flat bodies, flat scalars, flat
     vectors)."""
     vectors = vectors or {}
     arrays = {k: as_float_array(k, v) for k, v in scalars.items()}
     try:
-        shape = np.broadcast_shapes(bodies.shape, *(v.shape for v in arrays.values()),
-                                    *(v.shape[:-1] for v in vectors.values()))
+        shape = np.broadcast_shapes(
+            bodies.shape,
+            *(v.shape for v in arrays.values()),
+            *(v.shape[:-1] for v in vectors.values()),
+        )
     except ValueError:
         shapes = {k: v.shape for k, v in {**arrays, **vectors}.items()}
-        raise ValueError(f"inputs cannot be broadcast together: shapes {shapes}, "
-                         f"body {bodies.shape}") from None
+        raise ValueError(
+            f"inputs cannot be broadcast together: shapes {shapes}, body {bodies.shape}"
+        ) from None
     n = math.prod(shape)
-    check_launches(n, {**{k: v.shape for k, v in arrays.items()},
-                       **{k: v.shape[:-1] for k, v in vectors.items()}, "body": bodies.shape})
+    check_launches(
+        n,
+        {
+            **{k: v.shape for k, v in arrays.items()},
+            **{k: v.shape[:-1] for k, v in vectors.items()},
+            "body": bodies.shape,
+        },
+    )
     flat = {k: np.broadcast_to(v, shape).reshape(n) for k, v in arrays.items()}
-    flat_vec = {k: np.broadcast_to(v, shape + v.shape[-1:]).reshape(n, v.shape[-1])
-                for k, v in vectors.items()}
+    flat_vec = {
+        k: np.broadcast_to(v, shape + v.shape[-1:]).reshape(n, v.shape[-1])
+        for k, v in vectors.items()
+    }
     return tuple(shape), n, np.broadcast_to(bodies, shape).reshape(n), flat, flat_vec
 
 
@@ -111,15 +140,20 @@ class Launches:
     vectors: dict[str, np.ndarray]  # vector inputs, (n, width) each
 
 
-def launches(body: object, cls: type, scalars: Mapping[str, Any],
-             inputs: Mapping[str, Input], vectors: Mapping[str, np.ndarray] | None = None
-             ) -> Launches:
+def launches(
+    body: object,
+    cls: type,
+    scalars: Mapping[str, Any],
+    inputs: Mapping[str, Input],
+    vectors: Mapping[str, np.ndarray] | None = None,
+) -> Launches:
     """Check (by the rules of ``inputs``, a model's descriptions) and broadcast a model's
     launches: ``body`` one or an array of ``cls``, ``scalars`` and ``vectors`` its
     per-launch inputs by name."""
     arrays = {k: as_float_array(k, v) for k, v in scalars.items()}
     check_common(arrays, inputs)
-    shape, n, flat_bodies, flat, flat_vec = broadcast_inputs(as_bodies(body, cls), arrays,
-                                                             vectors)
+    shape, n, flat_bodies, flat, flat_vec = broadcast_inputs(
+        as_bodies(body, cls), arrays, vectors
+    )
     table, index = distinct_bodies(flat_bodies)
     return Launches(shape, n, table, index, flat, flat_vec)

@@ -14,8 +14,12 @@ __all__ = ["coordinate_attrs", "flag_attrs", "lookup_attrs", "status_attrs"]
 
 def flag_attrs(long_name: str, names: Sequence[str], comment: str) -> dict[str, Any]:
     """CF attributes of a categorical variable whose values 0, 1, ... mean ``names``."""
-    return {"long_name": long_name, "flag_values": list(range(len(names))),
-            "flag_meanings": " ".join(names), "comment": comment}
+    return {
+        "long_name": long_name,
+        "flag_values": list(range(len(names))),
+        "flag_meanings": " ".join(names),
+        "comment": comment,
+    }
 
 
 def status_attrs(comment: str) -> dict[str, Any]:
@@ -27,13 +31,18 @@ def status_attrs(comment: str) -> dict[str, Any]:
 def coordinate_attrs(inputs: Mapping[str, Input]) -> dict[str, tuple[str, str]]:
     """Units and long name of each coordinate by name: ``time`` and the inputs
     (``inputs``, a model's descriptions) under their result names."""
-    return {"time": ("s", "time"), **{
-        name: (attrs["units"], attrs["long_name"])
-        for name, attrs in result_attrs(inputs).items()}}
+    return {
+        "time": ("s", "time"),
+        **{
+            name: (attrs["units"], attrs["long_name"])
+            for name, attrs in result_attrs(inputs).items()
+        },
+    }
 
 
-def lookup_attrs(name: str, status: Mapping[str, Any],
-                 coordinates: Mapping[str, tuple[str, str]]) -> dict[str, Any]:
+def lookup_attrs(
+    name: str, status: Mapping[str, Any], coordinates: Mapping[str, tuple[str, str]]
+) -> dict[str, Any]:
     """CF attributes of a variable or coordinate of a model whose status flags carry
     ``status`` and whose coordinates ``coordinates`` (:func:`coordinate_attrs`)."""
     if name == "status":

@@ -38,8 +38,9 @@ class Model:
     layout: ModuleType
     observables: tuple[str, ...]
     status_attrs: Mapping[str, Any]
-    derived: Mapping[str, tuple[Callable[[Mapping[str, np.ndarray]], np.ndarray], str, str]
-                     ] = field(default_factory=dict)
+    derived: Mapping[
+        str, tuple[Callable[[Mapping[str, np.ndarray]], np.ndarray], str, str]
+    ] = field(default_factory=dict)
 
     def observable_row(self, name: str) -> int:
         if name in OBSERVABLES:

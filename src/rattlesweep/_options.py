@@ -10,23 +10,35 @@ from ._validation import is_real
 from .core.workspace import METHODS, STOP_RULES
 from .inputs import RATTLEBACK
 
-__all__ = ["check_band", "check_method", "check_record_every", "check_single_step",
-           "check_stop"]
+__all__ = [
+    "check_band",
+    "check_method",
+    "check_record_every",
+    "check_single_step",
+    "check_stop",
+]
 
 
 def check_method(method: str) -> int:
     try:
         return METHODS.index(method)
     except (ValueError, TypeError):
-        raise ValueError(f"method must be one of {sorted(METHODS)}, got {method!r}") from None
+        raise ValueError(
+            f"method must be one of {sorted(METHODS)}, got {method!r}"
+        ) from None
 
 
 def check_record_every(record_every: int | None) -> int | None:
     if record_every is None:
         return None
-    if not (isinstance(record_every, (int, np.integer)) and not isinstance(record_every, bool)
-            and record_every >= 1):
-        raise ValueError(f"record_every must be a positive integer or None, got {record_every!r}")
+    if not (
+        isinstance(record_every, (int, np.integer))
+        and not isinstance(record_every, bool)
+        and record_every >= 1
+    ):
+        raise ValueError(
+            f"record_every must be a positive integer or None, got {record_every!r}"
+        )
     return int(record_every)
 
 
@@ -53,5 +65,6 @@ def check_stop(stop: str | None) -> float:
     try:
         return STOP_RULES[stop]
     except (KeyError, TypeError):
-        raise ValueError(f"stop must be None (run to t_end) or 'first_reversal', got "
-                         f"{stop!r}") from None
+        raise ValueError(
+            f"stop must be None (run to t_end) or 'first_reversal', got {stop!r}"
+        ) from None

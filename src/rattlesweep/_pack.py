@@ -21,7 +21,9 @@ def blocked(rows: np.ndarray, n: int) -> np.ndarray:
     out = np.empty((rows.shape[0], n_blocks * BLOCK))
     out[:, :n] = rows
     out[:, n:] = rows[:, :1]
-    return np.ascontiguousarray(out.reshape(rows.shape[0], n_blocks, BLOCK).transpose(1, 0, 2))
+    return np.ascontiguousarray(
+        out.reshape(rows.shape[0], n_blocks, BLOCK).transpose(1, 0, 2)
+    )
 
 
 def pack(table: Rows, columns: Mapping[str, np.ndarray], n: int) -> np.ndarray:
@@ -30,7 +32,9 @@ def pack(table: Rows, columns: Mapping[str, np.ndarray], n: int) -> np.ndarray:
     column of its name."""
     rows = np.empty((table.size, n))
     for row in table:
-        values = np.asarray(row.pack(columns) if row.pack else columns[row.name], dtype=float)
+        values = np.asarray(
+            row.pack(columns) if row.pack else columns[row.name], dtype=float
+        )
         rows[table.slice(row.name)] = values.reshape(n, row.width).T
     return blocked(rows, n)
 
@@ -40,14 +44,27 @@ def unblock(arr: np.ndarray, n: int) -> np.ndarray:
     return arr.transpose(1, 0, 2).reshape(arr.shape[1], -1)[:, :n]
 
 
-def prepared(model: Model, columns: Mapping[str, np.ndarray],
-             state: Mapping[str, np.ndarray], nsteps: np.ndarray, n: int,
-             shape: Sequence[int], coords: dict[str, Any]) -> Prepared:
+def prepared(
+    model: Model,
+    columns: Mapping[str, np.ndarray],
+    state: Mapping[str, np.ndarray],
+    nsteps: np.ndarray,
+    n: int,
+    shape: Sequence[int],
+    coords: dict[str, Any],
+) -> Prepared:
     """A :class:`~rattlesweep._model.Prepared` batch: the model's parameter rows packed
     from ``columns``, its state rows from ``state`` (flat per-trajectory values by row
     name)."""
     Y = pack(model.layout.STATE, state, n)
     steps = np.zeros(Y.shape[0] * BLOCK, dtype=np.int64)
     steps[:n] = nsteps
-    return Prepared(model, pack(model.layout.PARAMS, columns, n), Y,
-                    steps.reshape(-1, BLOCK), n, tuple(shape), coords)
+    return Prepared(
+        model,
+        pack(model.layout.PARAMS, columns, n),
+        Y,
+        steps.reshape(-1, BLOCK),
+        n,
+        tuple(shape),
+        coords,
+    )

@@ -21,8 +21,16 @@ from .core.jit import on_disk
 from .core.models import RATTLEBACK as RATTLEBACK_MODEL
 from .core.workspace import BLOCK, MU_ROLL, MU_S, MU_SPIN, SLIDING, friction_level
 
-__all__ = ["batch_level", "check_record_size", "contact_slip_velocity", "execute",
-           "kernels_compiled", "numba_threads", "physical_memory", "run_kernel"]
+__all__ = [
+    "batch_level",
+    "check_record_size",
+    "contact_slip_velocity",
+    "execute",
+    "kernels_compiled",
+    "numba_threads",
+    "physical_memory",
+    "run_kernel",
+]
 
 
 _COMPILED: dict[tuple[Any, ...], Any] = {}
@@ -63,8 +71,11 @@ def numba_threads(threads: int | None) -> Iterator[None]:
         return
     # numba sets its config attributes from the environment at import, out of mypy's sight
     limit = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]
-    if not (isinstance(threads, (int, np.integer)) and not isinstance(threads, bool)
-            and 1 <= threads <= limit):
+    if not (
+        isinstance(threads, (int, np.integer))
+        and not isinstance(threads, bool)
+        and 1 <= threads <= limit
+    ):
         raise ValueError(f"threads must be an integer from 1 to {limit}, got {threads!r}")
     old = numba.get_num_threads()
     numba.set_num_threads(int(threads))
@@ -96,18 +107,21 @@ def check_record_size(prep: Prepared, n_rec: int, record_every: int) -> None:
             f"{prep.model.layout.N_REC} series for {prep.n:,} {lanes} in blocks of "
             f"{BLOCK}), more than this machine's {have / 2**30:.3g} GiB: t_end / (dt * "
             f"record_every) = {t_end:g} / ({dt:g} * {record_every}) samples each; record "
-            f"less often (a larger record_every), or a shorter t_end")
+            f"less often (a larger record_every), or a shorter t_end"
+        )
 
 
-def kernels_compiled(parallel: bool = True, model: int = RATTLEBACK_MODEL,
-                     level: int = SLIDING) -> bool:
+def kernels_compiled(
+    parallel: bool = True, model: int = RATTLEBACK_MODEL, level: int = SLIDING
+) -> bool:
     """True when the machine code of the kernel entry that :func:`execute` calls
     (``parallel`` or serial) for the model number ``model`` at the friction level
     ``level`` (:func:`friction_level`; the default: Coulomb friction without couples) is
     in numba's on-disk cache: a first call in this process then loads it in about a
     second; otherwise it compiles the kernels first."""
-    return on_disk(stepper.integrate_parallel if parallel else stepper.integrate_serial,
-                   model, level)
+    return on_disk(
+        stepper.integrate_parallel if parallel else stepper.integrate_serial, model, level
+    )
 
 
 def batch_level(prep: Prepared) -> int:
@@ -124,8 +138,15 @@ launch parallel regions at once; a parallel call already occupies every core, so
 from several threads take turns at no cost in throughput."""
 
 
-def execute(prep: Prepared, *, method: int, record_every: int | None, band: float = 0.0,
-            parallel: bool = True, threads: int | None = None) -> Raw:
+def execute(
+    prep: Prepared,
+    *,
+    method: int,
+    record_every: int | None,
+    band: float = 0.0,
+    parallel: bool = True,
+    threads: int | None = None,
+) -> Raw:
     """Run a prepared batch through the kernel."""
     check_boolean("parallel", parallel)
     layout = prep.model.layout
@@ -139,9 +160,21 @@ def execute(prep: Prepared, *, method: int, record_every: int | None, band: floa
     Y = prep.Y.copy()
     entry = stepper.integrate_parallel if parallel else stepper.integrate_serial
     with _PARALLEL if parallel else contextlib.nullcontext(), numba_threads(threads):
-        run_kernel(entry, (prep.model.number, batch_level(prep)), prep.P, Y, prep.nsteps,
-                   method, record_every or 1, band, O, REC)
+        run_kernel(
+            entry,
+            (prep.model.number, batch_level(prep)),
+            prep.P,
+            Y,
+            prep.nsteps,
+            method,
+            record_every or 1,
+            band,
+            O,
+            REC,
+        )
     rec = None
     if n_rec:
-        rec = REC.transpose(0, 3, 1, 2).reshape(n_blocks * BLOCK, n_rec, layout.N_REC)[:prep.n]
+        rec = REC.transpose(0, 3, 1, 2).reshape(n_blocks * BLOCK, n_rec, layout.N_REC)[
+            : prep.n
+        ]
     return Raw(unblock(O, prep.n), rec, unblock(Y, prep.n))

@@ -12,9 +12,18 @@ import numpy as np
 from ._validation import fail_where
 
 __all__ = [
-    "COARSE_DT", "LONG_RUN_STEPS", "MAX_STEPS", "RK4_LIMIT", "CoarseStepWarning",
-    "LongRunWarning", "announce_long_run", "default_dts", "step_counts", "steps_for",
-    "time_steps", "warn_coarse_dt",
+    "COARSE_DT",
+    "LONG_RUN_STEPS",
+    "MAX_STEPS",
+    "RK4_LIMIT",
+    "CoarseStepWarning",
+    "LongRunWarning",
+    "announce_long_run",
+    "default_dts",
+    "step_counts",
+    "steps_for",
+    "time_steps",
+    "warn_coarse_dt",
 ]
 
 
@@ -30,7 +39,7 @@ class AnyBody(Protocol):
 COARSE_DT = 4.0
 """A time step above this many times the body's default draws a :class:`CoarseStepWarning`."""
 
-RK4_LIMIT = 2.0 * 2.0 ** 0.5 * 64.0 / (2.0 * np.pi)
+RK4_LIMIT = 2.0 * 2.0**0.5 * 64.0 / (2.0 * np.pi)
 """RK4 is unstable for an oscillation of angular frequency ω when ω dt > 2√2: at about
 this many times the default step (1/64 of the shortest small-oscillation period)."""
 
@@ -40,17 +49,23 @@ class CoarseStepWarning(RuntimeWarning):
     artefact."""
 
 
-def default_dts(table: Sequence[AnyBody], index: np.ndarray, g: np.ndarray
-                ) -> np.ndarray:
+def default_dts(table: Sequence[AnyBody], index: np.ndarray, g: np.ndarray) -> np.ndarray:
     """Each trajectory's default time step (s), computed once per distinct (body, g)."""
-    keys, inverse = np.unique(np.stack([index.astype(float), g]), axis=1, return_inverse=True)
+    keys, inverse = np.unique(
+        np.stack([index.astype(float), g]), axis=1, return_inverse=True
+    )
     per_key = np.array([table[int(i)].default_dt(float(gv)) for i, gv in keys.T])
     return per_key[inverse.reshape(-1)]
 
 
-def warn_coarse_dt(table: Sequence[AnyBody], index: np.ndarray, g: np.ndarray,
-                   dt: np.ndarray,
-                   stacklevel: int, default: np.ndarray | None = None) -> None:
+def warn_coarse_dt(
+    table: Sequence[AnyBody],
+    index: np.ndarray,
+    g: np.ndarray,
+    dt: np.ndarray,
+    stacklevel: int,
+    default: np.ndarray | None = None,
+) -> None:
     """Warn when a given time step exceeds COARSE_DT times the default of its
     trajectory (``default``, or its body's at its g), naming the worst trajectory's
     body, its default and RK4's stability limit; ``stacklevel`` as for
@@ -61,9 +76,11 @@ def warn_coarse_dt(table: Sequence[AnyBody], index: np.ndarray, g: np.ndarray,
     default = body_default if default is None else default
     worst = int(np.argmax(dt / default))
     ratio = dt[worst] / default[worst]
-    why = ("1/64 of its shortest small-oscillation period"
-           if default[worst] == body_default[worst] else
-           "the longest that follows its damping, smallest principal moment / damping")
+    why = (
+        "1/64 of its shortest small-oscillation period"
+        if default[worst] == body_default[worst]
+        else "the longest that follows its damping, smallest principal moment / damping"
+    )
     if ratio > COARSE_DT:
         warnings.warn(
             f"dt = {dt[worst]:.3g} s is {ratio:.3g} times the default step of body "
@@ -71,7 +88,10 @@ def warn_coarse_dt(table: Sequence[AnyBody], index: np.ndarray, g: np.ndarray,
             f"accuracy beyond a few times the default "
             f"and is unstable from about {RK4_LIMIT:.0f} times it (semi-implicit Euler "
             f"sooner); statuses such as capsized or lifted_off of such a run may be "
-            f"numerical artefacts", CoarseStepWarning, stacklevel=stacklevel + 1)
+            f"numerical artefacts",
+            CoarseStepWarning,
+            stacklevel=stacklevel + 1,
+        )
 
 
 LONG_RUN_STEPS = 10**9
@@ -84,23 +104,34 @@ class LongRunWarning(UserWarning):
     """A batch about to take a very large number of steps (minutes or more)."""
 
 
-def announce_long_run(steps: np.ndarray, t_end: np.ndarray, dt: np.ndarray,
-                      default_from: Mapping[str, np.ndarray] | None, stacklevel: int
-                      ) -> None:
+def announce_long_run(
+    steps: np.ndarray,
+    t_end: np.ndarray,
+    dt: np.ndarray,
+    default_from: Mapping[str, np.ndarray] | None,
+    stacklevel: int,
+) -> None:
     """Warn before a batch of more than LONG_RUN_STEPS steps, with the count, the
     longest launch's t_end and dt, and the inputs a default dt came from."""
     total = float(np.sum(steps, dtype=float))
     if total <= LONG_RUN_STEPS:
         return
     i = int(np.argmax(steps))
-    source = "" if default_from is None else " (the body's default step at " + ", ".join(
-        f"{k} = {float(v.flat[i]):g}" for k, v in default_from.items()) + ")"
+    source = (
+        ""
+        if default_from is None
+        else " (the body's default step at "
+        + ", ".join(f"{k} = {float(v.flat[i]):g}" for k, v in default_from.items())
+        + ")"
+    )
     warnings.warn(
         f"this batch takes {total:.3g} steps in all ({len(steps):,} launch{'es' if len(steps) != 1 else ''}; the longest "
         f"t_end = {float(t_end.flat[i]):g} s / dt = {float(dt.flat[i]):.3g} s{source} = "
         f"{int(steps.flat[i]):,} steps): at about 1e6 steps per second on a core, "
-        f"roughly {total / 1e6 / 60:.3g} core-minutes", LongRunWarning,
-        stacklevel=stacklevel + 1)
+        f"roughly {total / 1e6 / 60:.3g} core-minutes",
+        LongRunWarning,
+        stacklevel=stacklevel + 1,
+    )
 
 
 MAX_STEPS = 2**53
@@ -111,15 +142,18 @@ counts integers exactly up to 2**53."""
 def _show_body(body: Any) -> str:
     """A body for an error message: its name and semi-axes, the parameters its default
     step depends on most."""
-    axes = ", ".join(f"{k} = {getattr(body, k)!r}" for k in ("a", "b", "c")
-                     if hasattr(body, k))
+    axes = ", ".join(
+        f"{k} = {getattr(body, k)!r}" for k in ("a", "b", "c") if hasattr(body, k)
+    )
     return f"body = {body.name!r} with {axes} m"
 
 
-def steps_for(t_end: np.ndarray, dt: np.ndarray,
-              default_from: Mapping[str, np.ndarray] | None = None,
-              bodies: tuple[Sequence[AnyBody], np.ndarray] | None = None
-              ) -> np.ndarray:
+def steps_for(
+    t_end: np.ndarray,
+    dt: np.ndarray,
+    default_from: Mapping[str, np.ndarray] | None = None,
+    bodies: tuple[Sequence[AnyBody], np.ndarray] | None = None,
+) -> np.ndarray:
     """Steps each trajectory takes: ceil(t_end/dt), at least 1. More than
     :data:`MAX_STEPS` is a ValueError naming ``t_end`` and ``dt``, and, when ``dt`` is
     the default step, the inputs ``default_from`` it was derived from (name -> values)
@@ -129,22 +163,33 @@ def steps_for(t_end: np.ndarray, dt: np.ndarray,
     if np.any(bad):
         i = int(np.argmax(bad))
         where = f" at index ({i},)" if steps.size > 1 else ""
-        shown = [] if default_from is None else [
-            f"{k} = {float(v.flat[i])!r}" for k, v in default_from.items()]
+        shown = (
+            []
+            if default_from is None
+            else [f"{k} = {float(v.flat[i])!r}" for k, v in default_from.items()]
+        )
         if default_from is not None and bodies is not None:
             shown.append(_show_body(bodies[0][int(bodies[1].flat[i])]))
-        source = "" if not shown else " (the body's default step at " + ", ".join(shown) + ")"
+        source = (
+            "" if not shown else " (the body's default step at " + ", ".join(shown) + ")"
+        )
         raise ValueError(
             f"t_end / dt must be at most 2**53 steps (the kernel counts steps in float64); "
             f"got t_end = {float(t_end.flat[i])!r} s and dt = {float(dt.flat[i])!r} s"
-            f"{source}, {float(steps.flat[i]):.3g} steps{where}")
+            f"{source}, {float(steps.flat[i]):.3g} steps{where}"
+        )
     return steps.astype(np.int64)
 
 
-def time_steps(table: Sequence[AnyBody], index: np.ndarray, flat: Mapping[str, np.ndarray],
-               *, longest: tuple[np.ndarray, tuple[str, ...]] | None = None,
-               dt_at_most_t_end: bool = False, stacklevel: int
-               ) -> tuple[np.ndarray, dict[str, np.ndarray] | None]:
+def time_steps(
+    table: Sequence[AnyBody],
+    index: np.ndarray,
+    flat: Mapping[str, np.ndarray],
+    *,
+    longest: tuple[np.ndarray, tuple[str, ...]] | None = None,
+    dt_at_most_t_end: bool = False,
+    stacklevel: int,
+) -> tuple[np.ndarray, dict[str, np.ndarray] | None]:
     """Each launch's time step (s), and the inputs it comes from when it is the default
     (None when ``dt`` is given): the ``dt`` of ``flat`` (the flat inputs) or the body's
     default at its ``g``, shortened where the model's bound ``longest`` (each launch's
@@ -162,17 +207,26 @@ def time_steps(table: Sequence[AnyBody], index: np.ndarray, flat: Mapping[str, n
         return default, {k: flat[k] for k in depends}
     dt = flat["dt"]
     if dt_at_most_t_end:
-        fail_where("dt", dt, dt > flat["t_end"],
-                   "must be at most t_end (a launch takes whole steps, so one step of dt "
-                   "would run it past t_end)")
+        fail_where(
+            "dt",
+            dt,
+            dt > flat["t_end"],
+            "must be at most t_end (a launch takes whole steps, so one step of dt "
+            "would run it past t_end)",
+        )
     warn_coarse_dt(table, index, flat["g"], dt, stacklevel=stacklevel + 1, default=default)
     return dt, None
 
 
-def step_counts(t_end: np.ndarray, dt: np.ndarray,
-                default_from: Mapping[str, np.ndarray] | None,
-                bodies: tuple[Sequence[AnyBody], np.ndarray], *, announce: bool,
-                stacklevel: int) -> np.ndarray:
+def step_counts(
+    t_end: np.ndarray,
+    dt: np.ndarray,
+    default_from: Mapping[str, np.ndarray] | None,
+    bodies: tuple[Sequence[AnyBody], np.ndarray],
+    *,
+    announce: bool,
+    stacklevel: int,
+) -> np.ndarray:
     """:func:`steps_for` each trajectory, and, when ``announce``, a
     :class:`LongRunWarning` before a batch of more than :data:`LONG_RUN_STEPS` steps
     (``stacklevel`` as for :func:`warnings.warn`, counted from the caller)."""

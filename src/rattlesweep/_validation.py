@@ -13,8 +13,16 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["as_float_array", "available_memory", "check_boolean", "check_memory",
-           "fail_where", "finite_vector", "is_real", "positive"]
+__all__ = [
+    "as_float_array",
+    "available_memory",
+    "check_boolean",
+    "check_memory",
+    "fail_where",
+    "finite_vector",
+    "is_real",
+    "positive",
+]
 
 
 def positive(name: str, value: Any) -> float:
@@ -40,7 +48,8 @@ def is_real(value: Any) -> bool:
     if isinstance(value, np.ndarray):
         return value.ndim == 0 and value.dtype.kind in "iuf"
     return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
-        value, (bool, np.bool_))
+        value, (bool, np.bool_)
+    )
 
 
 def check_boolean(name: str, value: Any) -> bool:
@@ -85,8 +94,10 @@ def as_float_array(name: str, value: Any) -> np.ndarray:
     return arr
 
 
-_RULE = ("must be a number or an array of numbers (real numbers: not booleans, strings "
-         "or complex numbers)")
+_RULE = (
+    "must be a number or an array of numbers (real numbers: not booleans, strings "
+    "or complex numbers)"
+)
 
 
 def _real_entries(value: Any) -> bool:
@@ -122,7 +133,9 @@ def fail_where(name: str, arr: np.ndarray, bad: np.ndarray, rule: str) -> None:
         where = f" at index {idx}" if arr.ndim else ""
         value = arr[idx]
         # a plain number, as the user wrote it (-1.0, not numpy's np.float64(-1.0))
-        shown = repr(float(value)) if np.ndim(value) == 0 else repr(np.asarray(value).tolist())
+        shown = (
+            repr(float(value)) if np.ndim(value) == 0 else repr(np.asarray(value).tolist())
+        )
         raise ValueError(f"{name} {rule}; got {shown}{where}")
 
 
@@ -153,5 +166,7 @@ def check_memory(name: str, value: Any, need: float, what: str, advice: str = ""
     have = available_memory()
     if have is not None and need > have:
         tail = f"; {advice}" if advice else ""
-        raise ValueError(f"{name} = {value}: {what} would need about {_gib(need)}, more "
-                         f"than the {_gib(have)} of memory available{tail}")
+        raise ValueError(
+            f"{name} = {value}: {what} would need about {_gib(need)}, more "
+            f"than the {_gib(have)} of memory available{tail}"
+        )

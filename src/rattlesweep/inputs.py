@@ -26,8 +26,21 @@ from numpy.typing import ArrayLike
 
 from ._validation import fail_where
 
-__all__ = ["BAND", "FINITE", "HALF_TURN", "INPUTS", "NONNEG", "NONNEG_INF", "PLANAR",
-           "POSITIVE", "RATTLEBACK", "Input", "Rule", "check_rules", "result_attrs"]
+__all__ = [
+    "BAND",
+    "FINITE",
+    "HALF_TURN",
+    "INPUTS",
+    "NONNEG",
+    "NONNEG_INF",
+    "PLANAR",
+    "POSITIVE",
+    "RATTLEBACK",
+    "Input",
+    "Rule",
+    "check_rules",
+    "result_attrs",
+]
 
 
 @dataclass(frozen=True)
@@ -44,17 +57,26 @@ class Rule:
             return ~np.asarray(self.ok(np.asarray(values, dtype=float)), dtype=bool)
 
 
-POSITIVE = Rule("must be finite and > 0", "finite, > 0",
-                lambda v: np.isfinite(v) & (v > 0))
+POSITIVE = Rule("must be finite and > 0", "finite, > 0", lambda v: np.isfinite(v) & (v > 0))
 FINITE = Rule("must be finite", "finite", np.isfinite)
-NONNEG_INF = Rule("must be >= 0 (inf allowed: rolling without slip)", ">= 0, `inf` allowed",
-                  lambda v: v >= 0)
-NONNEG = Rule("must be finite and >= 0", "finite, >= 0",
-              lambda v: np.isfinite(v) & (v >= 0))
-HALF_TURN = Rule("must be in (-pi/2, pi/2) rad (at |theta| = pi/2 the flat edge reaches "
-                 "the floor)", "in (-pi/2, pi/2)", lambda v: np.abs(v) < math.pi / 2)
-BAND = Rule("must be in [0, 1) (a fraction of |initial spin|)", "in [0, 1)",
-            lambda v: (v >= 0) & (v < 1))
+NONNEG_INF = Rule(
+    "must be >= 0 (inf allowed: rolling without slip)",
+    ">= 0, `inf` allowed",
+    lambda v: v >= 0,
+)
+NONNEG = Rule(
+    "must be finite and >= 0", "finite, >= 0", lambda v: np.isfinite(v) & (v >= 0)
+)
+HALF_TURN = Rule(
+    "must be in (-pi/2, pi/2) rad (at |theta| = pi/2 the flat edge reaches the floor)",
+    "in (-pi/2, pi/2)",
+    lambda v: np.abs(v) < math.pi / 2,
+)
+BAND = Rule(
+    "must be in [0, 1) (a fraction of |initial spin|)",
+    "in [0, 1)",
+    lambda v: (v >= 0) & (v < 1),
+)
 
 
 @dataclass(frozen=True)
@@ -118,122 +140,392 @@ class Input:
 
 
 # --- inputs both models have ----------------------------------------------------------
-MU = Input("mu", "1", "kinetic friction coefficient",
-           "Kinetic Coulomb coefficient: inf rolls without slip, 0 is frictionless.",
-           "friction", math.inf, NONNEG_INF, sweep=True)
-MU_STATIC = Input("mu_static", "1", "static friction coefficient",
-                  "Static Coulomb coefficient, at least mu: the bound a sticking contact "
-                  "holds.", "friction", None, NONNEG_INF, sweep=True, default_doc="`mu`")
-MU_SPIN = Input("mu_spin", "m", "spin friction coefficient: bound of the couple about the "
-                "normal per unit normal force",
-                "Spin (drilling) friction: a couple of at most mu_spin N about the contact "
-                "normal, opposing the spin about it.", "friction", 0.0, NONNEG, sweep=True)
-MU_ROLL = Input("mu_roll", "m", "rolling resistance coefficient: bound of the rolling "
-                "couple per unit normal force",
-                "Rolling resistance: a couple of at most mu_roll N opposing the rolling.",
-                "friction", 0.0, NONNEG, sweep=True)
-G = Input("g", "m s-2", "gravitational acceleration", "Gravitational acceleration.",
-          "numerics", 9.81, POSITIVE, sweep=True)
-DT = Input("dt", "s", "time step", "Fixed time step of the integration.", "numerics", None,
-           POSITIVE, sweep=True,
-           default_doc="1/64 of the body's shortest small-oscillation period; with "
-           "`damping` (3-D model), at most the body's smallest principal moment of "
-           "inertia / `damping` where that is shorter")
-T_END = Input("t_end", "s", "requested end time",
-              "End time: each launch takes ceil(t_end / dt) steps, at most 2**53.",
-              "numerics", None, POSITIVE, sweep=True, required=True)
-METHOD = Input("method", "1", "integration method",
-               'Classic RK4 ("rk4") or first-order semi-implicit Euler ("euler").', "run",
-               "rk4", in_results=False)
-RECORD_EVERY = Input("record_every", "1", "steps between recorded samples",
-                     "Record every k-th step into time series (a positive integer).",
-                     "run", None, in_results=False,
-                     default_doc="off for a batch; for a single run, the smallest stride "
-                     "that keeps at most 10 000 samples")
-PARALLEL = Input("parallel", "1", "spread blocks over numba threads",
-                 "Run blocks of launches on numba threads; False runs on the calling "
-                 "thread only.", "run", True, in_results=False)
-THREADS = Input("threads", "1", "numba threads of a parallel run",
-                "Number of numba threads for a parallel run.", "run", None,
-                in_results=False, default_doc="all")
+MU = Input(
+    "mu",
+    "1",
+    "kinetic friction coefficient",
+    "Kinetic Coulomb coefficient: inf rolls without slip, 0 is frictionless.",
+    "friction",
+    math.inf,
+    NONNEG_INF,
+    sweep=True,
+)
+MU_STATIC = Input(
+    "mu_static",
+    "1",
+    "static friction coefficient",
+    "Static Coulomb coefficient, at least mu: the bound a sticking contact holds.",
+    "friction",
+    None,
+    NONNEG_INF,
+    sweep=True,
+    default_doc="`mu`",
+)
+MU_SPIN = Input(
+    "mu_spin",
+    "m",
+    "spin friction coefficient: bound of the couple about the normal per unit normal force",
+    "Spin (drilling) friction: a couple of at most mu_spin N about the contact "
+    "normal, opposing the spin about it.",
+    "friction",
+    0.0,
+    NONNEG,
+    sweep=True,
+)
+MU_ROLL = Input(
+    "mu_roll",
+    "m",
+    "rolling resistance coefficient: bound of the rolling couple per unit normal force",
+    "Rolling resistance: a couple of at most mu_roll N opposing the rolling.",
+    "friction",
+    0.0,
+    NONNEG,
+    sweep=True,
+)
+G = Input(
+    "g",
+    "m s-2",
+    "gravitational acceleration",
+    "Gravitational acceleration.",
+    "numerics",
+    9.81,
+    POSITIVE,
+    sweep=True,
+)
+DT = Input(
+    "dt",
+    "s",
+    "time step",
+    "Fixed time step of the integration.",
+    "numerics",
+    None,
+    POSITIVE,
+    sweep=True,
+    default_doc="1/64 of the body's shortest small-oscillation period; with "
+    "`damping` (3-D model), at most the body's smallest principal moment of "
+    "inertia / `damping` where that is shorter",
+)
+T_END = Input(
+    "t_end",
+    "s",
+    "requested end time",
+    "End time: each launch takes ceil(t_end / dt) steps, at most 2**53.",
+    "numerics",
+    None,
+    POSITIVE,
+    sweep=True,
+    required=True,
+)
+METHOD = Input(
+    "method",
+    "1",
+    "integration method",
+    'Classic RK4 ("rk4") or first-order semi-implicit Euler ("euler").',
+    "run",
+    "rk4",
+    in_results=False,
+)
+RECORD_EVERY = Input(
+    "record_every",
+    "1",
+    "steps between recorded samples",
+    "Record every k-th step into time series (a positive integer).",
+    "run",
+    None,
+    in_results=False,
+    default_doc="off for a batch; for a single run, the smallest stride "
+    "that keeps at most 10 000 samples",
+)
+PARALLEL = Input(
+    "parallel",
+    "1",
+    "spread blocks over numba threads",
+    "Run blocks of launches on numba threads; False runs on the calling thread only.",
+    "run",
+    True,
+    in_results=False,
+)
+THREADS = Input(
+    "threads",
+    "1",
+    "numba threads of a parallel run",
+    "Number of numba threads for a parallel run.",
+    "run",
+    None,
+    in_results=False,
+    default_doc="all",
+)
 
 # --- the rattleback (3-D model) ---------------------------------------------------------
 RATTLEBACK_INPUTS: tuple[Input, ...] = (
-    Input("a", "m", "semi-axis along body x", "Semi-axis along body x.", "body",
-          rule=POSITIVE, sweep=True),
-    Input("b", "m", "semi-axis along body y", "Semi-axis along body y.", "body",
-          rule=POSITIVE, sweep=True),
-    Input("c", "m", "semi-axis along body z", "Semi-axis along body z (the depth).", "body",
-          rule=POSITIVE, sweep=True),
+    Input(
+        "a",
+        "m",
+        "semi-axis along body x",
+        "Semi-axis along body x.",
+        "body",
+        rule=POSITIVE,
+        sweep=True,
+    ),
+    Input(
+        "b",
+        "m",
+        "semi-axis along body y",
+        "Semi-axis along body y.",
+        "body",
+        rule=POSITIVE,
+        sweep=True,
+    ),
+    Input(
+        "c",
+        "m",
+        "semi-axis along body z",
+        "Semi-axis along body z (the depth).",
+        "body",
+        rule=POSITIVE,
+        sweep=True,
+    ),
     Input("mass", "kg", "mass", "Mass.", "body", rule=POSITIVE, sweep=True),
-    Input("delta", "rad", "misalignment of the inertia axes about +z",
-          "Misalignment of the principal axes of inertia from the geometric axes.", "body",
-          0.0, FINITE, sweep=True, result="delta_deg", result_units="degree"),
-    Input("full_ellipsoid", "1", "1 for a full ellipsoid (no rim), 0 for a semi-ellipsoid",
-          "Whether the body is a full ellipsoid (no rim, never capsizes).", "body"),
-    *(Input(f"inertia_{ij}", "kg m2", f"inertia tensor element I_{ij} about G",
-            f"Element I_{ij} of the inertia tensor about G, body frame.", "body")
-      for ij in ("xx", "yy", "zz", "xy", "xz", "yz")),
-    Input("com", "m", "centre of mass from the centre of the flat face, body frame",
-          "Centre of mass G from the centre of the flat face.", "body", width=3,
-          dim="body_axis"),
-    Input("spin", "rad s-1", "initial spin about the vertical",
-          "Initial rotation about the world vertical, counter-clockwise seen from above.",
-          "launch", 0.0, FINITE, sweep=True, launch_state=True, result="launch_spin"),
-    Input("omega", "rad s-1", "initial angular velocity, body components",
-          "Initial angular velocity (body frame), instead of spin.", "launch",
-          launch_state=True, result="launch_omega", width=3, dim="body_axis"),
-    Input("roll", "rad", "initial roll about body x",
-          "Initial roll about body x (or roll_deg, in degrees).", "launch", 0.0, FINITE,
-          sweep=True, launch_state=True, result="roll_deg", result_units="degree"),
-    Input("pitch", "rad", "initial pitch about body y",
-          "Initial pitch about body y (or pitch_deg, in degrees).", "launch", 0.0, FINITE,
-          sweep=True, launch_state=True, result="pitch_deg", result_units="degree"),
-    Input("yaw", "rad", "initial yaw about the vertical",
-          "Initial yaw about the vertical (or yaw_deg, in degrees).", "launch", 0.0,
-          FINITE, sweep=True, launch_state=True, result="yaw_deg", result_units="degree"),
-    Input("orientation", "1", "initial orientation quaternion (w, x, y, z)",
-          "Initial orientation, a unit quaternion body to world, instead of the angles.",
-          "launch", launch_state=True, width=4, dim="quaternion_component"),
-    Input("velocity", "m s-1", "initial horizontal velocity of the centre of mass",
-          "Initial horizontal velocity of G: a sliding launch.", "launch",
-          launch_state=True, result="launch_velocity", width=2, dim="horizontal",
-          default_doc="rolling (the contact point at rest)"),
-    MU, MU_STATIC, MU_SPIN, MU_ROLL,
-    Input("damping", "N m s", "viscous torque coefficient",
-          "Viscous torque coefficient: a torque -damping omega.", "friction", 0.0, NONNEG,
-          sweep=True),
-    G, DT, T_END, METHOD, RECORD_EVERY,
-    Input("reversal_band", "1", "hysteresis of the reversal detector",
-          "Hysteresis of the reversal detector, a fraction of the initial spin's "
-          "magnitude.", "run", 0.05, BAND, in_results=False),
-    Input("stop", "1", "when a launch ends", 'None runs to t_end; "first_reversal" ends a '
-          "launch at its first reversal.", "run", None, in_results=False,
-          default_doc="`None` (run to t_end)"),
-    PARALLEL, THREADS,
+    Input(
+        "delta",
+        "rad",
+        "misalignment of the inertia axes about +z",
+        "Misalignment of the principal axes of inertia from the geometric axes.",
+        "body",
+        0.0,
+        FINITE,
+        sweep=True,
+        result="delta_deg",
+        result_units="degree",
+    ),
+    Input(
+        "full_ellipsoid",
+        "1",
+        "1 for a full ellipsoid (no rim), 0 for a semi-ellipsoid",
+        "Whether the body is a full ellipsoid (no rim, never capsizes).",
+        "body",
+    ),
+    *(
+        Input(
+            f"inertia_{ij}",
+            "kg m2",
+            f"inertia tensor element I_{ij} about G",
+            f"Element I_{ij} of the inertia tensor about G, body frame.",
+            "body",
+        )
+        for ij in ("xx", "yy", "zz", "xy", "xz", "yz")
+    ),
+    Input(
+        "com",
+        "m",
+        "centre of mass from the centre of the flat face, body frame",
+        "Centre of mass G from the centre of the flat face.",
+        "body",
+        width=3,
+        dim="body_axis",
+    ),
+    Input(
+        "spin",
+        "rad s-1",
+        "initial spin about the vertical",
+        "Initial rotation about the world vertical, counter-clockwise seen from above.",
+        "launch",
+        0.0,
+        FINITE,
+        sweep=True,
+        launch_state=True,
+        result="launch_spin",
+    ),
+    Input(
+        "omega",
+        "rad s-1",
+        "initial angular velocity, body components",
+        "Initial angular velocity (body frame), instead of spin.",
+        "launch",
+        launch_state=True,
+        result="launch_omega",
+        width=3,
+        dim="body_axis",
+    ),
+    Input(
+        "roll",
+        "rad",
+        "initial roll about body x",
+        "Initial roll about body x (or roll_deg, in degrees).",
+        "launch",
+        0.0,
+        FINITE,
+        sweep=True,
+        launch_state=True,
+        result="roll_deg",
+        result_units="degree",
+    ),
+    Input(
+        "pitch",
+        "rad",
+        "initial pitch about body y",
+        "Initial pitch about body y (or pitch_deg, in degrees).",
+        "launch",
+        0.0,
+        FINITE,
+        sweep=True,
+        launch_state=True,
+        result="pitch_deg",
+        result_units="degree",
+    ),
+    Input(
+        "yaw",
+        "rad",
+        "initial yaw about the vertical",
+        "Initial yaw about the vertical (or yaw_deg, in degrees).",
+        "launch",
+        0.0,
+        FINITE,
+        sweep=True,
+        launch_state=True,
+        result="yaw_deg",
+        result_units="degree",
+    ),
+    Input(
+        "orientation",
+        "1",
+        "initial orientation quaternion (w, x, y, z)",
+        "Initial orientation, a unit quaternion body to world, instead of the angles.",
+        "launch",
+        launch_state=True,
+        width=4,
+        dim="quaternion_component",
+    ),
+    Input(
+        "velocity",
+        "m s-1",
+        "initial horizontal velocity of the centre of mass",
+        "Initial horizontal velocity of G: a sliding launch.",
+        "launch",
+        launch_state=True,
+        result="launch_velocity",
+        width=2,
+        dim="horizontal",
+        default_doc="rolling (the contact point at rest)",
+    ),
+    MU,
+    MU_STATIC,
+    MU_SPIN,
+    MU_ROLL,
+    Input(
+        "damping",
+        "N m s",
+        "viscous torque coefficient",
+        "Viscous torque coefficient: a torque -damping omega.",
+        "friction",
+        0.0,
+        NONNEG,
+        sweep=True,
+    ),
+    G,
+    DT,
+    T_END,
+    METHOD,
+    RECORD_EVERY,
+    Input(
+        "reversal_band",
+        "1",
+        "hysteresis of the reversal detector",
+        "Hysteresis of the reversal detector, a fraction of the initial spin's magnitude.",
+        "run",
+        0.05,
+        BAND,
+        in_results=False,
+    ),
+    Input(
+        "stop",
+        "1",
+        "when a launch ends",
+        'None runs to t_end; "first_reversal" ends a launch at its first reversal.',
+        "run",
+        None,
+        in_results=False,
+        default_doc="`None` (run to t_end)",
+    ),
+    PARALLEL,
+    THREADS,
 )
 
 # --- the rocking semi-ellipse (planar model) --------------------------------------------
 PLANAR_INPUTS: tuple[Input, ...] = (
-    Input("a", "m", "semi-axis along the flat edge", "Semi-axis along the flat edge.",
-          "body", rule=POSITIVE),
-    Input("b", "m", "semi-axis normal to the flat edge",
-          "Semi-axis normal to the flat edge.", "body", rule=POSITIVE),
+    Input(
+        "a",
+        "m",
+        "semi-axis along the flat edge",
+        "Semi-axis along the flat edge.",
+        "body",
+        rule=POSITIVE,
+    ),
+    Input(
+        "b",
+        "m",
+        "semi-axis normal to the flat edge",
+        "Semi-axis normal to the flat edge.",
+        "body",
+        rule=POSITIVE,
+    ),
     Input("mass", "kg", "mass", "Mass.", "body", rule=POSITIVE),
-    Input("com_depth", "m", "depth of the centre of mass below the flat edge",
-          "Depth of the centre of mass below the flat edge.", "body"),
-    Input("inertia", "kg m2", "moment of inertia about the centre of mass",
-          "Moment of inertia about the centre of mass.", "body"),
-    Input("theta", "rad", "initial rocking angle",
-          "Initial rocking angle, counter-clockwise.", "launch", rule=HALF_TURN,
-          launch_state=True, result="launch_angle", required=True),
-    Input("rate", "rad s-1", "initial rocking rate", "Initial rocking rate d(theta)/dt.",
-          "launch", 0.0, launch_state=True, result="launch_rate"),
-    Input("velocity", "m s-1", "initial horizontal velocity of the centre of mass",
-          "Initial horizontal velocity of the centre of mass; any but the rolling one "
-          "launches the body sliding.", "launch", launch_state=True,
-          result="launch_velocity", default_doc="rolling (the contact point at rest)"),
-    MU, MU_STATIC, MU_ROLL, G, DT, T_END, METHOD, RECORD_EVERY, PARALLEL, THREADS,
+    Input(
+        "com_depth",
+        "m",
+        "depth of the centre of mass below the flat edge",
+        "Depth of the centre of mass below the flat edge.",
+        "body",
+    ),
+    Input(
+        "inertia",
+        "kg m2",
+        "moment of inertia about the centre of mass",
+        "Moment of inertia about the centre of mass.",
+        "body",
+    ),
+    Input(
+        "theta",
+        "rad",
+        "initial rocking angle",
+        "Initial rocking angle, counter-clockwise.",
+        "launch",
+        rule=HALF_TURN,
+        launch_state=True,
+        result="launch_angle",
+        required=True,
+    ),
+    Input(
+        "rate",
+        "rad s-1",
+        "initial rocking rate",
+        "Initial rocking rate d(theta)/dt.",
+        "launch",
+        0.0,
+        launch_state=True,
+        result="launch_rate",
+    ),
+    Input(
+        "velocity",
+        "m s-1",
+        "initial horizontal velocity of the centre of mass",
+        "Initial horizontal velocity of the centre of mass; any but the rolling one "
+        "launches the body sliding.",
+        "launch",
+        launch_state=True,
+        result="launch_velocity",
+        default_doc="rolling (the contact point at rest)",
+    ),
+    MU,
+    MU_STATIC,
+    MU_ROLL,
+    G,
+    DT,
+    T_END,
+    METHOD,
+    RECORD_EVERY,
+    PARALLEL,
+    THREADS,
 )
 
 RATTLEBACK: dict[str, Input] = {i.name: i for i in RATTLEBACK_INPUTS}

@@ -24,8 +24,11 @@ def write_netcdf(ds: xr.Dataset, path: str | os.PathLike) -> Path:
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    encoding = {name: {"zlib": True, "complevel": 4} for name in ds.data_vars
-                if ds[name].dtype.kind in "fiub"}
+    encoding = {
+        name: {"zlib": True, "complevel": 4}
+        for name in ds.data_vars
+        if ds[name].dtype.kind in "fiub"
+    }
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     os.close(fd)
     umask = os.umask(0)

@@ -48,16 +48,25 @@ if TYPE_CHECKING:
     from .sweep import Sweep
 
 __all__ = [
-    "MODE_NAMES", "MODE_ATTRS", "body_arrays", "linearisation", "trace_identity",
-    "eigen", "zero_spin_frequencies", "small_spin_growth_rates", "stability_dataset",
+    "MODE_NAMES",
+    "MODE_ATTRS",
+    "body_arrays",
+    "linearisation",
+    "trace_identity",
+    "eigen",
+    "zero_spin_frequencies",
+    "small_spin_growth_rates",
+    "stability_dataset",
 ]
 
 MODE_NAMES = ("stable", "neutral", "pitch_unstable", "roll_unstable")
 MODE_ATTRS = flag_attrs(
-    "linear stability of steady upright spin", MODE_NAMES,
+    "linear stability of steady upright spin",
+    MODE_NAMES,
     "stable: every eigenvalue decays; neutral: the largest real part is zero (to 1e-9 of "
     "the largest |eigenvalue|); pitch_unstable / roll_unstable: the fastest growing mode "
-    "is the pitch-like / roll-like one.")
+    "is the pitch-like / roll-like one.",
+)
 STABLE, NEUTRAL, PITCH_UNSTABLE, ROLL_UNSTABLE = range(4)
 _NEUTRAL_TOL = 1e-9
 
@@ -65,12 +74,15 @@ _NEUTRAL_TOL = 1e-9
 def _check_upright(com: np.ndarray, inertia: np.ndarray) -> None:
     scale = np.abs(inertia).max(axis=(-2, -1))
     if np.any(np.abs(com[..., :2]) > 1e-12) or np.any(
-            np.abs(inertia[..., [0, 1], [2, 2]]) > 1e-12 * scale[..., None]):
-        raise ValueError("upright steady spin is a relative equilibrium only when G lies on "
-                         "the body z axis (com x = y = 0) and z is a principal axis "
-                         "(I_xz = I_yz = 0); this body has com "
-                         f"{np.asarray(com).reshape(-1, 3)[0].tolist()} and inertia "
-                         f"{np.asarray(inertia).reshape(-1, 3, 3)[0].tolist()}")
+        np.abs(inertia[..., [0, 1], [2, 2]]) > 1e-12 * scale[..., None]
+    ):
+        raise ValueError(
+            "upright steady spin is a relative equilibrium only when G lies on "
+            "the body z axis (com x = y = 0) and z is a principal axis "
+            "(I_xz = I_yz = 0); this body has com "
+            f"{np.asarray(com).reshape(-1, 3)[0].tolist()} and inertia "
+            f"{np.asarray(inertia).reshape(-1, 3, 3)[0].tolist()}"
+        )
 
 
 def body_arrays(body: Bodies) -> dict[str, np.ndarray]:
@@ -86,30 +98,42 @@ def body_arrays(body: Bodies) -> dict[str, np.ndarray]:
     inertia = np.array([b.inertia for b in table])
     _check_upright(com, inertia)
     cols = {
-        "a": [b.a for b in table], "b": [b.b for b in table], "c": [b.c for b in table],
-        "mass": [b.mass for b in table], "ell": [b.com_height for b in table],
-        "ixx": inertia[:, 0, 0], "iyy": inertia[:, 1, 1], "izz": inertia[:, 2, 2],
+        "a": [b.a for b in table],
+        "b": [b.b for b in table],
+        "c": [b.c for b in table],
+        "mass": [b.mass for b in table],
+        "ell": [b.com_height for b in table],
+        "ixx": inertia[:, 0, 0],
+        "iyy": inertia[:, 1, 1],
+        "izz": inertia[:, 2, 2],
         "ixy": inertia[:, 0, 1],
     }
-    return {k: np.asarray(v, dtype=float)[inverse].reshape(shape)
-            for k, v in cols.items()}
+    return {k: np.asarray(v, dtype=float)[inverse].reshape(shape) for k, v in cols.items()}
 
 
-def _check_inputs(spin: ArrayLike, g: ArrayLike, damping: ArrayLike
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _check_inputs(
+    spin: ArrayLike, g: ArrayLike, damping: ArrayLike
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     spin, g, damping = (np.asarray(v, dtype=float) for v in (spin, g, damping))
-    for name, v, ok, rule in (("spin", spin, np.isfinite(spin), "must be finite (rad/s)"),
-                              ("g", g, np.isfinite(g) & (g > 0), "must be finite and > 0"),
-                              ("damping", damping, np.isfinite(damping) & (damping >= 0),
-                               "must be finite and >= 0 (N m s)")):
+    for name, v, ok, rule in (
+        ("spin", spin, np.isfinite(spin), "must be finite (rad/s)"),
+        ("g", g, np.isfinite(g) & (g > 0), "must be finite and > 0"),
+        (
+            "damping",
+            damping,
+            np.isfinite(damping) & (damping >= 0),
+            "must be finite and >= 0 (N m s)",
+        ),
+    ):
         if not np.all(ok):
             bad = v[~ok] if v.ndim else v
             raise ValueError(f"{name} {rule}; got {np.ravel(bad)[0]!r}")
     return spin, g, damping
 
 
-def linearisation(body: Bodies, spin: ArrayLike, *, g: ArrayLike = 9.81,
-                  damping: ArrayLike = 0.0) -> np.ndarray:
+def linearisation(
+    body: Bodies, spin: ArrayLike, *, g: ArrayLike = 9.81, damping: ArrayLike = 0.0
+) -> np.ndarray:
     """The 4×4 matrix A (…, 4, 4) of ẋ = A x, x = (γx, γy, ωx, ωy), for rolling about
     steady upright spin ``spin`` (rad/s); ``g`` (m/s²), ``damping`` (N m s).
     ``body`` may be an array of bodies; everything broadcasts."""
@@ -146,8 +170,9 @@ def linearisation(body: Bodies, spin: ArrayLike, *, g: ArrayLike = 9.81,
     return A
 
 
-def trace_identity(body: Bodies, spin: ArrayLike, *, g: ArrayLike = 9.81,
-                   damping: ArrayLike = 0.0) -> np.ndarray:
+def trace_identity(
+    body: Bodies, spin: ArrayLike, *, g: ArrayLike = 9.81, damping: ArrayLike = 0.0
+) -> np.ndarray:
     """Closed-form sum of the four eigenvalues' real parts (1/s):
     (m ℓ n I_xy (a² − b²)/c − c_v (M_xx + M_yy)) / det M."""
     p = body_arrays(body)
@@ -159,8 +184,9 @@ def trace_identity(body: Bodies, spin: ArrayLike, *, g: ArrayLike = 9.81,
     return (m * ell * n * p["ixy"] * kappa - cv * (mxx + myy)) / det
 
 
-def eigen(body: Bodies, spin: ArrayLike, *, g: ArrayLike = 9.81, damping: ArrayLike = 0.0
-          ) -> dict[str, np.ndarray]:
+def eigen(
+    body: Bodies, spin: ArrayLike, *, g: ArrayLike = 9.81, damping: ArrayLike = 0.0
+) -> dict[str, np.ndarray]:
     """Tilt eigenvalues and their modes.
 
     Returns a dict of arrays over the broadcast shape: ``eigenvalues`` (…, 4) complex
@@ -172,8 +198,9 @@ def eigen(body: Bodies, spin: ArrayLike, *, g: ArrayLike = 9.81, damping: ArrayL
     """
     A = linearisation(body, spin, g=g, damping=damping)
     lam, vec = np.linalg.eig(A)
-    share = np.abs(vec[..., 0, :]) ** 2 / (np.abs(vec[..., 0, :]) ** 2
-                                           + np.abs(vec[..., 1, :]) ** 2)
+    share = np.abs(vec[..., 0, :]) ** 2 / (
+        np.abs(vec[..., 0, :]) ** 2 + np.abs(vec[..., 1, :]) ** 2
+    )
     # conjugate pairs share the same pitch share: the two largest are the pitch pair
     order = np.argsort(-share, axis=-1, kind="stable")
     lam = np.take_along_axis(lam, order, axis=-1)
@@ -187,24 +214,27 @@ def eigen(body: Bodies, spin: ArrayLike, *, g: ArrayLike = 9.81, damping: ArrayL
         "growth_rate": lam.real.max(axis=-1),
     }
     tol = _NEUTRAL_TOL * np.abs(lam).max(axis=-1)
-    mode = np.where(out["pitch_growth_rate"] >= out["roll_growth_rate"], PITCH_UNSTABLE,
-                    ROLL_UNSTABLE)
+    mode = np.where(
+        out["pitch_growth_rate"] >= out["roll_growth_rate"], PITCH_UNSTABLE, ROLL_UNSTABLE
+    )
     mode = np.where(np.abs(out["growth_rate"]) <= tol, NEUTRAL, mode)
     mode = np.where(out["growth_rate"] < -tol, STABLE, mode)
     out["mode"] = mode.astype(np.int8)
     return out
 
 
-def zero_spin_frequencies(body: Bodies, *, g: ArrayLike = 9.81
-                          ) -> tuple[np.ndarray, np.ndarray]:
+def zero_spin_frequencies(
+    body: Bodies, *, g: ArrayLike = 9.81
+) -> tuple[np.ndarray, np.ndarray]:
     """(pitch-like, roll-like) rocking frequencies (rad/s) of the rolling body at zero
     spin, from the linearisation (equal to :meth:`Body.small_oscillation_frequencies`)."""
     e = eigen(body, 0.0, g=g)
     return e["pitch_frequency"], e["roll_frequency"]
 
 
-def small_spin_growth_rates(body: Bodies, spin: ArrayLike, *, g: ArrayLike = 9.81,
-                            damping: ArrayLike = 0.0) -> tuple[np.ndarray, np.ndarray]:
+def small_spin_growth_rates(
+    body: Bodies, spin: ArrayLike, *, g: ArrayLike = 9.81, damping: ArrayLike = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
     """First-order-in-spin growth rates (1/s) of the (pitch-like, roll-like) modes, in
     closed form (the Walker / Garcia–Hubbard small-spin expansion).
 
@@ -249,8 +279,9 @@ def small_spin_growth_rates(body: Bodies, spin: ArrayLike, *, g: ArrayLike = 9.8
     return s_pitch, s_roll
 
 
-def stability_dataset(sweep: Sweep | str | Path, *, command: str | None = None
-                      ) -> xr.Dataset:
+def stability_dataset(
+    sweep: Sweep | str | Path, *, command: str | None = None
+) -> xr.Dataset:
     """Linear stability over the grid of a :class:`rattlesweep.Sweep` (or a TOML path or
     text): the same dimensions, coordinates and units as the sweep's result (for a
     refined sweep, its finest grid, every point computed).
@@ -270,49 +301,78 @@ def stability_dataset(sweep: Sweep | str | Path, *, command: str | None = None
     p0, r0 = zero_spin_frequencies(bodies, g=kwargs["g"])
     dims, shape = sweep.dims, sweep.shape
 
-    def var(values: ArrayLike, units: str, long_name: str,
-            extra: dict[str, str] | None = None
-            ) -> tuple[tuple[str, ...], np.ndarray, dict[str, Any]]:
+    def var(
+        values: ArrayLike, units: str, long_name: str, extra: dict[str, str] | None = None
+    ) -> tuple[tuple[str, ...], np.ndarray, dict[str, Any]]:
         attrs = {"units": units, "long_name": long_name}
         return (dims, np.asarray(values).reshape(shape), {**attrs, **(extra or {})})
 
     lam = e["eigenvalues"].reshape(shape + (4,))
     data = {
-        "growth_rate": var(e["growth_rate"], "s-1", "growth rate of rattling",
-                           {"comment": "largest real part of the four tilt eigenvalues"}),
-        "pitch_growth_rate": var(e["pitch_growth_rate"], "s-1",
-                                 "growth rate of the pitch-like mode"),
-        "roll_growth_rate": var(e["roll_growth_rate"], "s-1",
-                                "growth rate of the roll-like mode"),
-        "pitch_frequency": var(e["pitch_frequency"], "rad s-1",
-                               "frequency of the pitch-like mode"),
-        "roll_frequency": var(e["roll_frequency"], "rad s-1",
-                              "frequency of the roll-like mode"),
-        "zero_spin_pitch_frequency": var(p0, "rad s-1",
-                                         "pitch-like rocking frequency at zero spin"),
-        "zero_spin_roll_frequency": var(r0, "rad s-1",
-                                        "roll-like rocking frequency at zero spin"),
+        "growth_rate": var(
+            e["growth_rate"],
+            "s-1",
+            "growth rate of rattling",
+            {"comment": "largest real part of the four tilt eigenvalues"},
+        ),
+        "pitch_growth_rate": var(
+            e["pitch_growth_rate"], "s-1", "growth rate of the pitch-like mode"
+        ),
+        "roll_growth_rate": var(
+            e["roll_growth_rate"], "s-1", "growth rate of the roll-like mode"
+        ),
+        "pitch_frequency": var(
+            e["pitch_frequency"], "rad s-1", "frequency of the pitch-like mode"
+        ),
+        "roll_frequency": var(
+            e["roll_frequency"], "rad s-1", "frequency of the roll-like mode"
+        ),
+        "zero_spin_pitch_frequency": var(
+            p0, "rad s-1", "pitch-like rocking frequency at zero spin"
+        ),
+        "zero_spin_roll_frequency": var(
+            r0, "rad s-1", "roll-like rocking frequency at zero spin"
+        ),
         "mode": (dims, e["mode"].reshape(shape), dict(MODE_ATTRS)),
-        "eigenvalue_real": (dims + ("eigenvalue",), lam.real,
-                            {"units": "s-1", "long_name": "real part of the tilt "
-                             "eigenvalues (pitch-like pair first)"}),
-        "eigenvalue_imag": (dims + ("eigenvalue",), lam.imag,
-                            {"units": "rad s-1", "long_name": "imaginary part of the "
-                             "tilt eigenvalues (pitch-like pair first)"}),
+        "eigenvalue_real": (
+            dims + ("eigenvalue",),
+            lam.real,
+            {
+                "units": "s-1",
+                "long_name": "real part of the tilt eigenvalues (pitch-like pair first)",
+            },
+        ),
+        "eigenvalue_imag": (
+            dims + ("eigenvalue",),
+            lam.imag,
+            {
+                "units": "rad s-1",
+                "long_name": "imaginary part of the "
+                "tilt eigenvalues (pitch-like pair first)",
+            },
+        ),
     }
     with np.errstate(divide="ignore"):
         efold = np.where(e["growth_rate"] > 0, 1.0 / e["growth_rate"], np.inf)
     data["e_folding_time"] = var(efold, "s", "1 / growth_rate (inf when not growing)")
     for rp in sweep.random_params:
         index = np.arange(sweep.size)
-        data[rp.name] = var(rp.result_draw(sweep.seed, index), rp.result_units,
-                            f"{rp.long_name} (random draw)")
+        data[rp.name] = var(
+            rp.result_draw(sweep.seed, index),
+            rp.result_units,
+            f"{rp.long_name} (random draw)",
+        )
     ds = xr.Dataset(data, coords=grid_coords(sweep))
-    ds.attrs.update(sweep_attrs(
-        config, f"rattlesweep linear stability of steady spin: {sweep.name}", command))
-    ds.attrs.update({
-        "Conventions": "CF-1.8",
-        "model": "rolling contact linearised about steady upright spin",
-        "references": "S. Jones and H. E. M. Hunt, Am. J. Phys. 87, 699 (2019)",
-    })
+    ds.attrs.update(
+        sweep_attrs(
+            config, f"rattlesweep linear stability of steady spin: {sweep.name}", command
+        )
+    )
+    ds.attrs.update(
+        {
+            "Conventions": "CF-1.8",
+            "model": "rolling contact linearised about steady upright spin",
+            "references": "S. Jones and H. E. M. Hunt, Am. J. Phys. 87, 699 (2019)",
+        }
+    )
     return ds

@@ -74,7 +74,7 @@ def _component_columns(name: str, da: xr.DataArray) -> list[tuple[str, xr.DataAr
     if not dims:
         return [(name, da)]
     dim = dims[0]
-    labels = (da[dim].values if dim in da.coords else np.arange(da.sizes[dim]))
+    labels = da[dim].values if dim in da.coords else np.arange(da.sizes[dim])
     out = []
     for i, label in enumerate(labels):
         out += _component_columns(f"{name}_{label}", da.isel({dim: i}, drop=True))
@@ -101,8 +101,13 @@ def to_table(result: xr.Dataset) -> "pd.DataFrame":
     columns: dict[str, Any] = {}
     units: dict[str, str] = {}
     long_names: dict[str, str] = {}
-    grids = np.meshgrid(*(np.asarray(ds[d].values) if d in ds.coords else np.arange(n)
-                          for d, n in zip(rows, shape)), indexing="ij")
+    grids = np.meshgrid(
+        *(
+            np.asarray(ds[d].values) if d in ds.coords else np.arange(n)
+            for d, n in zip(rows, shape)
+        ),
+        indexing="ij",
+    )
     for dim, grid in zip(rows, grids):
         columns[str(dim)] = grid.reshape(-1)
     names = [n for n in ds.coords if n not in ds.dims] + list(ds.data_vars)
@@ -132,13 +137,16 @@ def to_csv(result: xr.Dataset, path: str | os.PathLike[str]) -> None:
     to_table(result).to_csv(path, index=False)
 
 
-def _along_one_axis(values: np.ndarray, shape: tuple[int, ...], i: int) -> np.ndarray | None:
+def _along_one_axis(
+    values: np.ndarray, shape: tuple[int, ...], i: int
+) -> np.ndarray | None:
     """The values of a flat input along axis ``i`` of ``shape`` when it varies along that
     axis alone with distinct values (so it can index it), else None."""
     grid = values.reshape(shape)
     along = grid[tuple(slice(None) if j == i else 0 for j in range(len(shape)))]
-    spread = np.broadcast_to(along.reshape([n if j == i else 1 for j, n in enumerate(shape)]),
-                             shape)
+    spread = np.broadcast_to(
+        along.reshape([n if j == i else 1 for j, n in enumerate(shape)]), shape
+    )
     if np.array_equal(grid, spread, equal_nan=True) and len(np.unique(along)) == shape[i]:
         return along
     return None
@@ -152,11 +160,18 @@ def _axis_names(ds: xr.Dataset, shape: tuple[int, ...]) -> list[str]:
     order = sorted(ds.coords, key=lambda n: not str(n).startswith("launch_"))
     for name in order:
         var = ds.coords[name]
-        if var.dims != ("trajectory",) or name == "trajectory" or var.dtype.kind not in "fiu":
+        if (
+            var.dims != ("trajectory",)
+            or name == "trajectory"
+            or var.dtype.kind not in "fiu"
+        ):
             continue
         for i, n in enumerate(shape):
-            if names[i].startswith("batch_axis_") and n > 1 and \
-                    _along_one_axis(var.values, shape, i) is not None:
+            if (
+                names[i].startswith("batch_axis_")
+                and n > 1
+                and _along_one_axis(var.values, shape, i) is not None
+            ):
                 names[i] = str(name)
                 break
     return names
@@ -174,33 +189,41 @@ def unstack(batch: xr.Dataset, dims: Sequence[str] | None = None) -> xr.Dataset:
     index of each launch.
     """
     if not isinstance(batch, xr.Dataset) or "trajectory" not in batch.dims:
-        raise ValueError("unstack takes a batch result: a Dataset with a trajectory "
-                         "dimension")
+        raise ValueError(
+            "unstack takes a batch result: a Dataset with a trajectory dimension"
+        )
     if "batch_shape" not in batch.attrs:
-        raise ValueError("unstack: the dataset has no batch_shape attribute (is it a "
-                         "run_batch result?)")
+        raise ValueError(
+            "unstack: the dataset has no batch_shape attribute (is it a run_batch result?)"
+        )
     shape = tuple(int(n) for n in np.atleast_1d(batch.attrs["batch_shape"]))
     if int(np.prod(shape)) != batch.sizes["trajectory"]:
-        raise ValueError(f"unstack: batch_shape {list(shape)} does not hold "
-                         f"{batch.sizes['trajectory']} trajectories")
+        raise ValueError(
+            f"unstack: batch_shape {list(shape)} does not hold "
+            f"{batch.sizes['trajectory']} trajectories"
+        )
     names = list(dims) if dims is not None else _axis_names(batch, shape)
     if len(names) != len(shape) or len(set(names)) != len(names):
-        raise ValueError(f"unstack: dims must name each of the {len(shape)} axes of "
-                         f"batch_shape {list(shape)} once, got {names!r}")
+        raise ValueError(
+            f"unstack: dims must name each of the {len(shape)} axes of "
+            f"batch_shape {list(shape)} once, got {names!r}"
+        )
     clash = [n for n in names if n in batch.dims and n != "trajectory"]
     if clash:
         raise ValueError(f"unstack: {clash} already name dimensions of the batch")
 
     def reshaped(var: xr.Variable) -> tuple[tuple[str, ...], np.ndarray]:
         i = var.dims.index("trajectory")
-        values = var.values.reshape(var.shape[:i] + shape + var.shape[i + 1:])
+        values = var.values.reshape(var.shape[:i] + shape + var.shape[i + 1 :])
         return tuple(map(str, var.dims[:i])) + tuple(names) + tuple(
-            map(str, var.dims[i + 1:])), values
+            map(str, var.dims[i + 1 :])
+        ), values
 
     data = {}
     for name, var in batch.data_vars.items():
-        data[name] = (reshaped(var.variable) if "trajectory" in var.dims
-                      else (var.dims, var.values)) + (var.attrs,)
+        data[name] = (
+            reshaped(var.variable) if "trajectory" in var.dims else (var.dims, var.values)
+        ) + (var.attrs,)
     coords: dict[Hashable, Any] = {}
     for name, var in batch.coords.items():
         if "trajectory" not in var.dims:
@@ -210,8 +233,10 @@ def unstack(batch: xr.Dataset, dims: Sequence[str] | None = None) -> xr.Dataset:
         if name in names:  # the index of its own axis: its values along that axis
             along = _along_one_axis(var.values, shape, names.index(str(name)))
             if var.dims != ("trajectory",) or along is None:
-                raise ValueError(f"unstack: {name!r} cannot name an axis: it does not vary "
-                                 "along that axis alone with distinct values")
+                raise ValueError(
+                    f"unstack: {name!r} cannot name an axis: it does not vary "
+                    "along that axis alone with distinct values"
+                )
             new_dims, values = (str(name),), along
         coords[name] = (new_dims, values, var.attrs)
     return xr.Dataset(data, coords=coords, attrs=batch.attrs)

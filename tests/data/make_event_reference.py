@@ -41,8 +41,12 @@ from rattlesweep.planar import PlanarBody, simulate_planar
 HERE = Path(__file__).parent
 PATH = HERE / "event_reference.npz"
 sys.path.insert(0, str(HERE.parent))
-from event_reference import (SCIPY_VERSION, launch_state, planar_events,  # noqa: E402
-                             rattleback_events)
+from event_reference import (  # noqa: E402
+    SCIPY_VERSION,
+    launch_state,
+    planar_events,
+    rattleback_events,
+)
 
 RTOL, ATOL, METHOD = 1e-10, 1e-12, "LSODA"
 SPIN0, PITCH = 5.0, math.radians(0.5)
@@ -58,76 +62,122 @@ def planar_body():
 
 def launch_3d(mu):
     body = rs.Body.preset("kane_levinson")
-    run = rs.simulate(body, spin=SPIN0, pitch=PITCH, mu=mu, t_end=body.default_dt(),
-                      record_every=1)
+    run = rs.simulate(
+        body, spin=SPIN0, pitch=PITCH, mu=mu, t_end=body.default_dt(), record_every=1
+    )
     return body, launch_state(run)
 
 
 def launch_planar(mu):
     body = planar_body()
-    run = simulate_planar(body, theta=THETA0, mu=mu, t_end=body.default_dt(),
-                          record_every=1)
+    run = simulate_planar(
+        body, theta=THETA0, mu=mu, t_end=body.default_dt(), record_every=1
+    )
     return body, launch_state(run)
 
 
 def switch_arrays(res):
     kinds = {"stick->slip": 1, "slip->stick": -1}
-    return (np.array([t for t, _ in res.switch_times], dtype=float),
-            np.array([kinds[k] for _, k in res.switch_times], dtype=np.int8))
+    return (
+        np.array([t for t, _ in res.switch_times], dtype=float),
+        np.array([kinds[k] for _, k in res.switch_times], dtype=np.int8),
+    )
 
 
 def compute_3d(mu, t_end, *, rtol=RTOL, atol=ATOL, method=METHOD):
     body, y0 = launch_3d(mu)
     t = np.linspace(0.0, t_end, int(round(t_end * SAMPLE_RATE)) + 1)
     start = time.perf_counter()
-    res = rattleback_events(body, y0, mu=mu, t_end=t_end, t_eval=t, rtol=rtol, atol=atol,
-                            method=method)
+    res = rattleback_events(
+        body, y0, mu=mu, t_end=t_end, t_eval=t, rtol=rtol, atol=atol, method=method
+    )
     seconds = time.perf_counter() - start
     if res.status != "ok":
         raise RuntimeError(f"reference run ended {res.status} at {res.t_final}")
     sw_t, sw_k = switch_arrays(res)
-    return res, {"t": t, "spin": res.spin, "slipping": res.slipping, "switch_t": sw_t,
-                 "switch_kind": sw_k, "first_zero": res.first_zero_of_spin,
-                 "first_reversal": res.first_reversal_time,
-                 "slip_fraction": res.slip_fraction,
-                 "slip_fraction_3": res.slip_fraction_until(min(3.0, t_end)),
-                 "y0": y0, "mu": mu, "t_end": t_end, "seconds": seconds,
-                 "initial_slipping": int(res.initial_mode != "stick")}
+    return res, {
+        "t": t,
+        "spin": res.spin,
+        "slipping": res.slipping,
+        "switch_t": sw_t,
+        "switch_kind": sw_k,
+        "first_zero": res.first_zero_of_spin,
+        "first_reversal": res.first_reversal_time,
+        "slip_fraction": res.slip_fraction,
+        "slip_fraction_3": res.slip_fraction_until(min(3.0, t_end)),
+        "y0": y0,
+        "mu": mu,
+        "t_end": t_end,
+        "seconds": seconds,
+        "initial_slipping": int(res.initial_mode != "stick"),
+    }
 
 
 def compute_planar(mu, t_end, *, rtol=RTOL, atol=ATOL, method=METHOD):
     body, y0 = launch_planar(mu)
     t = np.linspace(0.0, t_end, int(round(t_end * SAMPLE_RATE)) + 1)
     start = time.perf_counter()
-    res = planar_events(body, y0[0], y0[1], y0[3], mu=mu, t_end=t_end, t_eval=t,
-                        rtol=rtol, atol=atol, method=method)
+    res = planar_events(
+        body,
+        y0[0],
+        y0[1],
+        y0[3],
+        mu=mu,
+        t_end=t_end,
+        t_eval=t,
+        rtol=rtol,
+        atol=atol,
+        method=method,
+    )
     seconds = time.perf_counter() - start
     if res.status != "ok":
         raise RuntimeError(f"reference run ended {res.status} at {res.t_final}")
     sw_t, sw_k = switch_arrays(res)
-    return res, {"t": t, "theta": res.theta, "slipping": res.slipping, "switch_t": sw_t,
-                 "switch_kind": sw_k, "slip_fraction": res.slip_fraction,
-                 "slip_fraction_3": res.slip_fraction_until(min(3.0, t_end)),
-                 "y0": y0, "mu": mu, "t_end": t_end, "seconds": seconds,
-                 "initial_slipping": int(res.initial_mode != "stick")}
+    return res, {
+        "t": t,
+        "theta": res.theta,
+        "slipping": res.slipping,
+        "switch_t": sw_t,
+        "switch_kind": sw_k,
+        "slip_fraction": res.slip_fraction,
+        "slip_fraction_3": res.slip_fraction_until(min(3.0, t_end)),
+        "y0": y0,
+        "mu": mu,
+        "t_end": t_end,
+        "seconds": seconds,
+        "initial_slipping": int(res.initial_mode != "stick"),
+    }
 
 
 def build():
-    out = {"rtol": RTOL, "atol": ATOL, "method": METHOD, "scipy_version": SCIPY_VERSION,
-           "pitch": PITCH, "spin0": SPIN0, "theta0": THETA0}
+    out = {
+        "rtol": RTOL,
+        "atol": ATOL,
+        "method": METHOD,
+        "scipy_version": SCIPY_VERSION,
+        "pitch": PITCH,
+        "spin0": SPIN0,
+        "theta0": THETA0,
+    }
     for case, (mu, t_end) in CASES_3D.items():
         _, d = compute_3d(mu, t_end)
         out.update({f"{case}/{k}": v for k, v in d.items()})
-        print(f"{case}: mu={mu} t_end={t_end}: first zero {d['first_zero']:.6f} s, first "
-              f"reversal {d['first_reversal']:.6f} s, slip fraction {d['slip_fraction']:.5f}"
-              f" ([0, 3]: {d['slip_fraction_3']:.5f}), {d['switch_t'].size} switches, "
-              f"{d['seconds']:.1f} s", flush=True)
+        print(
+            f"{case}: mu={mu} t_end={t_end}: first zero {d['first_zero']:.6f} s, first "
+            f"reversal {d['first_reversal']:.6f} s, slip fraction {d['slip_fraction']:.5f}"
+            f" ([0, 3]: {d['slip_fraction_3']:.5f}), {d['switch_t'].size} switches, "
+            f"{d['seconds']:.1f} s",
+            flush=True,
+        )
     for case, (mu, t_end) in CASES_PLANAR.items():
         _, d = compute_planar(mu, t_end)
         out.update({f"{case}/{k}": v for k, v in d.items()})
-        print(f"{case}: mu={mu} t_end={t_end}: slip fraction {d['slip_fraction']:.5f}, "
-              f"{d['switch_t'].size} switches, initially slipping "
-              f"{d['initial_slipping']}, {d['seconds']:.2f} s", flush=True)
+        print(
+            f"{case}: mu={mu} t_end={t_end}: slip fraction {d['slip_fraction']:.5f}, "
+            f"{d['switch_t'].size} switches, initially slipping "
+            f"{d['initial_slipping']}, {d['seconds']:.2f} s",
+            flush=True,
+        )
     np.savez_compressed(PATH, **out)
     print(f"wrote {PATH}")
 
@@ -149,8 +199,10 @@ def compare_kernel(divisors=(1, 4, 16), cases=("a", "b", "c", "e", "d03", "d01")
     step; also checked against the stored samples). Prints first zero / first reversal /
     slip fraction / max error. Writes nothing."""
     stored = np.load(PATH)
-    print(f"reference: {stored['method']} rtol={stored['rtol']} atol={stored['atol']}, "
-          f"scipy {stored['scipy_version']}")
+    print(
+        f"reference: {stored['method']} rtol={stored['rtol']} atol={stored['atol']}, "
+        f"scipy {stored['scipy_version']}"
+    )
     for case in cases:
         planar = case.startswith("d")
         mu, t_end = (CASES_PLANAR if planar else CASES_3D)[case]
@@ -158,46 +210,59 @@ def compare_kernel(divisors=(1, 4, 16), cases=("a", "b", "c", "e", "d03", "d01")
         key = "theta" if planar else "spin"
         drift = np.abs(d[key] - stored[f"{case}/{key}"]).max()
         if planar:
-            print(f"\nplanar case {case} (mu={mu}, t_end={t_end}): reference slip "
-                  f"fraction {d['slip_fraction']:.5f}, {d['switch_t'].size} switches "
-                  f"(recomputed in {d['seconds']:.1f} s, max change from stored {drift:.1e})")
+            print(
+                f"\nplanar case {case} (mu={mu}, t_end={t_end}): reference slip "
+                f"fraction {d['slip_fraction']:.5f}, {d['switch_t'].size} switches "
+                f"(recomputed in {d['seconds']:.1f} s, max change from stored {drift:.1e})"
+            )
         else:
-            print(f"\n3-D case {case} (mu={mu}, t_end={t_end}): reference first zero "
-                  f"{d['first_zero']:.6f}, first reversal {d['first_reversal']:.6f}, slip "
-                  f"fraction {d['slip_fraction']:.5f} ([0, 3]: {d['slip_fraction_3']:.5f}) "
-                  f"(recomputed in {d['seconds']:.1f} s, max change from stored {drift:.1e})")
+            print(
+                f"\n3-D case {case} (mu={mu}, t_end={t_end}): reference first zero "
+                f"{d['first_zero']:.6f}, first reversal {d['first_reversal']:.6f}, slip "
+                f"fraction {d['slip_fraction']:.5f} ([0, 3]: {d['slip_fraction_3']:.5f}) "
+                f"(recomputed in {d['seconds']:.1f} s, max change from stored {drift:.1e})"
+            )
         for k in divisors:
             if planar:
                 body = planar_body()
                 dt = body.default_dt() / k
-                ds = simulate_planar(body, theta=THETA0, mu=mu, t_end=t_end, dt=dt,
-                                     record_every=1)
+                ds = simulate_planar(
+                    body, theta=THETA0, mu=mu, t_end=t_end, dt=dt, record_every=1
+                )
                 t, x = ds.time.values, ds.angle.values
                 err = np.abs(x - res.theta_at(t)).max()
                 sl = ds.slipping.values
-                print(f"  dt/{k:<2d} = {dt:.3e}: slip fraction "
-                      f"{float(ds.slip_fraction):.5f} (recorded mean {sl[1:].mean():.5f}), "
-                      f"{np.count_nonzero(np.diff(sl))} mode changes at samples, "
-                      f"max |dtheta| {err:.2e} rad, status {int(ds.status)}")
+                print(
+                    f"  dt/{k:<2d} = {dt:.3e}: slip fraction "
+                    f"{float(ds.slip_fraction):.5f} (recorded mean {sl[1:].mean():.5f}), "
+                    f"{np.count_nonzero(np.diff(sl))} mode changes at samples, "
+                    f"max |dtheta| {err:.2e} rad, status {int(ds.status)}"
+                )
             else:
                 body = rs.Body.preset("kane_levinson")
                 dt = body.default_dt() / k
-                ds = rs.simulate(body, spin=SPIN0, pitch=PITCH, mu=mu, t_end=t_end, dt=dt,
-                                 record_every=1)
+                ds = rs.simulate(
+                    body, spin=SPIN0, pitch=PITCH, mu=mu, t_end=t_end, dt=dt, record_every=1
+                )
                 t, x = ds.time.values, ds.spin.values
                 err = np.abs(x - res.spin_at(t)).max()
                 three = t <= 3.0 + 1e-12
-                print(f"  dt/{k:<2d} = {dt:.3e}: first zero {first_zero_sampled(t, x):.6f},"
-                      f" first reversal {float(ds.first_reversal_time):.6f}, slip fraction "
-                      f"{float(ds.slip_fraction):.5f} (recorded mean "
-                      f"{ds.slipping.values[1:].mean():.5f}; [0, 3] "
-                      f"{ds.slipping.values[1:][three[1:]].mean():.5f}), "
-                      f"max |dn| {err:.2e} rad/s, status {int(ds.status)}")
+                print(
+                    f"  dt/{k:<2d} = {dt:.3e}: first zero {first_zero_sampled(t, x):.6f},"
+                    f" first reversal {float(ds.first_reversal_time):.6f}, slip fraction "
+                    f"{float(ds.slip_fraction):.5f} (recorded mean "
+                    f"{ds.slipping.values[1:].mean():.5f}; [0, 3] "
+                    f"{ds.slipping.values[1:][three[1:]].mean():.5f}), "
+                    f"max |dn| {err:.2e} rad/s, status {int(ds.status)}"
+                )
 
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--compare-kernel", action="store_true",
-                        help="compare the kernel with the stored references instead")
+    parser.add_argument(
+        "--compare-kernel",
+        action="store_true",
+        help="compare the kernel with the stored references instead",
+    )
     args = parser.parse_args()
     compare_kernel() if args.compare_kernel else build()

@@ -50,14 +50,51 @@ from .jit import OVERLOAD_OPTIONS, inline_kernel, kernel
 from .stages import set_mid_stage, set_step_fractions
 from .switching import cone_margin, couple_margin, note_slip, start_slip, switch_couples
 from .workspace import (
-    BLOCK, DT, EPS_U, H_HALF_DT, K_MARK_SWITCH, K_SLIP_STEPS, NOT_MARKED, OFF_H,
-    OFF_K, OFF_P, OFF_S, OFF_X, ROLL_SWITCHES, S_JX, S_JY, S_MODE, S_ROLL, S_ROLL_SENSE,
-    S_SPIN, S_SPIN_SENSE, SPIN_SWITCHES, STAGE_4, STAGE_MID, STAGE_START, SWITCHES,
-    X_N, X_ROLL_EVENT, X_SPIN_EVENT, X_TSTOP, X_UX, X_UY, at,
+    BLOCK,
+    DT,
+    EPS_U,
+    H_HALF_DT,
+    K_MARK_SWITCH,
+    K_SLIP_STEPS,
+    NOT_MARKED,
+    OFF_H,
+    OFF_K,
+    OFF_P,
+    OFF_S,
+    OFF_X,
+    ROLL_SWITCHES,
+    S_JX,
+    S_JY,
+    S_MODE,
+    S_ROLL,
+    S_ROLL_SENSE,
+    S_SPIN,
+    S_SPIN_SENSE,
+    SPIN_SWITCHES,
+    STAGE_4,
+    STAGE_MID,
+    STAGE_START,
+    SWITCHES,
+    X_N,
+    X_ROLL_EVENT,
+    X_SPIN_EVENT,
+    X_TSTOP,
+    X_UX,
+    X_UY,
+    at,
 )
 
-__all__ = ["LOCATE_ROWS", "MAX_SWITCHES", "STOP_TOL", "THETA_TOL", "locate_marked",
-           "locate_where_located", "located", "stick_lane", "switch_marked"]
+__all__ = [
+    "LOCATE_ROWS",
+    "MAX_SWITCHES",
+    "STOP_TOL",
+    "THETA_TOL",
+    "locate_marked",
+    "locate_where_located",
+    "located",
+    "stick_lane",
+    "switch_marked",
+]
 
 THETA_TOL = 1e-10
 """Convergence of the located instant, as a fraction of the (rest of the) step."""
@@ -130,8 +167,9 @@ def interpolate(W, model, j, buf, theta, h):
     h01 = 3.0 * t2 - 2.0 * t3
     h11 = (t3 - t2) * h
     for k in range(n_state):
-        W[at(off_y, k, j)] = (h00 * buf[Y0, k] + h10 * buf[F0, k]
-                              + h01 * buf[Y1, k] + h11 * buf[F1, k])
+        W[at(off_y, k, j)] = (
+            h00 * buf[Y0, k] + h10 * buf[F0, k] + h01 * buf[Y1, k] + h11 * buf[F1, k]
+        )
 
 
 @kernel
@@ -161,7 +199,9 @@ def begin_lane_step(W, model, j, h):
     off_y, off_t, off_a, _, n_state, _ = models.state_regions(model)
     set_lane_step(W, j, h)
     for k in range(n_state):
-        W[at(off_t, k, j)] = W[at(off_y, k, j)] + W[at(OFF_H, H_HALF_DT, j)] * W[at(off_a, k, j)]
+        W[at(off_t, k, j)] = (
+            W[at(off_y, k, j)] + W[at(OFF_H, H_HALF_DT, j)] * W[at(off_a, k, j)]
+        )
 
 
 @kernel
@@ -345,8 +385,13 @@ def locate_lane(W, model, level, j, buf, dt):
     numba.literally(model)
     numba.literally(level)
     off_y, _, off_a, off_b, _, _ = models.state_regions(model)
-    modes = (W[at(OFF_S, S_MODE, j)], W[at(OFF_S, S_SPIN, j)], W[at(OFF_S, S_SPIN_SENSE, j)],
-             W[at(OFF_S, S_ROLL, j)], W[at(OFF_S, S_ROLL_SENSE, j)])
+    modes = (
+        W[at(OFF_S, S_MODE, j)],
+        W[at(OFF_S, S_SPIN, j)],
+        W[at(OFF_S, S_SPIN_SENSE, j)],
+        W[at(OFF_S, S_ROLL, j)],
+        W[at(OFF_S, S_ROLL_SENSE, j)],
+    )
     copy_state(W, model, j, buf, HELD, off_y)
     copy_state(W, model, j, buf, Y0, off_b)
     load_state(W, model, j, buf, Y0, off_y)  # back to the step start
@@ -371,7 +416,15 @@ def locate_lane(W, model, level, j, buf, dt):
         t_stop = W[at(OFF_X, X_TSTOP, j)]
         if switches < MAX_SWITCHES and slipping and t_stop < rest:
             stops, step = forward_to_stop(
-                W, model, level, j, buf, t_stop, stop_step(t, t_stop, t_seen, t_stop_seen, rest), dt)
+                W,
+                model,
+                level,
+                j,
+                buf,
+                t_stop,
+                stop_step(t, t_stop, t_seen, t_stop_seen, rest),
+                dt,
+            )
             stops = stops or creeps(W, j, t_stop)
             t_seen = t
             t_stop_seen = t_stop
@@ -379,7 +432,9 @@ def locate_lane(W, model, level, j, buf, dt):
             lane_step(W, model, level, j, rest)
             step = rest
         g1 = event_margin(W, j)
-        if switches < MAX_SWITCHES and g1 < 0.0:  # a stick → slip or a couple switched first
+        if (
+            switches < MAX_SWITCHES and g1 < 0.0
+        ):  # a stick → slip or a couple switched first
             copy_state(W, model, j, buf, Y1, off_y)
             copy_state(W, model, j, buf, F1, off_a)
             theta = event_root(W, model, level, j, buf, step, g0, g1)
@@ -446,7 +501,8 @@ def locate_where_located(W, model, level, buf):
 @overload(locate_where_located, prefer_literal=True, jit_options=OVERLOAD_OPTIONS)
 def _locate_where_located(W, model, level, buf):
     if isinstance(model, types.IntegerLiteral) and models.locates_switches(
-            model.literal_value):
+        model.literal_value
+    ):
         return lambda W, model, level, buf: locate_marked(W, model, level, buf)
     return lambda W, model, level, buf: None
 

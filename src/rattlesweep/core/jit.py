@@ -52,13 +52,22 @@ import numba
 from numba.core.caching import FunctionCache
 
 __all__ = [
-    "FASTMATH", "JIT_OPTIONS", "OVERLOAD_OPTIONS", "allocating_kernel", "drop_stale_cache",
-    "inline_kernel", "kernel", "on_disk", "parallel_kernel",
+    "FASTMATH",
+    "JIT_OPTIONS",
+    "OVERLOAD_OPTIONS",
+    "allocating_kernel",
+    "drop_stale_cache",
+    "inline_kernel",
+    "kernel",
+    "on_disk",
+    "parallel_kernel",
 ]
 
 FASTMATH = {"nsz"}  # see the module docstring for what is left out, and why
 
-JIT_OPTIONS = dict(nogil=True, cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False)
+JIT_OPTIONS = dict(
+    nogil=True, cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False
+)
 """Options of every helper kernel."""
 
 # Any: numba's stubs type an overload's jit_options as a TypedDict of the public options,
@@ -76,15 +85,25 @@ allocating_kernel = functools.partial(
 """Decorator for a serial function that allocates a block workspace (with NRT)."""
 
 inline_kernel = functools.partial(
-    numba.njit, nogil=True, cache=True, error_model="numpy", fastmath=FASTMATH,
-    inline="always", _nrt=False,
+    numba.njit,
+    nogil=True,
+    cache=True,
+    error_model="numpy",
+    fastmath=FASTMATH,
+    inline="always",
+    _nrt=False,
 )
 """Decorator for a lane body that callers specialise with literal flags: inlined in numba
 IR, so LLVM folds the flag's branches away in each copy."""
 
 parallel_kernel = functools.partial(
-    numba.njit, nogil=True, cache=True, error_model="numpy", fastmath=FASTMATH,
-    parallel=True, _nrt=True,
+    numba.njit,
+    nogil=True,
+    cache=True,
+    error_model="numpy",
+    fastmath=FASTMATH,
+    parallel=True,
+    _nrt=True,
 )
 """Decorator for the one entry point that spreads blocks over numba threads."""
 
@@ -110,8 +129,10 @@ def drop_stale_cache(root: Path = Path(__file__).parent) -> bool:
         digest.update(path.read_bytes())
     try:
         # root's own directory first: it holds the stamp
-        caches = [_numba_cache_dir(next(directory.glob("*.py")))
-                  for directory in sorted({path.parent for path in sources})]
+        caches = [
+            _numba_cache_dir(next(directory.glob("*.py")))
+            for directory in sorted({path.parent for path in sources})
+        ]
     except (RuntimeError, OSError):  # numba cannot cache there at all: nothing to drop
         return False
     stamp = caches[0] / "kernel-sources.sha256"
@@ -140,7 +161,7 @@ def on_disk(dispatcher: Any, *literals: int) -> bool:
     it to say so before a first call that would compile."""
     index = dispatcher._cache._cache_file._load_index()  # {} when absent or stale
     wanted = tuple(numba.types.literal(value) for value in literals)
-    return any(tuple(key[0][:len(wanted)]) == wanted for key in index)
+    return any(tuple(key[0][: len(wanted)]) == wanted for key in index)
 
 
 drop_stale_cache()

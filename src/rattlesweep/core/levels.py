@@ -20,10 +20,20 @@ from .events import locate_where_located, switch_marked
 from .jit import OVERLOAD_OPTIONS, kernel
 from .stages import set_mid_stage
 from .switching import (
-    LOCATED_STOP_HORIZON, STOP_HORIZON, any_slipping, flag_switches, keep_directions,
+    LOCATED_STOP_HORIZON,
+    STOP_HORIZON,
+    any_slipping,
+    flag_switches,
+    keep_directions,
 )
 from .workspace import (
-    COUPLES, ROLLING, SLIDING, STAGE_4, STAGE_FIRST, STAGE_MID, STAGE_START,
+    COUPLES,
+    ROLLING,
+    SLIDING,
+    STAGE_4,
+    STAGE_FIRST,
+    STAGE_MID,
+    STAGE_START,
 )
 
 __all__ = ["evaluate_state", "inner_stages", "rk4_step", "switch_modes"]
@@ -155,5 +165,6 @@ def switch_modes(W, model, level, buf, couples, can_slip, locating, slipping):
 def _switch_modes_at(W, model, level, buf, couples, can_slip, locating, slipping):
     if _literal(level, "friction level") == ROLLING:
         return lambda W, model, level, buf, couples, can_slip, locating, slipping: slipping
-    return lambda W, model, level, buf, couples, can_slip, locating, slipping: _switch_modes(
-        W, model, level, buf, couples, can_slip, locating, slipping)
+    return lambda W, model, level, buf, couples, can_slip, locating, slipping: (
+        _switch_modes(W, model, level, buf, couples, can_slip, locating, slipping)
+    )

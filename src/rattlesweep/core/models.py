@@ -43,9 +43,9 @@ def _pick(model, rattleback, planar):
 
 def _hook(stub, inline="never"):
     """Register ``stub`` as an overloaded hook; its typer is the decorated function."""
-    return lambda typer: overload(stub, prefer_literal=True, inline=inline,
-                                  jit_options=OVERLOAD_OPTIONS)(typer)
-
+    return lambda typer: overload(
+        stub, prefer_literal=True, inline=inline, jit_options=OVERLOAD_OPTIONS
+    )(typer)
 
 
 # --- layout constants -------------------------------------------------------------------
@@ -56,19 +56,21 @@ def state_regions(model):
 @_hook(state_regions, inline="always")
 def _state_regions(model):
     rb, pl = rattleback_layout, planar_layout
-    return _pick(model,
-                 lambda model: (rb.OFF_Y, rb.OFF_T, rb.OFF_A, rb.OFF_B, rb.N_STATE,
-                                rb.N_WORK),
-                 lambda model: (pl.OFF_Y, pl.OFF_T, pl.OFF_A, pl.OFF_B, pl.N_STATE,
-                                pl.N_WORK))
+    return _pick(
+        model,
+        lambda model: (rb.OFF_Y, rb.OFF_T, rb.OFF_A, rb.OFF_B, rb.N_STATE, rb.N_WORK),
+        lambda model: (pl.OFF_Y, pl.OFF_T, pl.OFF_A, pl.OFF_B, pl.N_STATE, pl.N_WORK),
+    )
 
 
 def locates_switches(model):
     """True when the model's RK4 steps locate stick/slip switches inside the step
     (:mod:`.events`); False when its modes change at step starts. A plain function of
     the model number, for typing time."""
-    return {RATTLEBACK: rattleback_model.LOCATES_SWITCHES,
-            PLANAR: planar_model.LOCATES_SWITCHES}[model]
+    return {
+        RATTLEBACK: rattleback_model.LOCATES_SWITCHES,
+        PLANAR: planar_model.LOCATES_SWITCHES,
+    }[model]
 
 
 # --- the right-hand side and the Euler step -------------------------------------------
@@ -83,10 +85,13 @@ def evaluate(W, model, slip_possible, stage, one_lane, lane):
 def _evaluate(W, model, slip_possible, stage, one_lane, lane):
     return _pick(
         model,
-        lambda W, model, slip_possible, stage, one_lane, lane: rattleback_dynamics.eval_block(
-            W, slip_possible, stage, one_lane, lane),
+        lambda W, model, slip_possible, stage, one_lane, lane: (
+            rattleback_dynamics.eval_block(W, slip_possible, stage, one_lane, lane)
+        ),
         lambda W, model, slip_possible, stage, one_lane, lane: planar_dynamics.eval_block(
-            W, slip_possible, stage, one_lane, lane))
+            W, slip_possible, stage, one_lane, lane
+        ),
+    )
 
 
 def euler_step(W, model):
@@ -96,15 +101,20 @@ def euler_step(W, model):
 
 @_hook(euler_step)
 def _euler_step(W, model):
-    return _pick(model, lambda W, model: rattleback_model.euler_step(W),
-                 lambda W, model: planar_dynamics.euler_step(W))
+    return _pick(
+        model,
+        lambda W, model: rattleback_model.euler_step(W),
+        lambda W, model: planar_dynamics.euler_step(W),
+    )
 
 
 # --- per-lane hooks: stub(W, model, j) calls the model's fn(W, j) -----------------------
 def _lane_hook(stub, rattleback, planar, inline="never"):
     def typer(W, model, j):
-        return _pick(model, lambda W, model, j: rattleback(W, j),
-                     lambda W, model, j: planar(W, j))
+        return _pick(
+            model, lambda W, model, j: rattleback(W, j), lambda W, model, j: planar(W, j)
+        )
+
     _hook(stub, inline)(typer)
 
 
@@ -159,8 +169,9 @@ def stick_couples(W, model, j):
 _lane_hook(derive, rattleback_dynamics.derive_parameters, planar_model.derive)
 _lane_hook(start_lane, rattleback_model.start_lane, planar_model.start_lane)
 _lane_hook(check_step, rattleback_model.check_step, planar_model.check_step, "always")
-_lane_hook(spin_and_watch, rattleback_model.spin_and_watch, planar_model.spin_and_watch,
-           "always")
+_lane_hook(
+    spin_and_watch, rattleback_model.spin_and_watch, planar_model.spin_and_watch, "always"
+)
 _lane_hook(heading, rattleback_model.heading, planar_model.heading, "always")
 _lane_hook(energy, rattleback_model.energy, planar_model.energy)
 _lane_hook(roll_start, rattleback_model.roll_start, planar_model.roll_start)
@@ -177,9 +188,11 @@ def finish(W, model, j, O, launched):
 
 @_hook(finish)
 def _finish(W, model, j, O, launched):
-    return _pick(model,
-                 lambda W, model, j, O, launched: rattleback_model.finish(W, j, O, launched),
-                 lambda W, model, j, O, launched: planar_model.finish(W, j, O, launched))
+    return _pick(
+        model,
+        lambda W, model, j, O, launched: rattleback_model.finish(W, j, O, launched),
+        lambda W, model, j, O, launched: planar_model.finish(W, j, O, launched),
+    )
 
 
 def record(W, model, j, out):
@@ -188,5 +201,8 @@ def record(W, model, j, out):
 
 @_hook(record)
 def _record(W, model, j, out):
-    return _pick(model, lambda W, model, j, out: rattleback_model.record(W, j, out),
-                 lambda W, model, j, out: planar_model.record(W, j, out))
+    return _pick(
+        model,
+        lambda W, model, j, out: rattleback_model.record(W, j, out),
+        lambda W, model, j, out: planar_model.record(W, j, out),
+    )

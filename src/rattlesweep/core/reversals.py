@@ -14,11 +14,40 @@ import numba
 from . import models
 from .jit import inline_kernel, kernel
 from .workspace import (
-    BEYOND, BLOCK, COS2_HEADING_BAND, CROSSED, DT, K_BAND, K_FIRST_REV, K_HEAD_EXT_X,
-    K_HEAD_EXT_Y, K_HEAD_SENSE, K_HEAD_TURNS, K_MARK_REVERSAL, K_N_REV, K_PENDING, K_RUN,
-    K_SIDE, K_SLIP_STEPS, K_SPIN_PREV, K_STOP, K_T_CAND, K_T_CROSS, K_WATCH_LOW, K_WIN0,
-    K_WIN_CNT, K_WIN_SUM, NOT_MARKED, OFF_K, OFF_P, OFF_S, S_MODE, STOP_AT_REVERSAL,
-    STOP_RULE, TURNED_BACK, at,
+    BEYOND,
+    BLOCK,
+    COS2_HEADING_BAND,
+    CROSSED,
+    DT,
+    K_BAND,
+    K_FIRST_REV,
+    K_HEAD_EXT_X,
+    K_HEAD_EXT_Y,
+    K_HEAD_SENSE,
+    K_HEAD_TURNS,
+    K_MARK_REVERSAL,
+    K_N_REV,
+    K_PENDING,
+    K_RUN,
+    K_SIDE,
+    K_SLIP_STEPS,
+    K_SPIN_PREV,
+    K_STOP,
+    K_T_CAND,
+    K_T_CROSS,
+    K_WATCH_LOW,
+    K_WIN0,
+    K_WIN_CNT,
+    K_WIN_SUM,
+    NOT_MARKED,
+    OFF_K,
+    OFF_P,
+    OFF_S,
+    S_MODE,
+    STOP_AT_REVERSAL,
+    STOP_RULE,
+    TURNED_BACK,
+    at,
 )
 
 __all__ = ["cut_turns", "note_reversals", "observe"]
@@ -67,12 +96,15 @@ def observe(W, model, step):
         W[at(OFF_K, K_HEAD_EXT_X, j)] = nx
         W[at(OFF_K, K_HEAD_EXT_Y, j)] = ny
         W[at(OFF_K, K_HEAD_TURNS, j)] += cut_turns(ex, ey, nx, ny)
-        back = (turn < 0.0) & ((dot <= 0.0) | (
-            dot * dot < COS2_HEADING_BAND * (ex * ex + ey * ey) * (hx * hx + hy * hy)))
+        back = (turn < 0.0) & (
+            (dot <= 0.0)
+            | (dot * dot < COS2_HEADING_BAND * (ex * ex + ey * ey) * (hx * hx + hy * hy))
+        )
         W[at(OFF_K, K_MARK_REVERSAL, j)] = (
             (float(CROSSED) if crossed else NOT_MARKED)
             + (float(BEYOND) if beyond else NOT_MARKED)
-            + (float(TURNED_BACK) if back else NOT_MARKED))
+            + (float(TURNED_BACK) if back else NOT_MARKED)
+        )
         n += 1 if crossed | beyond | back else 0
     return n
 
@@ -84,7 +116,8 @@ def cut_turns(ox, oy, nx, ny):
     Y = -0.0 counts as above the cut, as ``atan2(y + 0.0, x)`` puts it)."""
     cut = (nx < 0.0) & (ox < 0.0)
     return (1.0 if cut & (oy >= 0.0) & (ny < 0.0) else 0.0) - (
-        1.0 if cut & (oy < 0.0) & (ny >= 0.0) else 0.0)
+        1.0 if cut & (oy < 0.0) & (ny >= 0.0) else 0.0
+    )
 
 
 @kernel
@@ -114,13 +147,18 @@ def note_reversals(W, model, step):
             W[at(OFF_K, K_HEAD_SENSE, j)] = -W[at(OFF_K, K_HEAD_SENSE, j)]
             hx, hy = models.heading(W, model, j)
             W[at(OFF_K, K_HEAD_TURNS, j)] += cut_turns(
-                W[at(OFF_K, K_HEAD_EXT_X, j)], W[at(OFF_K, K_HEAD_EXT_Y, j)], hx, hy)
+                W[at(OFF_K, K_HEAD_EXT_X, j)], W[at(OFF_K, K_HEAD_EXT_Y, j)], hx, hy
+            )
             W[at(OFF_K, K_HEAD_EXT_X, j)] = hx
             W[at(OFF_K, K_HEAD_EXT_Y, j)] = hy
-        if (mark != 0 and W[at(OFF_P, STOP_RULE, j)] == STOP_AT_REVERSAL
-                and W[at(OFF_K, K_RUN, j)] > 0.5 and W[at(OFF_K, K_STOP, j)] > step
-                and W[at(OFF_K, K_N_REV, j)] > 0.0
-                and not math.isnan(W[at(OFF_K, K_FIRST_REV, j)])):
+        if (
+            mark != 0
+            and W[at(OFF_P, STOP_RULE, j)] == STOP_AT_REVERSAL
+            and W[at(OFF_K, K_RUN, j)] > 0.5
+            and W[at(OFF_K, K_STOP, j)] > step
+            and W[at(OFF_K, K_N_REV, j)] > 0.0
+            and not math.isnan(W[at(OFF_K, K_FIRST_REV, j)])
+        ):
             W[at(OFF_K, K_STOP, j)] = step
             n += 1
     return n

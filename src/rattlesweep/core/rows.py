@@ -86,8 +86,10 @@ def check_regions(label: str, regions: dict[str, tuple[int, int]], total: int) -
     at = 0
     for name, (offset, n) in sorted(regions.items(), key=lambda item: item[1][0]):
         if offset != at:
-            raise AssertionError(f"{label}: region {name} starts at row {offset}, "
-                                 f"expected {at} (overlap or gap)")
+            raise AssertionError(
+                f"{label}: region {name} starts at row {offset}, "
+                f"expected {at} (overlap or gap)"
+            )
         at = offset + n
     if at != total:
         raise AssertionError(f"{label}: regions end at row {at}, the workspace has {total}")

@@ -23,8 +23,17 @@ import numba
 
 from .jit import kernel
 from .workspace import (
-    DT, H_HALF_DT, H_SIXTH_DT, H_STAGE_DT, OFF_H, OFF_P, STAGE_FIRST, STAGE_MID,
-    STAGE_START, at, lane_range,
+    DT,
+    H_HALF_DT,
+    H_SIXTH_DT,
+    H_STAGE_DT,
+    OFF_H,
+    OFF_P,
+    STAGE_FIRST,
+    STAGE_MID,
+    STAGE_START,
+    at,
+    lane_range,
 )
 
 __all__ = ["first_stage", "put_derivative", "set_mid_stage", "set_step_fractions"]
@@ -73,7 +82,6 @@ def set_step_fractions(W, j):
     W[at(OFF_H, H_SIXTH_DT, j)] = h / 6.0
 
 
-
 @kernel
 def set_mid_stage(W, third, one_lane, lane):
     """Make the next ``STAGE_MID`` the third stage of RK4 (``third``, stage state at a
@@ -82,5 +90,6 @@ def set_mid_stage(W, third, one_lane, lane):
     numba.literally(one_lane)
     first, stop = lane_range(one_lane, lane)
     for j in range(first, stop):
-        W[at(OFF_H, H_STAGE_DT, j)] = (W[at(OFF_P, DT, j)] if third
-                                       else W[at(OFF_H, H_HALF_DT, j)])
+        W[at(OFF_H, H_STAGE_DT, j)] = (
+            W[at(OFF_P, DT, j)] if third else W[at(OFF_H, H_HALF_DT, j)]
+        )

@@ -50,19 +50,83 @@ from .reversals import note_reversals, observe
 from .stages import set_step_fractions
 from .switching import any_slipping, note_slip, pass_step
 from .workspace import (
-    at, BLOCK, CAPSIZED, COUPLES, DT, ENDS_AS_IS,
-    EPS_U, H_HALF_DT, H_SIXTH_DT, K_BAND, K_FIRST_REV, K_HEAD_EXT_X, K_HEAD_EXT_Y,
-    K_HEAD_SENSE, K_MARK_END, K_N_REV, K_OPEN, K_PENDING,
-    K_RUN, K_SIDE, K_SLIP_STEPS, K_SPIN_PREV, K_STOP, K_T_CROSS, K_WATCH_LOW,
-    K_WIN0, K_WIN_CNT, K_WIN_SUM, LIFTED_OFF, MU_ROLL, MU_S, MU_SPIN, NON_FINITE,
-    NOT_MARKED, OFF_H, OFF_K, OFF_P, OFF_S, OFF_X, OK, O_E0, O_E_END, O_FINAL_SPIN,
-    O_FIRST_REV, O_MEAN_FINAL_SPIN, O_N_REV, O_SLIP_FRAC, O_SPIN0, O_STATUS, O_STEPS,
-    O_T_END, RK4, ROLLING, SLIDING, S_JX, S_JY, S_MODE, S_ROLL, S_ROLL_SENSE, S_SPIN, S_SPIN_SENSE, S_TSTOP,
-    S_UHX, X_N, X_ROLL_EVENT, X_SPIN_EVENT, X_UX, X_UY,
+    at,
+    BLOCK,
+    CAPSIZED,
+    COUPLES,
+    DT,
+    ENDS_AS_IS,
+    EPS_U,
+    H_HALF_DT,
+    H_SIXTH_DT,
+    K_BAND,
+    K_FIRST_REV,
+    K_HEAD_EXT_X,
+    K_HEAD_EXT_Y,
+    K_HEAD_SENSE,
+    K_MARK_END,
+    K_N_REV,
+    K_OPEN,
+    K_PENDING,
+    K_RUN,
+    K_SIDE,
+    K_SLIP_STEPS,
+    K_SPIN_PREV,
+    K_STOP,
+    K_T_CROSS,
+    K_WATCH_LOW,
+    K_WIN0,
+    K_WIN_CNT,
+    K_WIN_SUM,
+    LIFTED_OFF,
+    MU_ROLL,
+    MU_S,
+    MU_SPIN,
+    NON_FINITE,
+    NOT_MARKED,
+    OFF_H,
+    OFF_K,
+    OFF_P,
+    OFF_S,
+    OFF_X,
+    OK,
+    O_E0,
+    O_E_END,
+    O_FINAL_SPIN,
+    O_FIRST_REV,
+    O_MEAN_FINAL_SPIN,
+    O_N_REV,
+    O_SLIP_FRAC,
+    O_SPIN0,
+    O_STATUS,
+    O_STEPS,
+    O_T_END,
+    RK4,
+    ROLLING,
+    SLIDING,
+    S_JX,
+    S_JY,
+    S_MODE,
+    S_ROLL,
+    S_ROLL_SENSE,
+    S_SPIN,
+    S_SPIN_SENSE,
+    S_TSTOP,
+    S_UHX,
+    X_N,
+    X_ROLL_EVENT,
+    X_SPIN_EVENT,
+    X_UX,
+    X_UY,
 )
 
-__all__ = ["advance_block", "contact_slip_velocity", "integrate_parallel",
-           "integrate_serial", "rolling_derivative"]
+__all__ = [
+    "advance_block",
+    "contact_slip_velocity",
+    "integrate_parallel",
+    "integrate_serial",
+    "rolling_derivative",
+]
 
 
 @kernel
@@ -102,8 +166,9 @@ def flag_end(W, step):
     for j in range(BLOCK):
         lift = W[at(OFF_K, K_RUN, j)] > 0.5 and W[at(OFF_X, X_N, j)] < 0.0
         last = W[at(OFF_K, K_OPEN, j)] > 0.5 and step >= W[at(OFF_K, K_STOP, j)]
-        W[at(OFF_K, K_MARK_END, j)] = (float(LIFTED_OFF) if lift else (
-            ENDS_AS_IS if last else NOT_MARKED))
+        W[at(OFF_K, K_MARK_END, j)] = (
+            float(LIFTED_OFF) if lift else (ENDS_AS_IS if last else NOT_MARKED)
+        )
 
 
 @kernel
@@ -122,8 +187,15 @@ def flag_bad_step(W, model):
         lift = run & (W[at(OFF_X, X_N, j)] < 0.0)  # from the first stage
         bad_value = run & bad_value
         capsized = run & capsized
-        W[at(OFF_K, K_MARK_END, j)] = (float(LIFTED_OFF) if lift else (
-            float(NON_FINITE) if bad_value else (float(CAPSIZED) if capsized else NOT_MARKED)))
+        W[at(OFF_K, K_MARK_END, j)] = (
+            float(LIFTED_OFF)
+            if lift
+            else (
+                float(NON_FINITE)
+                if bad_value
+                else (float(CAPSIZED) if capsized else NOT_MARKED)
+            )
+        )
         n += 1 if lift | bad_value | capsized else 0
     return n
 
@@ -146,7 +218,9 @@ def finish_lane(W, model, j, P, status, Y, O):
     O[O_T_END, j] = stop * P[DT, j]
     O[O_SLIP_FRAC, j] = W[at(OFF_K, K_SLIP_STEPS, j)] / stop if stop > 0 else np.nan
     win_cnt = W[at(OFF_K, K_WIN_CNT, j)]
-    O[O_MEAN_FINAL_SPIN, j] = W[at(OFF_K, K_WIN_SUM, j)] / win_cnt if win_cnt > 0 else np.nan
+    O[O_MEAN_FINAL_SPIN, j] = (
+        W[at(OFF_K, K_WIN_SUM, j)] / win_cnt if win_cnt > 0 else np.nan
+    )
     if launched:
         O[O_FINAL_SPIN, j] = models.spin_and_watch(W, model, j)[0]
         O[O_E_END, j] = models.energy(W, model, j)
@@ -246,13 +320,17 @@ def advance_block(model, level, P, Y, nsteps, method, record_every, band, O, REC
         # (and slips at once where the couple needed exceeds its bound)
         spin_rate, roll_rate = models.couple_rates(W, model, j)
         W[at(OFF_S, S_SPIN, j)] = (
-            0.0 if spin_rate == 0.0 and W[at(OFF_P, MU_SPIN, j)] > 0.0 else 1.0)
+            0.0 if spin_rate == 0.0 and W[at(OFF_P, MU_SPIN, j)] > 0.0 else 1.0
+        )
         W[at(OFF_S, S_SPIN_SENSE, j)] = -1.0 if spin_rate < 0.0 else 1.0
         W[at(OFF_S, S_ROLL, j)] = (
-            0.0 if roll_rate == 0.0 and W[at(OFF_P, MU_ROLL, j)] > 0.0 else 1.0)
+            0.0 if roll_rate == 0.0 and W[at(OFF_P, MU_ROLL, j)] > 0.0 else 1.0
+        )
         W[at(OFF_S, S_ROLL_SENSE, j)] = -1.0 if roll_rate < 0.0 else 1.0
-        couples = couples or (W[at(OFF_K, K_RUN, j)] > 0.5 and (
-            W[at(OFF_P, MU_SPIN, j)] > 0.0 or W[at(OFF_P, MU_ROLL, j)] > 0.0))
+        couples = couples or (
+            W[at(OFF_K, K_RUN, j)] > 0.5
+            and (W[at(OFF_P, MU_SPIN, j)] > 0.0 or W[at(OFF_P, MU_ROLL, j)] > 0.0)
+        )
         W[at(OFF_K, K_OPEN, j)] = 1.0
         W[at(OFF_K, K_STOP, j)] = nsteps[j] if status[j] == OK else 0
         # the last 10 % of the steps, and at least the last step
@@ -268,8 +346,10 @@ def advance_block(model, level, P, Y, nsteps, method, record_every, band, O, REC
     for j in range(BLOCK):
         ux = W[at(OFF_X, X_UX, j)]
         uy = W[at(OFF_X, X_UY, j)]
-        if (W[at(OFF_P, MU_S, j)] > 0.0
-                and math.sqrt(ux * ux + uy * uy) <= W[at(OFF_P, EPS_U, j)]):
+        if (
+            W[at(OFF_P, MU_S, j)] > 0.0
+            and math.sqrt(ux * ux + uy * uy) <= W[at(OFF_P, EPS_U, j)]
+        ):
             W[at(OFF_S, S_MODE, j)] = 0.0
             models.roll_start(W, model, j)  # a rolling launch: exactly
         else:
@@ -293,8 +373,10 @@ def advance_block(model, level, P, Y, nsteps, method, record_every, band, O, REC
         W[at(OFF_K, K_HEAD_EXT_Y, j)] = hy
         W[at(OFF_K, K_HEAD_SENSE, j)] = W[at(OFF_K, K_SIDE, j)]
         W[at(OFF_K, K_WATCH_LOW, j)] = watched
-        can_slip = can_slip or (W[at(OFF_K, K_RUN, j)] > 0.5 and (
-            W[at(OFF_P, MU_S, j)] < math.inf or W[at(OFF_S, S_MODE, j)] > 0.5))
+        can_slip = can_slip or (
+            W[at(OFF_K, K_RUN, j)] > 0.5
+            and (W[at(OFF_P, MU_S, j)] < math.inf or W[at(OFF_S, S_MODE, j)] > 0.5)
+        )
 
     # --- time loop ------------------------------------------------------------------
     # Each pass evaluates the state the last step reached (the first stage of the next
@@ -303,14 +385,16 @@ def advance_block(model, level, P, Y, nsteps, method, record_every, band, O, REC
     stop = next_stop(W)  # kept up to date whenever a lane is written out
     locating = method == RK4 and located(model)
     for step in range(max_steps + 1):
-        slipping = COUPLES if couples else (
-            SLIDING if can_slip and any_slipping(W) else ROLLING)
+        slipping = (
+            COUPLES if couples else (SLIDING if can_slip and any_slipping(W) else ROLLING)
+        )
         recording = n_rec > 0 and step % record_every == 0 and step // record_every < n_rec
         # the friction force and slip velocity are read only by the stick/slip decisions
         # and the record
         evaluate_state(W, model, level, slipping, can_slip or recording)
-        slipping = switch_modes(W, model, level, buf, couples, can_slip,
-                                locating and step > 0, slipping)
+        slipping = switch_modes(
+            W, model, level, buf, couples, can_slip, locating and step > 0, slipping
+        )
         if step > 0 and observe(W, model, step - 1) > 0:
             if note_reversals(W, model, step) > 0:
                 stop = next_stop(W)
@@ -354,7 +438,9 @@ def integrate_parallel(model, level, P, Y, nsteps, method, record_every, band, O
     numba.literally(model)
     numba.literally(level)
     for b in prange(P.shape[0]):
-        advance_block(model, level, P[b], Y[b], nsteps[b], method, record_every, band, O[b], REC[b])
+        advance_block(
+            model, level, P[b], Y[b], nsteps[b], method, record_every, band, O[b], REC[b]
+        )
 
 
 @kernel
@@ -363,7 +449,9 @@ def integrate_serial(model, level, P, Y, nsteps, method, record_every, band, O, 
     numba.literally(model)
     numba.literally(level)
     for b in range(P.shape[0]):
-        advance_block(model, level, P[b], Y[b], nsteps[b], method, record_every, band, O[b], REC[b])
+        advance_block(
+            model, level, P[b], Y[b], nsteps[b], method, record_every, band, O[b], REC[b]
+        )
 
 
 @allocating_kernel

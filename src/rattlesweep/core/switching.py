@@ -29,17 +29,64 @@ import numba
 
 from .jit import inline_kernel, kernel
 from .workspace import (
-    BLOCK, DT, EPS_U, K_MARK_SWITCH, K_RUN, MU_S, NOT_MARKED, OFF_K, OFF_P, OFF_S, OFF_X,
-    ROLL_SWITCHES, S_DCX, S_DCY, S_DPX, S_DPY, S_MODE, S_ROLL, S_ROLL_SENSE, S_SPIN,
-    S_SPIN_SENSE, S_TSTOP, S_TURN, S_UHX, S_UHY, S_USX, S_USY, SPIN_SWITCHES, SWITCHES,
-    X_FX, X_FY, X_N,
-    X_DCX, X_DCY, X_ROLL_COUPLE, X_ROLL_EVENT, X_SPIN_COUPLE, X_SPIN_EVENT, X_TSTOP, X_TURN,
-    X_UX, X_UY, at,
+    BLOCK,
+    DT,
+    EPS_U,
+    K_MARK_SWITCH,
+    K_RUN,
+    MU_S,
+    NOT_MARKED,
+    OFF_K,
+    OFF_P,
+    OFF_S,
+    OFF_X,
+    ROLL_SWITCHES,
+    S_DCX,
+    S_DCY,
+    S_DPX,
+    S_DPY,
+    S_MODE,
+    S_ROLL,
+    S_ROLL_SENSE,
+    S_SPIN,
+    S_SPIN_SENSE,
+    S_TSTOP,
+    S_TURN,
+    S_UHX,
+    S_UHY,
+    S_USX,
+    S_USY,
+    SPIN_SWITCHES,
+    SWITCHES,
+    X_FX,
+    X_FY,
+    X_N,
+    X_DCX,
+    X_DCY,
+    X_ROLL_COUPLE,
+    X_ROLL_EVENT,
+    X_SPIN_COUPLE,
+    X_SPIN_EVENT,
+    X_TSTOP,
+    X_TURN,
+    X_UX,
+    X_UY,
+    at,
 )
 
 __all__ = [
-    "LOCATED_STOP_HORIZON", "STOP_HORIZON", "any_slipping", "cone_margin", "couple_margin",
-    "flag_switches", "keep_directions", "note_slip", "pass_step", "start_slip", "stop_time", "switch_couples",
+    "LOCATED_STOP_HORIZON",
+    "STOP_HORIZON",
+    "any_slipping",
+    "cone_margin",
+    "couple_margin",
+    "flag_switches",
+    "keep_directions",
+    "note_slip",
+    "pass_step",
+    "start_slip",
+    "stop_time",
+    "switch_couples",
 ]
 
 LOCATED_STOP_HORIZON = 1.0
@@ -72,7 +119,9 @@ def remember_slip(W, j, note):
     uu = math.sqrt(ux * ux + uy * uy)
     W[at(OFF_S, S_USX, j)] = ux if note else W[at(OFF_S, S_USX, j)]
     W[at(OFF_S, S_USY, j)] = uy if note else W[at(OFF_S, S_USY, j)]
-    W[at(OFF_S, S_TSTOP, j)] = W[at(OFF_X, X_TSTOP, j)] if note else W[at(OFF_S, S_TSTOP, j)]
+    W[at(OFF_S, S_TSTOP, j)] = (
+        W[at(OFF_X, X_TSTOP, j)] if note else W[at(OFF_S, S_TSTOP, j)]
+    )
     turn = note & (uu > W[at(OFF_P, EPS_U, j)])
     W[at(OFF_S, S_UHX, j)] = ux / uu if turn else W[at(OFF_S, S_UHX, j)]
     W[at(OFF_S, S_UHY, j)] = uy / uu if turn else W[at(OFF_S, S_UHY, j)]
@@ -101,9 +150,15 @@ def keep_directions(W):
     state: the one place they are written, once per evaluation of a step start."""
     for j in range(BLOCK):
         slipping = W[at(OFF_S, S_MODE, j)] > 0.5
-        W[at(OFF_S, S_DCX, j)] = W[at(OFF_X, X_DCX, j)] if slipping else W[at(OFF_S, S_DCX, j)]
-        W[at(OFF_S, S_DCY, j)] = W[at(OFF_X, X_DCY, j)] if slipping else W[at(OFF_S, S_DCY, j)]
-        W[at(OFF_S, S_TURN, j)] = W[at(OFF_X, X_TURN, j)] if slipping else W[at(OFF_S, S_TURN, j)]
+        W[at(OFF_S, S_DCX, j)] = (
+            W[at(OFF_X, X_DCX, j)] if slipping else W[at(OFF_S, S_DCX, j)]
+        )
+        W[at(OFF_S, S_DCY, j)] = (
+            W[at(OFF_X, X_DCY, j)] if slipping else W[at(OFF_S, S_DCY, j)]
+        )
+        W[at(OFF_S, S_TURN, j)] = (
+            W[at(OFF_X, X_TURN, j)] if slipping else W[at(OFF_S, S_TURN, j)]
+        )
 
 
 @kernel
@@ -175,12 +230,18 @@ def flag_switches(W, stops, horizon, couples):
     for j in range(BLOCK):
         run = W[at(OFF_K, K_RUN, j)] > 0.5
         slipping = W[at(OFF_S, S_MODE, j)] > 0.5
-        leaves_cone = ((not slipping) & (W[at(OFF_X, X_N, j)] >= 0.0)
-                       & (cone_margin(W, j) < 0.0))
-        turned = (W[at(OFF_X, X_UX, j)] * W[at(OFF_S, S_USX, j)]
-                  + W[at(OFF_X, X_UY, j)] * W[at(OFF_S, S_USY, j)]) < 0.0
-        stopped = slipping & (W[at(OFF_P, MU_S, j)] > 0.0) & (
-            (W[at(OFF_S, S_TSTOP, j)] <= horizon * W[at(OFF_P, DT, j)]) | turned)
+        leaves_cone = (
+            (not slipping) & (W[at(OFF_X, X_N, j)] >= 0.0) & (cone_margin(W, j) < 0.0)
+        )
+        turned = (
+            W[at(OFF_X, X_UX, j)] * W[at(OFF_S, S_USX, j)]
+            + W[at(OFF_X, X_UY, j)] * W[at(OFF_S, S_USY, j)]
+        ) < 0.0
+        stopped = (
+            slipping
+            & (W[at(OFF_P, MU_S, j)] > 0.0)
+            & ((W[at(OFF_S, S_TSTOP, j)] <= horizon * W[at(OFF_P, DT, j)]) | turned)
+        )
         slide = run & (leaves_cone | (stops & stopped))
         mark = SWITCHES if slide else NOT_MARKED
         if couples:

@@ -34,8 +34,22 @@ from .jit import OVERLOAD_OPTIONS
 from .rows import Row, Rows
 
 __all__ = [
-    "BLOCK", "at", "lane_range", "STATUS_NAMES", "OK", "CAPSIZED", "LIFTED_OFF", "NON_FINITE", "RK4",
-    "EULER", "METHODS", "ROLLING", "SLIDING", "COUPLES", "LEVEL_NAMES", "friction_level",
+    "BLOCK",
+    "at",
+    "lane_range",
+    "STATUS_NAMES",
+    "OK",
+    "CAPSIZED",
+    "LIFTED_OFF",
+    "NON_FINITE",
+    "RK4",
+    "EULER",
+    "METHODS",
+    "ROLLING",
+    "SLIDING",
+    "COUPLES",
+    "LEVEL_NAMES",
+    "friction_level",
 ]
 
 BLOCK = 32
@@ -101,28 +115,54 @@ def friction_level(mu_static: Any, mu_spin: Any, mu_roll: Any) -> int:
         return COUPLES
     return SLIDING if np.any(~(np.asarray(mu_static) == math.inf)) else ROLLING
 
+
 # --- contact outputs of an evaluation at the step-start state, rows of region X --------
 # Horizontal vectors are world (X, Y); a planar model leaves the Y components zero.
 CONTACT = Rows(
     "contact outputs",
     Row("normal_force", "N", "normal contact force"),
     Row("friction_force", "N", "horizontal friction force on the body", 2, "horizontal"),
-    Row("slip_velocity", "m s-1", "horizontal velocity of the material contact point", 2,
-        "horizontal"),
-    Row("stop_time", "s", "time until a slip stops at its present deceleration (inf when "
-        "it does not decelerate, or sticks)"),
-    Row("spin_event", "1", "switching function of the spin couple: its sense times the "
+    Row(
+        "slip_velocity",
+        "m s-1",
+        "horizontal velocity of the material contact point",
+        2,
+        "horizontal",
+    ),
+    Row(
+        "stop_time",
+        "s",
+        "time until a slip stops at its present deceleration (inf when "
+        "it does not decelerate, or sticks)",
+    ),
+    Row(
+        "spin_event",
+        "1",
+        "switching function of the spin couple: its sense times the "
         "spin about the normal while it slips (rad/s), mu_spin N less the couple's "
-        "magnitude while it sticks (N m); inf without spin friction"),
+        "magnitude while it sticks (N m); inf without spin friction",
+    ),
     Row("roll_event", "1", "switching function of the rolling couple, as spin_event"),
     Row("spin_couple", "N m", "spin friction couple about the contact normal"),
-    Row("roll_couple", "N m", "rolling resistance couple (planar: about the axis of "
-        "rocking)"),
-    Row("consistent_direction_now", "1", "a slipping lane's consistent slip direction "
+    Row(
+        "roll_couple",
+        "N m",
+        "rolling resistance couple (planar: about the axis of rocking)",
+    ),
+    Row(
+        "consistent_direction_now",
+        "1",
+        "a slipping lane's consistent slip direction "
         "at the evaluated state (unit; 3-D model, step-start evaluations of the block)",
-        2, "horizontal"),
-    Row("consistent_turn_now", "rad s-1", "the rate at which it turned since the step "
-        "before (3-D model, as consistent_direction_now)"),
+        2,
+        "horizontal",
+    ),
+    Row(
+        "consistent_turn_now",
+        "rad s-1",
+        "the rate at which it turned since the step "
+        "before (3-D model, as consistent_direction_now)",
+    ),
 )
 X_N = CONTACT.start("normal_force")
 X_FX = CONTACT.start("friction_force")
@@ -143,21 +183,51 @@ SWITCH = Rows(
     "switching state",
     Row("slipping", "1", "contact mode: 0 stick, 1 slip"),
     Row("slip_direction", "1", "last known slip direction (unit)", 2, "horizontal"),
-    Row("step_slip_velocity", "m s-1", "slip velocity at the start of the step", 2,
-        "horizontal"),
+    Row(
+        "step_slip_velocity",
+        "m s-1",
+        "slip velocity at the start of the step",
+        2,
+        "horizontal",
+    ),
     Row("step_stop_time", "s", "stop_time at the start of the step"),
-    Row("impulse_tally", "N s", "re-stick friction impulses since the last sample", 2,
-        "horizontal"),
-    Row("consistent_direction", "1", "consistent slip direction at the start of the "
-        "step (unit; 3-D model)", 2, "horizontal"),
-    Row("consistent_direction_before", "1", "consistent slip direction at the start of "
-        "the step before (unit; 0 before the first; 3-D model)", 2, "horizontal"),
-    Row("consistent_turn_rate", "rad s-1", "rate at which the consistent slip direction "
-        "turns, over the last step (3-D model)"),
-    Row("spin_slipping", "1", "spin couple mode: 0 stuck (no spin about the normal), 1 "
-        "slipping"),
-    Row("spin_sense", "1", "sense (+1, -1) of the spin about the normal, held while it "
-        "slips"),
+    Row(
+        "impulse_tally",
+        "N s",
+        "re-stick friction impulses since the last sample",
+        2,
+        "horizontal",
+    ),
+    Row(
+        "consistent_direction",
+        "1",
+        "consistent slip direction at the start of the step (unit; 3-D model)",
+        2,
+        "horizontal",
+    ),
+    Row(
+        "consistent_direction_before",
+        "1",
+        "consistent slip direction at the start of "
+        "the step before (unit; 0 before the first; 3-D model)",
+        2,
+        "horizontal",
+    ),
+    Row(
+        "consistent_turn_rate",
+        "rad s-1",
+        "rate at which the consistent slip direction turns, over the last step (3-D model)",
+    ),
+    Row(
+        "spin_slipping",
+        "1",
+        "spin couple mode: 0 stuck (no spin about the normal), 1 slipping",
+    ),
+    Row(
+        "spin_sense",
+        "1",
+        "sense (+1, -1) of the spin about the normal, held while it slips",
+    ),
     Row("roll_slipping", "1", "rolling couple mode: 0 stuck, 1 slipping"),
     Row("roll_sense", "1", "sense of the rocking rate, held while it slips (planar)"),
 )
@@ -202,20 +272,43 @@ BOOK = Rows(
     Row("window_count", "1", "steps in the final window so far"),
     Row("watch_low", "1", "smallest value so far of the model's watched quantity"),
     Row("slip_steps", "1", "steps taken slipping"),
-    Row("mark_switch", "1", "marked by a switching pass: the sum of SWITCHES, "
-        "SPIN_SWITCHES and ROLL_SWITCHES for the contact's modes that change"),
+    Row(
+        "mark_switch",
+        "1",
+        "marked by a switching pass: the sum of SWITCHES, "
+        "SPIN_SWITCHES and ROLL_SWITCHES for the contact's modes that change",
+    ),
     Row("mark_end", "1", "how the run ends at this step: ENDS_AS_IS or a status code"),
-    Row("mark_reversal", "1", "the sum of CROSSED, BEYOND and TURNED_BACK for what "
-        "happened in this step"),
-    Row("heading_turns", "1", "signed whole turns of heading_extreme's direction across "
-        "the cut of atan2 at +-pi"),
-    Row("heading_extreme", "1", "the long axis' horizontal projection where the heading "
+    Row(
+        "mark_reversal",
+        "1",
+        "the sum of CROSSED, BEYOND and TURNED_BACK for what happened in this step",
+    ),
+    Row(
+        "heading_turns",
+        "1",
+        "signed whole turns of heading_extreme's direction across the cut of atan2 at +-pi",
+    ),
+    Row(
+        "heading_extreme",
+        "1",
+        "the long axis' horizontal projection where the heading "
         "turned furthest in its present sense (world; not normalised; within "
-        "HEADING_BAND of the present heading)", 2, "horizontal"),
-    Row("heading_sense", "1", "present sense of turning of the heading (+1, -1; 0: no "
-        "reversal tracking)"),
-    Row("reversal_pending", "1", "1 from the first reversal time on, while the heading "
-        "has not reversed and the spin has not crossed back to its launch side"),
+        "HEADING_BAND of the present heading)",
+        2,
+        "horizontal",
+    ),
+    Row(
+        "heading_sense",
+        "1",
+        "present sense of turning of the heading (+1, -1; 0: no reversal tracking)",
+    ),
+    Row(
+        "reversal_pending",
+        "1",
+        "1 from the first reversal time on, while the heading "
+        "has not reversed and the spin has not crossed back to its launch side",
+    ),
 )
 K_RUN = BOOK.start("running")
 K_OPEN = BOOK.start("open")
@@ -271,16 +364,32 @@ COMMON_PARAMS = Rows(
     Row("mu", "1", "kinetic friction coefficient", pack=lambda f: f["mu"]),
     Row("mu_static", "1", "static friction coefficient", pack=lambda f: f["mu_static"]),
     Row("g", "m s-2", "gravitational acceleration", pack=lambda f: f["g"]),
-    Row("mu_spin", "m", "spin friction coefficient: bound of the couple about the normal "
-        "per unit normal force", pack=lambda f: f["mu_spin"]),
-    Row("mu_roll", "m", "rolling resistance coefficient: bound of the rolling couple per "
-        "unit normal force", pack=lambda f: f["mu_roll"]),
-    Row("slip_speed_floor", "m s-1",
+    Row(
+        "mu_spin",
+        "m",
+        "spin friction coefficient: bound of the couple about the normal "
+        "per unit normal force",
+        pack=lambda f: f["mu_spin"],
+    ),
+    Row(
+        "mu_roll",
+        "m",
+        "rolling resistance coefficient: bound of the rolling couple per unit normal force",
+        pack=lambda f: f["mu_roll"],
+    ),
+    Row(
+        "slip_speed_floor",
+        "m s-1",
         "slip speed below which the stored slip direction is used",
-        pack=lambda f: 1e-6 * f["g"] * f["dt"]),
-    Row("stop_rule", "1", "when the run ends: 0 at its last step, 1 at its first "
+        pack=lambda f: 1e-6 * f["g"] * f["dt"],
+    ),
+    Row(
+        "stop_rule",
+        "1",
+        "when the run ends: 0 at its last step, 1 at its first "
         "reversal (of the spin and of the heading) when that comes sooner",
-        pack=lambda f: f.get("stop_rule", 0.0 * f["dt"])),
+        pack=lambda f: f.get("stop_rule", 0.0 * f["dt"]),
+    ),
 )
 DT = COMMON_PARAMS.start("dt")
 MU_K = COMMON_PARAMS.start("mu")
@@ -317,11 +426,18 @@ OBSERVABLES = Rows(
     Row("slip_fraction", "1", "fraction of steps spent slipping"),
     Row("initial_spin", "rad s-1", "vertical angular velocity at t = 0"),
     Row("final_spin", "rad s-1", "vertical angular velocity at the end of the run"),
-    Row("mean_final_spin", "rad s-1",
-        "mean vertical angular velocity over the last 10% of the run"),
+    Row(
+        "mean_final_spin",
+        "rad s-1",
+        "mean vertical angular velocity over the last 10% of the run",
+    ),
     Row("first_reversal_time", "s", "time of the first spin reversal (NaN when none)"),
-    Row("n_reversals", "1", "number of heading reversals: changes of the long axis' sense "
-        "of turning seen from above, each a turn back by more than 0.1 rad"),
+    Row(
+        "n_reversals",
+        "1",
+        "number of heading reversals: changes of the long axis' sense "
+        "of turning seen from above, each a turn back by more than 0.1 rad",
+    ),
 )
 O_STATUS = OBSERVABLES.start("status")
 O_STEPS = OBSERVABLES.start("steps")

@@ -21,6 +21,19 @@ from .printing import MATERIALS, Material, PrintSettings
 from .record import load_body
 from .search import Launches
 
-__all__ = ["COINS", "DEFAULT_COIN", "Coin", "Design", "DesignRefused", "Launches",
-           "MATERIALS", "Material", "Part", "PrintSettings", "body_of", "design",
-           "load_body", "make_coin"]
+__all__ = [
+    "COINS",
+    "DEFAULT_COIN",
+    "Coin",
+    "Design",
+    "DesignRefused",
+    "Launches",
+    "MATERIALS",
+    "Material",
+    "Part",
+    "PrintSettings",
+    "body_of",
+    "design",
+    "load_body",
+    "make_coin",
+]

@@ -68,8 +68,12 @@ class Design:
             f"{self.launches.mu[1]:g} {_span(pred['first_reversal_time_mu_high'], t_end)}",
             f"search: {self.search.launches} launches ({self.search.table.sizes['candidate']}"
             f" placements, {self.search.levels} refinement levels); "
-            + ("robust: every wrong-way launch reversed and no right-way one did within "
-               f"{t_end:g} s of spinning" if self.robust else "NOT ROBUST (see below)"),
+            + (
+                "robust: every wrong-way launch reversed and no right-way one did within "
+                f"{t_end:g} s of spinning"
+                if self.robust
+                else "NOT ROBUST (see below)"
+            ),
         ]
         if not self.robust:
             lines += self.not_robust_report()
@@ -90,10 +94,11 @@ class Design:
 
 def _span(t: dict[str, float], t_end: float) -> str:
     if not math.isfinite(t["max"]):
-        return (f"after {t['min']:.2g} s at the quickest, but {t['not_reversed']:g} of "
-                f"its {t['launches']:g} launches do not within {t_end:g} s of spinning")
-    return (f"after {t['min']:.2g}-{t['max']:.2g} s (median {t['median']:.2g} s) of "
-            "spinning")
+        return (
+            f"after {t['min']:.2g} s at the quickest, but {t['not_reversed']:g} of "
+            f"its {t['launches']:g} launches do not within {t_end:g} s of spinning"
+        )
+    return f"after {t['min']:.2g}-{t['max']:.2g} s (median {t['median']:.2g} s) of spinning"
 
 
 def _count(mask: np.ndarray) -> str:
@@ -109,8 +114,10 @@ def not_robust_report(d: Design) -> list[str]:
     good = best.first_reversal_time.sel(sense="good")
     missed = bad.isnull()
     spurious = good.notnull()
-    lines = ["NOT ROBUST: no placement tried reverses every wrong-way launch and no "
-             "right-way one:"]
+    lines = [
+        "NOT ROBUST: no placement tried reverses every wrong-way launch and no "
+        "right-way one:"
+    ]
     hints: list[str] = []
     if bool(missed.any()):
         per_spin = missed.sum(["mu", "tilt"])
@@ -120,84 +127,133 @@ def not_robust_report(d: Design) -> list[str]:
         lines.append(
             f"  spun {pred['bad_sense']} (the wrong way), {_count(missed.values)} launches "
             f"({float(missed.mean()):.0%}) did not reverse within {t_end:g} s of spinning: "
-            f"at spins {', '.join(spins)} rad/s, mu {', '.join(mus)}")
+            f"at spins {', '.join(spins)} rad/s, mu {', '.join(mus)}"
+        )
         ok_spins = [float(s) for s in per_spin.spin[per_spin == 0]]
         if ok_spins and min(ok_spins) > float(per_spin.spin.min()):
-            hints.append(f"flicked at {min(ok_spins):g} rad/s or faster it does reverse "
-                         "every time: the design may do if you spin it hard")
+            hints.append(
+                f"flicked at {min(ok_spins):g} rad/s or faster it does reverse "
+                "every time: the design may do if you spin it hard"
+            )
         if len(mus) < len(per_mu) and len(per_mu) > 1:
             fine = [float(m) for m in per_mu.mu[per_mu == 0]]
-            hints.append(f"a narrower friction range (--mu {min(fine):g} {max(fine):g}) "
-                         "if your table is known to be in it")
+            hints.append(
+                f"a narrower friction range (--mu {min(fine):g} {max(fine):g}) "
+                "if your table is known to be in it"
+            )
         edge = abs(p.y) / p.b
         if edge < 0.3:
             hints.append(
                 f"the coins sit near the long axis (|y| = {abs(p.y) * 1e3:.1f} mm of a "
                 f"{p.b * 1e3:.3g} mm half width): a coin this wide leaves little room off "
                 f"the axis for a bias; a smaller coin, or a wider shell (e.g. --b "
-                f"{p.b * 1.1:.3g}) gives a stronger one")
+                f"{p.b * 1.1:.3g}) gives a stronger one"
+            )
         if pred["com_height"] < 0.9 * pred["com_height_limit"]:
             most = pred["max_coin_mass"]
-            hints.append("a heavier coin of the same size biases it more" + (
-                f" (up to {most * 1e3:.3g} g keeps G within the margin; --coin-mass)"
-                if math.isfinite(most) else " (--coin-mass)"))
+            hints.append(
+                "a heavier coin of the same size biases it more"
+                + (
+                    f" (up to {most * 1e3:.3g} g keeps G within the margin; --coin-mass)"
+                    if math.isfinite(most)
+                    else " (--coin-mass)"
+                )
+            )
     if bool(spurious.any()):
         lines.append(
             f"  spun {pred['preferred_sense']} (the right way), {_count(spurious.values)} "
             f"launches ({float(spurious.mean()):.0%}) reversed within {t_end:g} s of "
-            "spinning, which it should not")
-        hints.append("a lighter coin, or coins nearer the long axis: the bias is so strong "
-                     "that the right way is unstable too")
+            "spinning, which it should not"
+        )
+        hints.append(
+            "a lighter coin, or coins nearer the long axis: the bias is so strong "
+            "that the right way is unstable too"
+        )
     if pred["com_height"] >= 0.9 * pred["com_height_limit"]:
         hints.append(
             f"G is {pred['com_height'] * 1e3:.3g} mm above the contact point, near its "
             f"limit of {pred['com_height_limit'] * 1e3:.3g} mm: a lighter coin or a lower "
-            "shell (smaller c) rocks more steadily")
-    hints.append("a different shell (a, b, c) or coin; the files are written so that you "
-                 "can look at the map and the sheet, but a print may disappoint")
+            "shell (smaller c) rocks more steadily"
+        )
+    hints.append(
+        "a different shell (a, b, c) or coin; the files are written so that you "
+        "can look at the map and the sheet, but a print may disappoint"
+    )
     return lines + ["  what to try:"] + [f"  - {h}" for h in hints]
 
 
-def make_coin(coin: str | Coin | None = None, *, mass: float | None = None,
-              diameter: float | None = None, thickness: float | None = None) -> Coin:
+def make_coin(
+    coin: str | Coin | None = None,
+    *,
+    mass: float | None = None,
+    diameter: float | None = None,
+    thickness: float | None = None,
+) -> Coin:
     """A coin from a preset name, a :class:`Coin`, or its numbers (kg, m): mass,
     diameter and thickness all given, or each overriding the preset's."""
     if coin is None and mass is not None and diameter is not None and thickness is not None:
         return Coin("custom", mass, diameter, thickness)
-    base = coin if isinstance(coin, Coin) else coin_preset(
-        DEFAULT_COIN if coin is None else coin)
+    base = (
+        coin
+        if isinstance(coin, Coin)
+        else coin_preset(DEFAULT_COIN if coin is None else coin)
+    )
     numbers = {"mass": mass, "diameter": diameter, "thickness": thickness}
     given = {k: v for k, v in numbers.items() if v is not None}
     if not given:
         return base
     return dataclasses.replace(
-        base, name=f"{base.name} (modified)",
-        source=f"{base.source}; changed by the user: {', '.join(sorted(given))}", **given)
+        base,
+        name=f"{base.name} (modified)",
+        source=f"{base.source}; changed by the user: {', '.join(sorted(given))}",
+        **given,
+    )
 
 
 def _material(material: str | Material, density: float | None) -> Material:
     """The material, its density overridden by ``density`` (kg/m³) when given."""
     if density is None:
         return material if isinstance(material, Material) else material_preset(material)
-    rho = require("density", density, "in kg/m^3, from 100 (a foam) to 25000",
-                  lambda v: 100 <= v <= 25000,
-                  lambda v: f"{v:g} looks like g/cm^3: {v:g} g/cm^3 is {v * 1e3:g} kg/m^3"
-                  if 0 < v < 30 else None)
+    rho = require(
+        "density",
+        density,
+        "in kg/m^3, from 100 (a foam) to 25000",
+        lambda v: 100 <= v <= 25000,
+        lambda v: (
+            f"{v:g} looks like g/cm^3: {v:g} g/cm^3 is {v * 1e3:g} kg/m^3"
+            if 0 < v < 30
+            else None
+        ),
+    )
     name = material.name if isinstance(material, Material) else str(material)
-    source = "given by the user" if name not in MATERIALS else \
-        f"given by the user (the {name} preset's: {MATERIALS[name].density:g} kg/m^3)"
+    source = (
+        "given by the user"
+        if name not in MATERIALS
+        else f"given by the user (the {name} preset's: {MATERIALS[name].density:g} kg/m^3)"
+    )
     return Material(name or "custom", rho, source)
 
 
-def _prediction(part: Part, body: Body, result: SearchResult, launches: Launches,
-                margin: float, prefer: str) -> dict[str, Any]:
+def _prediction(
+    part: Part,
+    body: Body,
+    result: SearchResult,
+    launches: Launches,
+    margin: float,
+    prefer: str,
+) -> dict[str, Any]:
     t = result.best.first_reversal_time.sel(sense="bad")
 
     def stats(mu: float) -> dict[str, float]:
         v = t.sel(mu=mu, method="nearest").values.ravel()
         v = np.where(np.isfinite(v), v, np.inf)
-        return {"min": float(v.min()), "median": float(np.median(v)), "max": float(v.max()),
-                "not_reversed": int(np.isinf(v).sum()), "launches": int(v.size)}
+        return {
+            "min": float(v.min()),
+            "median": float(np.median(v)),
+            "max": float(v.max()),
+            "not_reversed": int(np.isinf(v).sum()),
+            "launches": int(v.size),
+        }
 
     radius = min(body.radii_of_curvature)
     return {
@@ -223,14 +279,31 @@ def _prediction(part: Part, body: Body, result: SearchResult, launches: Launches
 
 
 def design(
-    a: float, b: float, c: float, *, coin: str | Coin | None = None,
-    coin_mass: float | None = None, coin_diameter: float | None = None,
-    coin_thickness: float | None = None, coins: int = 2, infill: float = 0.2,
-    material: str | Material = "pla", density: float | None = None, wall: float = 1.2e-3,
-    clearance: float = 0.4e-3, rim: float = 2.0e-3, mu: tuple[float, float] = (0.2, 0.5),
-    margin: float = 0.1, prefer: str = "cw", launches: Launches | None = None,
-    grid: tuple[int, int] = (10, 6), refine: int = 2, out: str | Path | None = None,
-    overwrite: bool = False, reversal_map: bool = True, progress: Progress | None = None,
+    a: float,
+    b: float,
+    c: float,
+    *,
+    coin: str | Coin | None = None,
+    coin_mass: float | None = None,
+    coin_diameter: float | None = None,
+    coin_thickness: float | None = None,
+    coins: int = 2,
+    infill: float = 0.2,
+    material: str | Material = "pla",
+    density: float | None = None,
+    wall: float = 1.2e-3,
+    clearance: float = 0.4e-3,
+    rim: float = 2.0e-3,
+    mu: tuple[float, float] = (0.2, 0.5),
+    margin: float = 0.1,
+    prefer: str = "cw",
+    launches: Launches | None = None,
+    grid: tuple[int, int] = (10, 6),
+    refine: int = 2,
+    out: str | Path | None = None,
+    overwrite: bool = False,
+    reversal_map: bool = True,
+    progress: Progress | None = None,
 ) -> Design:
     """Design a printable rattleback: a semi-ellipsoid shell printed flat face down,
     with two coins in pockets in its flat face placed, symmetric about the centre, where
@@ -301,21 +374,26 @@ def design(
     t0 = time.perf_counter()
     say = progress or quiet
     if coins != 2:
-        raise ValueError(f"coins = {coins!r} is invalid: it must be 2 (a pair symmetric "
-                         "about the centre)")
+        raise ValueError(
+            f"coins = {coins!r} is invalid: it must be 2 (a pair symmetric "
+            "about the centre)"
+        )
     bad_sign(prefer)
     margin = require("margin", margin, "a fraction in [0, 1)", lambda v: 0 <= v < 1)
     mat = _material(material, density)
     settings = PrintSettings(mat, infill, wall, clearance, rim)
-    the_coin = make_coin(coin, mass=coin_mass, diameter=coin_diameter,
-                         thickness=coin_thickness)
+    the_coin = make_coin(
+        coin, mass=coin_mass, diameter=coin_diameter, thickness=coin_thickness
+    )
     if len(mu) != 2:
         raise ValueError(f"mu = {mu!r} is invalid: it must be (low, high)")
     if launches is None:
         launches = Launches(mu=(mu[0], mu[1]))
     elif tuple(mu) != (0.2, 0.5) and tuple(mu) != launches.mu:
-        raise ValueError(f"mu = {mu!r} differs from launches.mu = {launches.mu!r}: give "
-                         "the friction range once")
+        raise ValueError(
+            f"mu = {mu!r} differs from launches.mu = {launches.mu!r}: give "
+            "the friction range once"
+        )
     a, b, c = check_shell(a, b, c, settings)
     part = Part(a, b, c, the_coin, 0.0, 0.0, settings)
     check_coin_fits(a, b, c, part)
@@ -343,4 +421,3 @@ def design(
         d.files = write_files(d, out_dir, overwrite)
     d.seconds = time.perf_counter() - t0
     return d
-

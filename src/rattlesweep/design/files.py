@@ -26,22 +26,40 @@ if TYPE_CHECKING:
 
 __all__ = ["FILE_NAMES", "check_out", "write_files"]
 
-FILE_NAMES = ("rattleback.stl", "placement_sheet.png", "placement_sheet.pdf",
-              "reversal_map.png", "search.nc", "reversal_map.nc", "sweep.toml", "design.toml")
+FILE_NAMES = (
+    "rattleback.stl",
+    "placement_sheet.png",
+    "placement_sheet.pdf",
+    "reversal_map.png",
+    "search.nc",
+    "reversal_map.nc",
+    "sweep.toml",
+    "design.toml",
+)
 """The files a design writes."""
 
 
 def _sections(d: "Design", files: dict[str, Path]) -> dict[str, dict[str, Any]]:
     p, s, coin = d.part, d.part.settings, d.part.coin
     return {
-        "shell": {"a": p.a, "b": p.b, "c": p.c, "print_mass": d.prediction["print_mass"],
-                  "stl": files["stl"].name, "stl_units": "mm",
-                  "print_pose": "flat face down on the bed (the body turned half a turn "
-                  "about x); no supports"},
+        "shell": {
+            "a": p.a,
+            "b": p.b,
+            "c": p.c,
+            "print_mass": d.prediction["print_mass"],
+            "stl": files["stl"].name,
+            "stl_units": "mm",
+            "print_pose": "flat face down on the bed (the body turned half a turn "
+            "about x); no supports",
+        },
         "print": s.describe(),
-        "coins": {**coin.describe(), "count": 2,
-                  "centres": [[x, y, -coin.thickness / 2] for x, y in p.pockets],
-                  "pocket_diameter": 2 * p.pocket_radius, "pocket_depth": coin.thickness},
+        "coins": {
+            **coin.describe(),
+            "count": 2,
+            "centres": [[x, y, -coin.thickness / 2] for x, y in p.pockets],
+            "pocket_diameter": 2 * p.pocket_radius,
+            "pocket_depth": coin.thickness,
+        },
         "prediction": {k: v for k, v in d.prediction.items()},
         "launches": d.launches.describe(),
         "files": {k: v.name for k, v in files.items()},
@@ -53,36 +71,52 @@ def map_sweep(d: "Design") -> Sweep:
     mu = d.launches.mu
     roll, pitch = map_tilt(d.launches)
     return Sweep(
-        axes={"spin": {"start": -12.0, "stop": 12.0, "num": 41},
-              "mu": {"start": mu[0], "stop": mu[1], "num": 9} if mu[1] > mu[0]
-              else [mu[0]]},
-        fixed={"body": d.body, "t_end": d.launches.t_end,
-               "roll_deg": math.degrees(roll), "pitch_deg": math.degrees(pitch)},
-        stop="first_reversal", name="rattlesweep design: reversal map")
+        axes={
+            "spin": {"start": -12.0, "stop": 12.0, "num": 41},
+            "mu": {"start": mu[0], "stop": mu[1], "num": 9} if mu[1] > mu[0] else [mu[0]],
+        },
+        fixed={
+            "body": d.body,
+            "t_end": d.launches.t_end,
+            "roll_deg": math.degrees(roll),
+            "pitch_deg": math.degrees(pitch),
+        },
+        stop="first_reversal",
+        name="rattlesweep design: reversal map",
+    )
 
 
 def check_out(out: Path, overwrite: bool) -> None:
     """ValueError unless ``out`` is a directory that does not exist yet or is empty
     (with ``overwrite``: any directory), naming the path and what is there."""
     if out.exists() and not out.is_dir():
-        raise ValueError(f"out = {str(out)!r} is invalid: it is a file, and must be a "
-                         "directory (new or empty)")
+        raise ValueError(
+            f"out = {str(out)!r} is invalid: it is a file, and must be a "
+            "directory (new or empty)"
+        )
     if overwrite or not out.is_dir():
         return
     held = sorted(entry.name for entry in out.iterdir())
     if not held:
         return
     ours = [name for name in held if name in FILE_NAMES]
-    what = (f"a previous design ({len(ours)} of its {len(FILE_NAMES)} files: "
-            f"{', '.join(ours)})" if ours else f"{len(held)} entries")
+    what = (
+        f"a previous design ({len(ours)} of its {len(FILE_NAMES)} files: {', '.join(ours)})"
+        if ours
+        else f"{len(held)} entries"
+    )
     others = [name for name in held if name not in FILE_NAMES]
     shown = ", ".join(others[:6]) + (", ..." if len(others) > 6 else "")
     raise ValueError(
         f"out = {str(out)!r} already holds {what}"
-        + (f" and other files ({shown})" if ours and others else
-           (f": {shown}" if not ours else ""))
+        + (
+            f" and other files ({shown})"
+            if ours and others
+            else (f": {shown}" if not ours else "")
+        )
         + "; rattlesweep design does not overwrite them: give a new or empty directory, "
-        "or --force (overwrite=True in Python) to replace the design's files there")
+        "or --force (overwrite=True in Python) to replace the design's files there"
+    )
 
 
 def _write_data(ds: xr.Dataset, d: "Design", path: Path, title: str) -> Path:
@@ -91,13 +125,25 @@ def _write_data(ds: xr.Dataset, d: "Design", path: Path, title: str) -> Path:
     for name in ds.data_vars:
         if ds[name].dtype == bool:  # netCDF has no boolean type
             ds[name] = ds[name].astype(np.int8)
-    ds.attrs = {**ds.attrs, "title": title, "rattlesweep_version": __version__,
-                "part": json.dumps({"a": d.part.a, "b": d.part.b, "c": d.part.c,
-                                    "x": d.part.x, "y": d.part.y,
-                                    "coin": d.part.coin.describe(),
-                                    "print": d.part.settings.describe()}),
-                "launch_set": json.dumps(d.launches.describe()), "prefer": d.prefer,
-                "margin": d.margin}
+    ds.attrs = {
+        **ds.attrs,
+        "title": title,
+        "rattlesweep_version": __version__,
+        "part": json.dumps(
+            {
+                "a": d.part.a,
+                "b": d.part.b,
+                "c": d.part.c,
+                "x": d.part.x,
+                "y": d.part.y,
+                "coin": d.part.coin.describe(),
+                "print": d.part.settings.describe(),
+            }
+        ),
+        "launch_set": json.dumps(d.launches.describe()),
+        "prefer": d.prefer,
+        "margin": d.margin,
+    }
     return write_netcdf(ds, path)
 
 
@@ -133,30 +179,39 @@ def write_files(d: "Design", out: Path, overwrite: bool = False) -> dict[str, Pa
 def _write_all(d: "Design", out: Path) -> dict[str, Path]:
     not_robust = None if d.robust else not_robust_banner(d)
     files: dict[str, Path] = {"stl": write_stl(d.part, out / "rattleback.stl")}
-    files["sheet_png"], files["sheet_pdf"] = write_sheet(d.part, d.prefer, out,
-                                                         not_robust=not_robust)
+    files["sheet_png"], files["sheet_pdf"] = write_sheet(
+        d.part, d.prefer, out, not_robust=not_robust
+    )
     if d.reversal_map is not None:
         spins = (min(d.launches.spins), max(d.launches.spins))
-        files["reversal_map"] = write_map(d.reversal_map, d.prefer, spins,
-                                          out / "reversal_map.png", not_robust=not_robust)
-    files["search"] = _write_data(d.search.data, d, out / "search.nc",
-                                  "rattlesweep design: placement search")
+        files["reversal_map"] = write_map(
+            d.reversal_map, d.prefer, spins, out / "reversal_map.png", not_robust=not_robust
+        )
+    files["search"] = _write_data(
+        d.search.data, d, out / "search.nc", "rattlesweep design: placement search"
+    )
     if d.reversal_map is not None:
-        files["reversal_map_data"] = _write_data(d.reversal_map, d, out / "reversal_map.nc",
-                                                 "rattlesweep design: reversal map")
+        files["reversal_map_data"] = _write_data(
+            d.reversal_map, d, out / "reversal_map.nc", "rattlesweep design: reversal map"
+        )
     files["sweep"] = out / "sweep.toml"
     files["sweep"].write_text(map_sweep(d).to_toml(), encoding="ascii")
     files["design"] = out / "design.toml"
-    write_toml(design_document(d.body, _sections(d, files)), files["design"],
-               comment="rattlesweep design: a printable rattleback with coins "
-               "(rattlesweep simulate --body design.toml reads [body])")
+    write_toml(
+        design_document(d.body, _sections(d, files)),
+        files["design"],
+        comment="rattlesweep design: a printable rattleback with coins "
+        "(rattlesweep simulate --body design.toml reads [body])",
+    )
     return files
 
 
 def not_robust_banner(d: "Design") -> str:
     """Two lines for the sheet and the map of a design that is not robust."""
     pred = d.prediction
-    return (f"NOT ROBUST: read the summary's advice before you print\n"
-            f"{pred['bad_sense_reversed_fraction']:.0%} of the wrong-way launches reversed "
-            f"(all should), {pred['preferred_sense_reversed_fraction']:.0%} of the "
-            f"right-way ones (none should), within {d.launches.t_end:g} s")
+    return (
+        f"NOT ROBUST: read the summary's advice before you print\n"
+        f"{pred['bad_sense_reversed_fraction']:.0%} of the wrong-way launches reversed "
+        f"(all should), {pred['preferred_sense_reversed_fraction']:.0%} of the "
+        f"right-way ones (none should), within {d.launches.t_end:g} s"
+    )

@@ -26,8 +26,16 @@ from ..rattleback.body import Body
 from .coins import Coin
 from .printing import PrintSettings
 
-__all__ = ["Moments", "Part", "Solid", "body_of", "cylinder_moments", "moments_of",
-           "segment_moments", "solids"]
+__all__ = [
+    "Moments",
+    "Part",
+    "Solid",
+    "body_of",
+    "cylinder_moments",
+    "moments_of",
+    "segment_moments",
+    "solids",
+]
 
 
 @dataclass(frozen=True)
@@ -40,8 +48,9 @@ class Moments:
     second: np.ndarray
 
     def __add__(self, other: "Moments") -> "Moments":
-        return Moments(self.mass + other.mass, self.first + other.first,
-                       self.second + other.second)
+        return Moments(
+            self.mass + other.mass, self.first + other.first, self.second + other.second
+        )
 
     def scaled(self, k: float) -> "Moments":
         """These moments for a density ``k`` times as large."""
@@ -77,13 +86,24 @@ def segment_moments(a: float, b: float, c: float, z_low: float, z_high: float) -
     volume = area * integral(s2)
     first = np.array([0.0, 0.0, area * integral(z * s2)])
     s4 = integral(s2 * s2)
-    second = np.diag([math.pi * a**3 * b * s4 / 4.0, math.pi * a * b**3 * s4 / 4.0,
-                      area * integral(z * z * s2)])
+    second = np.diag(
+        [
+            math.pi * a**3 * b * s4 / 4.0,
+            math.pi * a * b**3 * s4 / 4.0,
+            area * integral(z * z * s2),
+        ]
+    )
     return Moments(volume, first, second)
 
 
-def cylinder_moments(radius: float, z_low: float, z_high: float, x: float = 0.0,
-                     y: float = 0.0, inner_radius: float = 0.0) -> Moments:
+def cylinder_moments(
+    radius: float,
+    z_low: float,
+    z_high: float,
+    x: float = 0.0,
+    y: float = 0.0,
+    inner_radius: float = 0.0,
+) -> Moments:
     """Unit-density moments of an upright cylinder (annulus with ``inner_radius`` > 0)
     centred on (x, y), from z_low to z_high (m)."""
     h = z_high - z_low
@@ -147,8 +167,13 @@ class Solid:
         if self.kind == "segment":
             m = segment_moments(*self.size, self.z_low, self.z_high)
         else:
-            m = cylinder_moments(self.size[0], self.z_low, self.z_high, *self.centre,
-                                 inner_radius=self.size[1])
+            m = cylinder_moments(
+                self.size[0],
+                self.z_low,
+                self.z_high,
+                *self.centre,
+                inner_radius=self.size[1],
+            )
         return m.scaled(self.density)
 
 
@@ -159,18 +184,39 @@ def solids(part: Part, *, coins: bool = True) -> list[Solid]:
     rho, w, t = s.material.density, s.wall, part.coin.thickness
     rp = part.pocket_radius
     out = [Solid("segment", (part.a, part.b, part.c), -part.c, 0.0, rho, "print")]
-    out += [Solid("cylinder", (rp, 0.0, 0.0), -t, 0.0, -rho, "print", p)
-            for p in part.pockets]
+    out += [
+        Solid("cylinder", (rp, 0.0, 0.0), -t, 0.0, -rho, "print", p) for p in part.pockets
+    ]
     void = -(1.0 - s.infill) * rho
     if void != 0.0:
-        out.append(Solid("segment", (part.a - w, part.b - w, part.c - w), -(part.c - w), -w,
-                         void, "core"))
-        out += [Solid("cylinder", (rp + w, 0.0, 0.0), -(t + w), -w, -void, "core", p)
-                for p in part.pockets]
+        out.append(
+            Solid(
+                "segment",
+                (part.a - w, part.b - w, part.c - w),
+                -(part.c - w),
+                -w,
+                void,
+                "core",
+            )
+        )
+        out += [
+            Solid("cylinder", (rp + w, 0.0, 0.0), -(t + w), -w, -void, "core", p)
+            for p in part.pockets
+        ]
     if coins:
         coin = part.coin
-        out += [Solid("cylinder", (coin.diameter / 2, coin.inner_diameter / 2, 0.0), -t,
-                      0.0, coin.density, "coins", p) for p in part.pockets]
+        out += [
+            Solid(
+                "cylinder",
+                (coin.diameter / 2, coin.inner_diameter / 2, 0.0),
+                -t,
+                0.0,
+                coin.density,
+                "coins",
+                p,
+            )
+            for p in part.pockets
+        ]
     return out
 
 

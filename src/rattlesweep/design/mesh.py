@@ -25,8 +25,16 @@ from .mass import Moments, Part
 if TYPE_CHECKING:
     from trimesh import Trimesh
 
-__all__ = ["PRINT_FROM_BODY", "coin_meshes", "core_mesh", "mesh_moments", "part_mesh",
-           "moments_of_mesh", "segment_mesh", "write_stl"]
+__all__ = [
+    "PRINT_FROM_BODY",
+    "coin_meshes",
+    "core_mesh",
+    "mesh_moments",
+    "part_mesh",
+    "moments_of_mesh",
+    "segment_mesh",
+    "write_stl",
+]
 
 PRINT_FROM_BODY = np.diag([1000.0, -1000.0, -1000.0, 1.0])
 """Homogeneous transform from the body frame (m) to the STL's print pose (mm): half a
@@ -44,8 +52,9 @@ _OVERCUT = 1e-3  # cutters reach this far (m) past the face they open, for clean
 def _ring_vertices(a: float, b: float, c: float, theta: np.ndarray) -> np.ndarray:
     phi = np.linspace(0.0, 2.0 * math.pi, SECTIONS, endpoint=False)
     st, ct = np.sin(theta)[:, None], np.cos(theta)[:, None]
-    return np.stack([a * st * np.cos(phi), b * st * np.sin(phi),
-                     -c * ct * np.ones_like(phi)], axis=-1).reshape(-1, 3)
+    return np.stack(
+        [a * st * np.cos(phi), b * st * np.sin(phi), -c * ct * np.ones_like(phi)], axis=-1
+    ).reshape(-1, 3)
 
 
 def segment_mesh(a: float, b: float, c: float, z_top: float) -> "Trimesh":
@@ -73,17 +82,24 @@ def segment_mesh(a: float, b: float, c: float, z_top: float) -> "Trimesh":
     return mesh
 
 
-def _cylinder(radius: float, z_low: float, z_high: float, x: float, y: float,
-              inner_radius: float = 0.0) -> "Trimesh":
+def _cylinder(
+    radius: float,
+    z_low: float,
+    z_high: float,
+    x: float,
+    y: float,
+    inner_radius: float = 0.0,
+) -> "Trimesh":
     import trimesh
 
-    transform = trimesh.transformations.translation_matrix(
-        [x, y, 0.5 * (z_low + z_high)])
+    transform = trimesh.transformations.translation_matrix([x, y, 0.5 * (z_low + z_high)])
     if inner_radius > 0.0:
-        return trimesh.creation.annulus(inner_radius, radius, z_high - z_low,
-                                        sections=SECTIONS, transform=transform)
-    return trimesh.creation.cylinder(radius, z_high - z_low, sections=SECTIONS,
-                                     transform=transform)
+        return trimesh.creation.annulus(
+            inner_radius, radius, z_high - z_low, sections=SECTIONS, transform=transform
+        )
+    return trimesh.creation.cylinder(
+        radius, z_high - z_low, sections=SECTIONS, transform=transform
+    )
 
 
 def _difference(base: "Trimesh", cutters: list["Trimesh"]) -> "Trimesh":
@@ -99,8 +115,9 @@ def part_mesh(part: Part) -> "Trimesh":
     """The printed part in the body frame (m): the semi-ellipsoid less its pockets."""
     t = part.coin.thickness
     outer = segment_mesh(part.a, part.b, part.c, 0.0)
-    return _difference(outer, [_cylinder(part.pocket_radius, -t, _OVERCUT, x, y)
-                               for x, y in part.pockets])
+    return _difference(
+        outer, [_cylinder(part.pocket_radius, -t, _OVERCUT, x, y) for x, y in part.pockets]
+    )
 
 
 def core_mesh(part: Part) -> "Trimesh":
@@ -108,15 +125,22 @@ def core_mesh(part: Part) -> "Trimesh":
     wall less the solid surround of each pocket."""
     w, t = part.settings.wall, part.coin.thickness
     inner = segment_mesh(part.a - w, part.b - w, part.c - w, -w)
-    return _difference(inner, [_cylinder(part.pocket_radius + w, -(t + w), -w + _OVERCUT,
-                                         x, y) for x, y in part.pockets])
+    return _difference(
+        inner,
+        [
+            _cylinder(part.pocket_radius + w, -(t + w), -w + _OVERCUT, x, y)
+            for x, y in part.pockets
+        ],
+    )
 
 
 def coin_meshes(part: Part) -> list["Trimesh"]:
     """The coins in their pockets, body frame (m)."""
     coin = part.coin
-    return [_cylinder(coin.diameter / 2, -coin.thickness, 0.0, x, y,
-                      coin.inner_diameter / 2) for x, y in part.pockets]
+    return [
+        _cylinder(coin.diameter / 2, -coin.thickness, 0.0, x, y, coin.inner_diameter / 2)
+        for x, y in part.pockets
+    ]
 
 
 def moments_of_mesh(mesh: "Trimesh", density: float) -> Moments:
@@ -136,7 +160,9 @@ def mesh_moments(part: Part) -> Moments:
     rho = part.settings.material.density
     total = moments_of_mesh(part_mesh(part), rho)
     if part.settings.infill < 1.0:
-        total = total + moments_of_mesh(core_mesh(part), -(1.0 - part.settings.infill) * rho)
+        total = total + moments_of_mesh(
+            core_mesh(part), -(1.0 - part.settings.infill) * rho
+        )
     for coin in coin_meshes(part):
         total = total + moments_of_mesh(coin, part.coin.density)
     return total

@@ -22,8 +22,14 @@ import math
 from dataclasses import dataclass
 from typing import Callable
 
-__all__ = ["MATERIALS", "Material", "PrintSettings", "material_preset", "millimetres_hint",
-           "require"]
+__all__ = [
+    "MATERIALS",
+    "Material",
+    "PrintSettings",
+    "material_preset",
+    "millimetres_hint",
+    "require",
+]
 
 
 @dataclass(frozen=True)
@@ -35,14 +41,24 @@ class Material:
     source: str
 
 
-MATERIALS: dict[str, Material] = {m.name: m for m in (
-    Material("pla", 1240.0, "NatureWorks Ingeo 4043D technical data sheet: specific "
-             "gravity 1.24"),
-    Material("petg", 1270.0, "Eastman Eastar copolyester 6763 data sheet: specific "
-             "gravity 1.27"),
-    Material("abs", 1040.0, "typical ABS, e.g. INEOS Terluran GP-22 data sheet: "
-             "1040 kg/m^3"),
-)}
+MATERIALS: dict[str, Material] = {
+    m.name: m
+    for m in (
+        Material(
+            "pla",
+            1240.0,
+            "NatureWorks Ingeo 4043D technical data sheet: specific gravity 1.24",
+        ),
+        Material(
+            "petg",
+            1270.0,
+            "Eastman Eastar copolyester 6763 data sheet: specific gravity 1.27",
+        ),
+        Material(
+            "abs", 1040.0, "typical ABS, e.g. INEOS Terluran GP-22 data sheet: 1040 kg/m^3"
+        ),
+    )
+}
 """Named printing materials with their densities and sources."""
 
 
@@ -51,13 +67,20 @@ def material_preset(name: str) -> Material:
     try:
         return MATERIALS[name]
     except KeyError:
-        raise ValueError(f"material {name!r} is unknown; choose one of {sorted(MATERIALS)} "
-                         "or give its density (--density KG_M3; from Python, "
-                         "density=...)") from None
+        raise ValueError(
+            f"material {name!r} is unknown; choose one of {sorted(MATERIALS)} "
+            "or give its density (--density KG_M3; from Python, "
+            "density=...)"
+        ) from None
 
 
-def require(name: str, value: object, rule: str, test: Callable[[float], bool],
-            hint: Callable[[float], str | None] | None = None) -> float:
+def require(
+    name: str,
+    value: object,
+    rule: str,
+    test: Callable[[float], bool],
+    hint: Callable[[float], str | None] | None = None,
+) -> float:
     """``value`` as a float when it is a finite number passing ``test``; otherwise a
     ValueError naming the parameter, the value and the rule, and what ``hint`` says of
     the value (a likely mistake of units) when it says something."""
@@ -67,18 +90,22 @@ def require(name: str, value: object, rule: str, test: Callable[[float], bool],
         v = math.nan
     if isinstance(value, bool) or not math.isfinite(v) or not test(v):
         extra = hint(v) if hint is not None and math.isfinite(v) else None
-        raise ValueError(f"{name} = {value!r} is invalid: it must be {rule}"
-                         + (f"; {extra}" if extra else ""))
+        raise ValueError(
+            f"{name} = {value!r} is invalid: it must be {rule}"
+            + (f"; {extra}" if extra else "")
+        )
     return v
 
 
 def millimetres_hint(test: Callable[[float], bool]) -> Callable[[float], str | None]:
     """A hint for :func:`require`: the value looks like millimetres when a thousandth of
     it passes ``test``."""
+
     def hint(v: float) -> str | None:
         if v > 0 and test(v * 1e-3):
             return f"{v:g} looks like millimetres: give metres, e.g. {v * 1e-3:g}"
         return None
+
     return hint
 
 
@@ -115,22 +142,46 @@ class PrintSettings:
     rim: float = 2.0e-3
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "infill", require(
-            "infill", self.infill, "a fraction in (0, 1]", lambda v: 0 < v <= 1,
-            _percent_hint))
+        object.__setattr__(
+            self,
+            "infill",
+            require(
+                "infill",
+                self.infill,
+                "a fraction in (0, 1]",
+                lambda v: 0 < v <= 1,
+                _percent_hint,
+            ),
+        )
         for name, top in (("wall", 0.02), ("clearance", 0.005), ("rim", 0.05)):
             low = "> 0" if name == "wall" else ">= 0"
 
             def test(v: float, low: str = low, top: float = top) -> bool:
                 return (v > 0 if low == "> 0" else v >= 0) and v <= top
-            value = require(name, getattr(self, name), f"{low} and at most {top} m (SI "
-                            "units: m)", test, millimetres_hint(test))
+
+            value = require(
+                name,
+                getattr(self, name),
+                f"{low} and at most {top} m (SI units: m)",
+                test,
+                millimetres_hint(test),
+            )
             object.__setattr__(self, name, value)
-        require("material density", self.material.density, "a finite number > 0 (kg/m^3)",
-                lambda v: v > 0)
+        require(
+            "material density",
+            self.material.density,
+            "a finite number > 0 (kg/m^3)",
+            lambda v: v > 0,
+        )
 
     def describe(self) -> dict[str, object]:
         """Plain-number description (SI units)."""
-        return {"material": self.material.name, "density": self.material.density,
-                "density_source": self.material.source, "infill": self.infill,
-                "wall": self.wall, "clearance": self.clearance, "rim": self.rim}
+        return {
+            "material": self.material.name,
+            "density": self.material.density,
+            "density_source": self.material.source,
+            "infill": self.infill,
+            "wall": self.wall,
+            "clearance": self.clearance,
+            "rim": self.rim,
+        }

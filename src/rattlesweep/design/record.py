@@ -43,12 +43,19 @@ def load_body(path: str | Path) -> Body:
     """The :class:`~rattlesweep.Body` of a ``design.toml`` (its ``[body]`` table)."""
     data = read_toml(Path(path))
     if "body" not in data:
-        raise ValueError(f"{path}: no [body] table; expected a design.toml written by "
-                         "rattlesweep design")
+        raise ValueError(
+            f"{path}: no [body] table; expected a design.toml written by rattlesweep design"
+        )
     return body_from_table(data["body"], f"{path}: body")
 
 
-def design_document(body: Body, sections: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
+def design_document(
+    body: Body, sections: Mapping[str, Mapping[str, Any]]
+) -> dict[str, Any]:
     """The design.toml document: version, the body table, then ``sections``."""
-    return {"rattlesweep_version": __version__, "units": "SI (m, kg, s, rad/s)",
-            "body": body_table(body), **sections}
+    return {
+        "rattlesweep_version": __version__,
+        "units": "SI (m, kg, s, rad/s)",
+        "body": body_table(body),
+        **sections,
+    }

@@ -35,8 +35,10 @@ SENSES = ("ccw", "cw")
 def bad_sign(prefer: str) -> float:
     """The sign of the spin n that must reverse when ``prefer`` is the preferred sense."""
     if prefer not in SENSES:
-        raise ValueError(f"prefer = {prefer!r} is invalid: it must be one of {SENSES} "
-                         "(the sense, seen from above, in which the rattleback spins on)")
+        raise ValueError(
+            f"prefer = {prefer!r} is invalid: it must be one of {SENSES} "
+            "(the sense, seen from above, in which the rattleback spins on)"
+        )
     return 1.0 if prefer == "cw" else -1.0
 
 
@@ -62,8 +64,10 @@ class Launches:
 
     spins: tuple[float, ...] = (3.0, 5.0, 7.0, 10.0)
     tilts: tuple[tuple[float, float], ...] = (
-        (math.radians(0.8), 0.0), (0.0, math.radians(0.8)),
-        (math.radians(0.2), math.radians(0.2)))
+        (math.radians(0.8), 0.0),
+        (0.0, math.radians(0.8)),
+        (math.radians(0.2), math.radians(0.2)),
+    )
     mu: tuple[float, float] = (0.2, 0.5)
     n_mu: int = 3
     t_end: float = 15.0
@@ -71,31 +75,43 @@ class Launches:
     def __post_init__(self) -> None:
         if not self.spins:
             raise ValueError("spins = () is invalid: give at least one spin (rad/s)")
-        spins = tuple(require("spins", s, "finite and > 0 (rad/s)", lambda v: v > 0)
-                      for s in self.spins)
+        spins = tuple(
+            require("spins", s, "finite and > 0 (rad/s)", lambda v: v > 0)
+            for s in self.spins
+        )
         object.__setattr__(self, "spins", spins)
         if not self.tilts:
             raise ValueError("tilts = () is invalid: give at least one (roll, pitch) (rad)")
         for roll, pitch in self.tilts:
-            require("tilt", math.hypot(roll, pitch), "below 1 degree (0.01745 rad)",
-                    lambda v: v < math.radians(1.0))
+            require(
+                "tilt",
+                math.hypot(roll, pitch),
+                "below 1 degree (0.01745 rad)",
+                lambda v: v < math.radians(1.0),
+            )
         if len(self.mu) != 2:
             raise ValueError(f"mu = {self.mu!r} is invalid: it must be (low, high)")
         low = require("mu low", self.mu[0], "finite and > 0", lambda v: v > 0)
-        high = require("mu high", self.mu[1], f"finite and >= mu low ({low!r})",
-                       lambda v: v >= low)
+        high = require(
+            "mu high", self.mu[1], f"finite and >= mu low ({low!r})", lambda v: v >= low
+        )
         object.__setattr__(self, "mu", (low, high))
         n = self.n_mu
         if not (isinstance(n, int) and n >= 1 and (n >= 2 or low == high)):
-            raise ValueError(f"n_mu = {n!r} is invalid: it must be an integer >= 2 (1 when "
-                             "mu low equals mu high)")
+            raise ValueError(
+                f"n_mu = {n!r} is invalid: it must be an integer >= 2 (1 when "
+                "mu low equals mu high)"
+            )
         require("t_end", self.t_end, "finite and > 0 (s)", lambda v: v > 0)
 
     @property
     def mus(self) -> np.ndarray:
         """The friction values launched."""
-        return np.linspace(self.mu[0], self.mu[1], self.n_mu) if self.n_mu > 1 else \
-            np.array([self.mu[0]])
+        return (
+            np.linspace(self.mu[0], self.mu[1], self.n_mu)
+            if self.n_mu > 1
+            else np.array([self.mu[0]])
+        )
 
     @property
     def size(self) -> int:
@@ -104,9 +120,13 @@ class Launches:
 
     def describe(self) -> dict[str, object]:
         """Plain-number description (rad/s, degrees, s)."""
-        return {"spins": list(self.spins),
-                "tilts_deg": [[math.degrees(r), math.degrees(p)] for r, p in self.tilts],
-                "mu": list(self.mu), "n_mu": self.n_mu, "t_end": self.t_end}
+        return {
+            "spins": list(self.spins),
+            "tilts_deg": [[math.degrees(r), math.degrees(p)] for r, p in self.tilts],
+            "mu": list(self.mu),
+            "n_mu": self.n_mu,
+            "t_end": self.t_end,
+        }
 
 
 def evaluate(bodies: list[Body], launches: Launches, prefer: str) -> xr.Dataset:
@@ -126,39 +146,79 @@ def evaluate(bodies: list[Body], launches: Launches, prefer: str) -> xr.Dataset:
     pitch = np.array([t[1] for t in launches.tilts])
     b = np.empty(len(bodies), dtype=object)
     b[:] = bodies
-    ds = run_batch(b[:, None, None, None, None], spin=spin[None, :, :, None, None],
-                   mu=mus[None, None, None, :, None], roll=roll[None, None, None, None, :],
-                   pitch=pitch[None, None, None, None, :], t_end=launches.t_end,
-                   stop="first_reversal")
+    ds = run_batch(
+        b[:, None, None, None, None],
+        spin=spin[None, :, :, None, None],
+        mu=mus[None, None, None, :, None],
+        roll=roll[None, None, None, None, :],
+        pitch=pitch[None, None, None, None, :],
+        t_end=launches.t_end,
+        stop="first_reversal",
+    )
     shape = (len(bodies), 2, len(spins), len(mus), len(roll))
     t = ds.first_reversal_time.values.reshape(shape)
     ok = ds.status.values.reshape(shape) == 0
     t = np.where(ok, t, np.nan)
     reversed_ = np.isfinite(t)
-    bad, good = reversed_[:, 0].reshape(len(bodies), -1), reversed_[:, 1].reshape(
-        len(bodies), -1)
+    bad, good = (
+        reversed_[:, 0].reshape(len(bodies), -1),
+        reversed_[:, 1].reshape(len(bodies), -1),
+    )
     times = t[:, 0].reshape(len(bodies), -1)
     worst = np.max(np.where(np.isfinite(times), times, np.inf), axis=1)
     out = xr.Dataset(
-        {"first_reversal_time": (("candidate", "sense", "spin", "mu", "tilt"), t,
-                                 {"units": "s", "long_name": "first reversal time (NaN: "
-                                  "none within t_end, or not ok)"}),
-         "worst_bad_time": ("candidate", worst, {"units": "s", "long_name":
-                            "slowest first reversal in the bad sense (inf: some did not)"}),
-         "bad_reversed": ("candidate", bad.mean(axis=1), {"units": "1", "long_name":
-                          "fraction of bad-sense launches that reversed"}),
-         "good_reversed": ("candidate", good.mean(axis=1), {"units": "1", "long_name":
-                           "fraction of preferred-sense launches that reversed"})},
-        coords={"sense": ("sense", ["bad", "good"], {"long_name": "sense of the launch "
-                          "spin: bad (must reverse) or good (the preferred sense)"}),
-                "spin": ("spin", spins, {"units": "rad s-1", "long_name":
-                         "spin magnitude"}),
-                "mu": ("mu", mus, {"units": "1", "long_name": "friction coefficient"}),
-                "tilt": [f"roll {math.degrees(r):.2g} deg, pitch {math.degrees(p):.2g} deg"
-                         for r, p in launches.tilts]})
+        {
+            "first_reversal_time": (
+                ("candidate", "sense", "spin", "mu", "tilt"),
+                t,
+                {
+                    "units": "s",
+                    "long_name": "first reversal time (NaN: none within t_end, or not ok)",
+                },
+            ),
+            "worst_bad_time": (
+                "candidate",
+                worst,
+                {
+                    "units": "s",
+                    "long_name": "slowest first reversal in the bad sense (inf: some did not)",
+                },
+            ),
+            "bad_reversed": (
+                "candidate",
+                bad.mean(axis=1),
+                {"units": "1", "long_name": "fraction of bad-sense launches that reversed"},
+            ),
+            "good_reversed": (
+                "candidate",
+                good.mean(axis=1),
+                {
+                    "units": "1",
+                    "long_name": "fraction of preferred-sense launches that reversed",
+                },
+            ),
+        },
+        coords={
+            "sense": (
+                "sense",
+                ["bad", "good"],
+                {
+                    "long_name": "sense of the launch "
+                    "spin: bad (must reverse) or good (the preferred sense)"
+                },
+            ),
+            "spin": ("spin", spins, {"units": "rad s-1", "long_name": "spin magnitude"}),
+            "mu": ("mu", mus, {"units": "1", "long_name": "friction coefficient"}),
+            "tilt": [
+                f"roll {math.degrees(r):.2g} deg, pitch {math.degrees(p):.2g} deg"
+                for r, p in launches.tilts
+            ],
+        },
+    )
     out["robust"] = (out.bad_reversed == 1.0) & (out.good_reversed == 0.0)
-    out["robust"].attrs = {"long_name": "every bad-sense launch reversed and no "
-                           "preferred-sense launch did"}
+    out["robust"].attrs = {
+        "long_name": "every bad-sense launch reversed and no preferred-sense launch did"
+    }
     out.attrs["launches"] = int(ds.sizes["trajectory"])
     return out
 
@@ -192,8 +252,9 @@ def _rank(ds: xr.Dataset) -> np.ndarray:
     return np.lexsort((worst, -right, ~ds.robust.values))
 
 
-def _feasible(part: Part, points: list[tuple[float, float]], seen: set[tuple[float, float]]
-              ) -> list[tuple[float, float]]:
+def _feasible(
+    part: Part, points: list[tuple[float, float]], seen: set[tuple[float, float]]
+) -> list[tuple[float, float]]:
     out = []
     for x, y in points:
         key = (round(x, 9), round(y, 9))
@@ -211,8 +272,15 @@ def _span(part: Part, x: float, y_sign: float, n: int = 400) -> tuple[float, flo
     return (float(min(ok)), float(max(ok))) if ok else None
 
 
-def search(part: Part, launches: Launches, prefer: str, *, grid: tuple[int, int] = (10, 6),
-           refine: int = 2, progress: Callable[[str], None] | None = None) -> SearchResult:
+def search(
+    part: Part,
+    launches: Launches,
+    prefer: str,
+    *,
+    grid: tuple[int, int] = (10, 6),
+    refine: int = 2,
+    progress: Callable[[str], None] | None = None,
+) -> SearchResult:
     """Search coin placements for ``part`` (its own x, y are ignored): a grid of
     ``grid`` = (nx, ny) points over the quarter of the flat face where the preferred
     sense comes out (x > 0, y of the sign that makes it): nx columns across x, each
@@ -244,23 +312,38 @@ def search(part: Part, launches: Launches, prefer: str, *, grid: tuple[int, int]
             f"({2 * part.pocket_radius * 1e3:.3g} mm) cannot sit off the long axis of this "
             f"flat face ({2 * part.a * 1e3:.4g} x {2 * part.b * 1e3:.4g} mm) with the rim "
             f"({part.settings.rim * 1e3:g} mm) and the walls around it; use a smaller coin "
-            "or a wider shell (b)")
+            "or a wider shell (b)"
+        )
     tables, total, level = [], 0, 0
     while True:
         if progress is not None:
             what = "searching" if level == 0 else f"refining (level {level} of {refine}):"
             progress(f"{what} {len(points)} placements x {launches.size} launches...")
-        bodies = [body_of(part.at(x, y), name=f"x={x * 1e3:.2f}mm,y={y * 1e3:.2f}mm")
-                  for x, y in points]
+        bodies = [
+            body_of(part.at(x, y), name=f"x={x * 1e3:.2f}mm,y={y * 1e3:.2f}mm")
+            for x, y in points
+        ]
         ev = evaluate(bodies, launches, prefer)
         total += ev.attrs["launches"]
-        tables.append(ev.assign_coords(
-            x=("candidate", [p[0] for p in points], {"units": "m", "long_name":
-               "x of the first pocket's centre"}),
-            y=("candidate", [p[1] for p in points], {"units": "m", "long_name":
-               "y of the first pocket's centre"}),
-            level=("candidate", np.full(len(points), level), {"long_name":
-                   "refinement level"})))
+        tables.append(
+            ev.assign_coords(
+                x=(
+                    "candidate",
+                    [p[0] for p in points],
+                    {"units": "m", "long_name": "x of the first pocket's centre"},
+                ),
+                y=(
+                    "candidate",
+                    [p[1] for p in points],
+                    {"units": "m", "long_name": "y of the first pocket's centre"},
+                ),
+                level=(
+                    "candidate",
+                    np.full(len(points), level),
+                    {"long_name": "refinement level"},
+                ),
+            )
+        )
         data = xr.concat(tables, dim="candidate", data_vars="all")
         best = data.isel(candidate=int(_rank(data)[0]))
         if level == refine:
@@ -268,15 +351,27 @@ def search(part: Part, launches: Launches, prefer: str, *, grid: tuple[int, int]
         level += 1
         bx, by = float(best.x), float(best.y)
         sx, sy = hx / 2**level, hy / 2**level
-        points = _feasible(part, [(bx + i * sx, by + j * sy) for i in (-1, 0, 1)
-                                  for j in (-1, 0, 1) if i or j], seen)
+        points = _feasible(
+            part,
+            [(bx + i * sx, by + j * sy) for i in (-1, 0, 1) for j in (-1, 0, 1) if i or j],
+            seen,
+        )
         if not points:
             break
-    data.attrs = {"launches": total, "prefer": prefer, "best_candidate": int(_rank(data)[0])}
+    data.attrs = {
+        "launches": total,
+        "prefer": prefer,
+        "best_candidate": int(_rank(data)[0]),
+    }
     table = data.drop_dims(["sense", "spin", "mu", "tilt"])
     chosen = part.at(float(best.x), float(best.y))
-    notes = [] if bool(best.robust) else [
-        f"no placement tried is robust: the best reverses {float(best.bad_reversed):.0%} "
-        f"of the bad-sense launches and {float(best.good_reversed):.0%} of the "
-        f"preferred-sense ones within {launches.t_end:g} s"]
+    notes = (
+        []
+        if bool(best.robust)
+        else [
+            f"no placement tried is robust: the best reverses {float(best.bad_reversed):.0%} "
+            f"of the bad-sense launches and {float(best.good_reversed):.0%} of the "
+            f"preferred-sense ones within {launches.t_end:g} s"
+        ]
+    )
     return SearchResult(chosen, data, table, best, total, level, notes)

@@ -55,25 +55,36 @@ def placement_sheet(part: Part, prefer: str, not_robust: str | None = None) -> "
         ax.add_patch(Circle((x, y0 + y), r_pocket, fill=False, lw=0.5, ls=":", color="k"))
         ax.add_patch(Circle((x, y0 + y), r_coin, color="#d4a017", alpha=0.45, lw=0.6))
         if part.coin.inner_diameter > 0:
-            ax.add_patch(Circle((x, y0 + y), part.coin.inner_diameter / 2 * 1e3,
-                                color="white", lw=0.4))
+            ax.add_patch(
+                Circle(
+                    (x, y0 + y), part.coin.inner_diameter / 2 * 1e3, color="white", lw=0.4
+                )
+            )
         ax.plot([x - 2, x + 2], [y0 + y, y0 + y], color="k", lw=0.5)
         ax.plot([x, x], [y0 + y - 2, y0 + y + 2], color="k", lw=0.5)
         # outside the face on the coin's side, so the text never crosses the outline
         side = 1.0 if y > 0 else -1.0
         y_text = y0 + side * (b + 3.0)
-        ax.plot([x, x], [y0 + y + side * r_coin, y_text - side * 0.8], color="0.5",
-                lw=0.4)
-        ax.text(x, y_text, f"coin centre ({x:+.1f}, {y:+.1f}) mm", fontsize=6,
-                ha="center", va="bottom" if side > 0 else "top")
+        ax.plot([x, x], [y0 + y + side * r_coin, y_text - side * 0.8], color="0.5", lw=0.4)
+        ax.text(
+            x,
+            y_text,
+            f"coin centre ({x:+.1f}, {y:+.1f}) mm",
+            fontsize=6,
+            ha="center",
+            va="bottom" if side > 0 else "top",
+        )
     # preferred sense: an arc arrow seen from above (angles grow counter-clockwise)
     sign = 1.0 if prefer == "ccw" else -1.0
     rr = min(6.0, 0.3 * b)
     ang = 0.5 * math.pi + sign * np.linspace(0.0, 1.5 * math.pi, 40)
     ax.plot(rr * np.cos(ang[:-1]), y0 + rr * np.sin(ang[:-1]), color="tab:blue", lw=0.8)
-    ax.annotate("", xy=(rr * math.cos(ang[-1]), y0 + rr * math.sin(ang[-1])),
-                xytext=(rr * math.cos(ang[-4]), y0 + rr * math.sin(ang[-4])),
-                arrowprops={"arrowstyle": "-|>", "color": "tab:blue", "lw": 0.8})
+    ax.annotate(
+        "",
+        xy=(rr * math.cos(ang[-1]), y0 + rr * math.sin(ang[-1])),
+        xytext=(rr * math.cos(ang[-4]), y0 + rr * math.sin(ang[-4])),
+        arrowprops={"arrowstyle": "-|>", "color": "tab:blue", "lw": 0.8},
+    )
     yt = -height / 2 + _TEXT - 6
     coin = part.coin
     lines = [
@@ -87,10 +98,26 @@ def placement_sheet(part: Part, prefer: str, not_robust: str | None = None) -> "
     for i, line in enumerate(lines):
         ax.text(-width / 2 + _MARGIN, yt - 4 * i, line, fontsize=5.5, va="top")
     if not_robust:
-        ax.text(0, height / 2 - 3, not_robust, fontsize=7, color="red", fontweight="bold",
-                ha="center", va="top")
-        ax.add_patch(Rectangle((-width / 2 + 1, -height / 2 + 1), width - 2, height - 2,
-                               fill=False, color="red", lw=2.0))
+        ax.text(
+            0,
+            height / 2 - 3,
+            not_robust,
+            fontsize=7,
+            color="red",
+            fontweight="bold",
+            ha="center",
+            va="top",
+        )
+        ax.add_patch(
+            Rectangle(
+                (-width / 2 + 1, -height / 2 + 1),
+                width - 2,
+                height - 2,
+                fill=False,
+                color="red",
+                lw=2.0,
+            )
+        )
     xb, yb = -width / 2 + _MARGIN, -height / 2 + 6
     ax.plot([xb, xb + _SCALE_BAR], [yb, yb], color="k", lw=1.0)
     for xt in (xb, xb + _SCALE_BAR):
@@ -99,8 +126,9 @@ def placement_sheet(part: Part, prefer: str, not_robust: str | None = None) -> "
     return fig
 
 
-def write_sheet(part: Part, prefer: str, directory: Path, dpi: int = 300,
-                not_robust: str | None = None) -> tuple[Path, Path]:
+def write_sheet(
+    part: Part, prefer: str, directory: Path, dpi: int = 300, not_robust: str | None = None
+) -> tuple[Path, Path]:
     """Write ``placement_sheet.png`` (``dpi`` recorded in the file) and
     ``placement_sheet.pdf`` into ``directory``; returns their paths."""
     fig = placement_sheet(part, prefer, not_robust)

@@ -32,9 +32,13 @@ def _bind(host: str, port: int, **kwargs: Any) -> Server:
         return Server(host, port, **kwargs)
     except OSError as exc:
         if exc.errno == errno.EADDRINUSE:
-            raise PortInUse(errno.EADDRINUSE, f"port {port} is in use: choose another with "
-                            "--port, or --port 0 for any free port") from None
+            raise PortInUse(
+                errno.EADDRINUSE,
+                f"port {port} is in use: choose another with "
+                "--port, or --port 0 for any free port",
+            ) from None
         raise
+
 
 _NOTEBOOK_SERVER: Server | None = None
 
@@ -49,14 +53,19 @@ def warm() -> float:
 
     t0 = time.perf_counter()
     simulate(Body.preset("toy"), spin=-5.0, roll=0.01, mu=0.3, t_end=0.01)
-    sweep = Sweep(axes={"spin": [-5.0, 5.0]}, fixed={"t_end": 0.01},
-                  stop="first_reversal")
+    sweep = Sweep(axes={"spin": [-5.0, 5.0]}, fixed={"t_end": 0.01}, stop="first_reversal")
     compute_points(sweep, np.arange(2, dtype=np.int64))
     return time.perf_counter() - t0
 
 
-def serve(host: str = "127.0.0.1", port: int = 8050, *, open_browser: bool = True,
-          caps: Caps | None = None, workers: int | None = None) -> None:
+def serve(
+    host: str = "127.0.0.1",
+    port: int = 8050,
+    *,
+    open_browser: bool = True,
+    caps: Caps | None = None,
+    workers: int | None = None,
+) -> None:
     """Warm the kernels, start the server, print its address, open the browser and serve
     until interrupted (Ctrl-C); what ``rattlesweep explore`` runs.
 
@@ -80,17 +89,23 @@ def serve(host: str = "127.0.0.1", port: int = 8050, *, open_browser: bool = Tru
         The port is taken (checked before the kernels are warmed).
     """
     server = _bind(host, port, caps=caps, workers=workers)
-    print("rattlesweep explore: warming the kernels (on the first run after installing "
-          "this compiles them, which takes about a minute or two; later starts take "
-          "seconds)...", flush=True)
+    print(
+        "rattlesweep explore: warming the kernels (on the first run after installing "
+        "this compiles them, which takes about a minute or two; later starts take "
+        "seconds)...",
+        flush=True,
+    )
     try:
         print(f"kernels ready ({warm():.1f} s)", flush=True)
     except BaseException:
         server.server_close()
         raise
     if host not in LOCAL_HOSTS:
-        print(f"warning: listening on {host}: anyone who can reach this address can use "
-              "the explorer (and the CPU time it spends)", flush=True)
+        print(
+            f"warning: listening on {host}: anyone who can reach this address can use "
+            "the explorer (and the CPU time it spends)",
+            flush=True,
+        )
     print(f"rattlesweep explore: serving at {server.url} (Ctrl-C to stop)", flush=True)
     if open_browser:
         webbrowser.open(server.url)
@@ -109,8 +124,10 @@ class _Frame:
         self.url, self.height = url, height
 
     def _repr_html_(self) -> str:
-        return (f'<iframe src="{self.url}" width="100%" height="{self.height}" '
-                'style="border:0"></iframe>')
+        return (
+            f'<iframe src="{self.url}" width="100%" height="{self.height}" '
+            'style="border:0"></iframe>'
+        )
 
     def __repr__(self) -> str:
         return f"rattlesweep explorer at {self.url}"
@@ -139,13 +156,18 @@ def show(height: int = 900, *, port: int = 0, caps: Caps | None = None) -> Any:
         warm()
         _NOTEBOOK_SERVER = start("127.0.0.1", port, caps=caps)
     if not _in_ipython():
-        print(f"rattlesweep explore: serving at {_NOTEBOOK_SERVER.url} while this Python "
-              "runs (outside a notebook nothing shows the page inline: use `rattlesweep "
-              "explore` from a shell, or call explore.serve() to block)", flush=True)
+        print(
+            f"rattlesweep explore: serving at {_NOTEBOOK_SERVER.url} while this Python "
+            "runs (outside a notebook nothing shows the page inline: use `rattlesweep "
+            "explore` from a shell, or call explore.serve() to block)",
+            flush=True,
+        )
     return _Frame(_NOTEBOOK_SERVER.url, int(height) if math.isfinite(height) else 900)
 
 
 def _in_ipython() -> bool:
     """Whether an IPython shell (a notebook's kernel included) is running."""
     ipython = sys.modules.get("IPython")
-    return ipython is not None and getattr(ipython, "get_ipython", lambda: None)() is not None
+    return (
+        ipython is not None and getattr(ipython, "get_ipython", lambda: None)() is not None
+    )

@@ -51,12 +51,16 @@ class Caps:
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
 
-    def check(self, name: str, value: float, cap: str, unit: str = "",
-              control: str | None = None) -> None:
+    def check(
+        self, name: str, value: float, cap: str, unit: str = "", control: str | None = None
+    ) -> None:
         """Raise :class:`CapExceeded` when ``value`` of input ``name`` exceeds the cap
         ``cap`` (an attribute name); ``control`` is the page's control it belongs to."""
         limit = getattr(self, cap)
         if value > limit:
             units = f" {unit}" if unit else ""
-            raise CapExceeded(f"{name} = {value:g}{units} exceeds the explorer's cap "
-                              f"{cap} = {limit:g}{units}", control)
+            raise CapExceeded(
+                f"{name} = {value:g}{units} exceeds the explorer's cap "
+                f"{cap} = {limit:g}{units}",
+                control,
+            )

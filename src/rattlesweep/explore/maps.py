@@ -30,15 +30,22 @@ class MapJob:
         self.sweep = sweep
         self.fine = sweep.finest()
         refine = sweep.refine or {"levels": 0, "axes": list(sweep.dims)}
-        self.levels = Levels(self.fine.shape,
-                             # the refined axes by their inputs' names (spin), the
-                             # dimensions by the results' (launch_spin)
-                             tuple(list(self.fine.dims).index(result_name(k))
-                                   for k in refine["axes"]),
-                             refine["levels"])
+        self.levels = Levels(
+            self.fine.shape,
+            # the refined axes by their inputs' names (spin), the
+            # dimensions by the results' (launch_spin)
+            tuple(list(self.fine.dims).index(result_name(k)) for k in refine["axes"]),
+            refine["levels"],
+        )
         dtypes = result_dtypes(self.fine)
-        self.values = {k: np.full(self.fine.shape, NOT_COMPUTED if dtypes[k].kind in "iu"
-                                  else np.nan, dtype=dtypes[k]) for k in _NEEDED}
+        self.values = {
+            k: np.full(
+                self.fine.shape,
+                NOT_COMPUTED if dtypes[k].kind in "iu" else np.nan,
+                dtype=dtypes[k],
+            )
+            for k in _NEEDED
+        }
         self.computed = np.zeros(self.fine.shape, dtype=bool)
         self.level = 0
         self.todo = self.levels.level0()
@@ -62,11 +69,12 @@ class MapJob:
                 return True, self.snapshot()
             with self._lock:
                 self.level += 1
-                self.todo = plan_level(self.values, self.computed, self.levels, self.level,
-                                       None)
+                self.todo = plan_level(
+                    self.values, self.computed, self.levels, self.level, None
+                )
                 self.pos = 0
             return False, None
-        index = self.todo[self.pos:self.pos + self.chunk]
+        index = self.todo[self.pos : self.pos + self.chunk]
         t0 = time.perf_counter()
         data, _ = compute_points(self.fine, index)
         # size the next chunk to about piece_seconds of work: a map gives way to other
@@ -87,30 +95,51 @@ class MapJob:
         declared grid), coordinates, progress and the stability boundary."""
         with self._lock:
             outcome = self.values["outcome"].copy()
-            frac = (self.level + (self.pos / len(self.todo) if len(self.todo) else 1.0)
-                    ) / (self.levels.levels + 1)
-            state = {"level": self.level, "levels": self.levels.levels,
-                     "simulated": self.simulated, "level_points": len(self.todo),
-                     "level_done": self.pos, "done": self.done,
-                     "progress": 1.0 if self.done else min(frac, 0.999),
-                     "seconds": self.seconds if self.done
-                     else time.perf_counter() - self.started}
+            frac = (self.level + (self.pos / len(self.todo) if len(self.todo) else 1.0)) / (
+                self.levels.levels + 1
+            )
+            state = {
+                "level": self.level,
+                "levels": self.levels.levels,
+                "simulated": self.simulated,
+                "level_points": len(self.todo),
+                "level_done": self.pos,
+                "done": self.done,
+                "progress": 1.0 if self.done else min(frac, 0.999),
+                "seconds": self.seconds
+                if self.done
+                else time.perf_counter() - self.started,
+            }
         known = outcome != NOT_COMPUTED
         stride = self.levels.stride(0)
-        near = np.ix_(*[np.clip(np.rint(np.arange(n) / stride) * stride, 0, n - 1)
-                        .astype(np.intp) if d in self.levels.axes else np.arange(n)
-                        for d, n in enumerate(outcome.shape)])
+        near = np.ix_(
+            *[
+                np.clip(np.rint(np.arange(n) / stride) * stride, 0, n - 1).astype(np.intp)
+                if d in self.levels.axes
+                else np.arange(n)
+                for d, n in enumerate(outcome.shape)
+            ]
+        )
         shown = np.where(known, outcome, outcome[near])
         axes = self.fine.grid_axes
-        return {**state,
-                "x": {"param": axes[0].key, "units": axes[0].units,
-                      "values": [float(v) for v in axes[0].values]},
-                "y": {"param": axes[1].key, "units": axes[1].units,
-                      "values": [float(v) for v in axes[1].values]},
-                "outcome": shown.astype(int).T.tolist(),  # rows: y; columns: x
-                "outcome_names": list(OUTCOME_NAMES),
-                "unstable": self.boundary, "boundary_note": self.boundary_note,
-                "toml": self.sweep.to_toml()}
+        return {
+            **state,
+            "x": {
+                "param": axes[0].key,
+                "units": axes[0].units,
+                "values": [float(v) for v in axes[0].values],
+            },
+            "y": {
+                "param": axes[1].key,
+                "units": axes[1].units,
+                "values": [float(v) for v in axes[1].values],
+            },
+            "outcome": shown.astype(int).T.tolist(),  # rows: y; columns: x
+            "outcome_names": list(OUTCOME_NAMES),
+            "unstable": self.boundary,
+            "boundary_note": self.boundary_note,
+            "toml": self.sweep.to_toml(),
+        }
 
 
 def _stability(sweep: Any) -> tuple[list[list[int | None]] | None, str]:
@@ -120,14 +149,16 @@ def _stability(sweep: Any) -> tuple[list[list[int | None]] | None, str]:
 
     mu = sweep.fixed_si().get("mu", math.inf)
     if "mu" in sweep.dims or not math.isinf(mu):
-        return None, ("linear stability boundary: drawn for the rolling case "
-                      "(mu = inf) only")
+        return None, (
+            "linear stability boundary: drawn for the rolling case (mu = inf) only"
+        )
     try:
         ds = stability_dataset(sweep)
     except ValueError as exc:
         return None, f"linear stability boundary: not available ({exc})"
     return _classes(ds.growth_rate.transpose(*sweep.dims).values).T.tolist(), (
-        "dashed line: linear stability boundary of steady upright spin (rolling contact)")
+        "dashed line: linear stability boundary of steady upright spin (rolling contact)"
+    )
 
 
 def _classes(growth: np.ndarray) -> np.ndarray:

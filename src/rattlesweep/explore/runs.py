@@ -64,8 +64,11 @@ def to_json(obj: Any) -> str:
     if isinstance(obj, _Raw):
         return str(obj)
     if isinstance(obj, dict):
-        return "{" + ",".join(f"{json.dumps(str(k))}:{to_json(v)}"
-                              for k, v in obj.items()) + "}"
+        return (
+            "{"
+            + ",".join(f"{json.dumps(str(k))}:{to_json(v)}" for k, v in obj.items())
+            + "}"
+        )
     if isinstance(obj, (list, tuple)):
         return "[" + ",".join(to_json(v) for v in obj) + "]"
     if isinstance(obj, float) and not math.isfinite(obj):
@@ -91,18 +94,28 @@ def payload(spec: RunSpec, ds: xr.Dataset, messages: list[str]) -> dict[str, Any
         "quaternion": numbers(ds.quaternion.transpose("time", "quaternion_component")),
         "position": numbers(ds.position.transpose("time", "axis")),
         "contact": numbers(contact.contact_floor.transpose("time", "horizontal")),
-        "spin": numbers(ds.spin), "tilt_deg": numbers(np.degrees(ds.tilt.values)),
-        "energy": numbers(ds.energy), "slip_speed": numbers(ds.slip_speed),
+        "spin": numbers(ds.spin),
+        "tilt_deg": numbers(np.degrees(ds.tilt.values)),
+        "energy": numbers(ds.energy),
+        "slip_speed": numbers(ds.slip_speed),
         "slips": slip_intervals(t, np.nan_to_num(ds.slipping.values) > 0),
         "summary": {
             "first_reversal_time": float(ds.first_reversal_time),
-            "n_reversals": int(ds.n_reversals), "final_spin": float(ds.final_spin),
-            "status": status, "slip_fraction": float(ds.slip_fraction),
-            "steps": int(ds.steps), "dt": float(ds.attrs["dt"]),
+            "n_reversals": int(ds.n_reversals),
+            "final_spin": float(ds.final_spin),
+            "status": status,
+            "slip_fraction": float(ds.slip_fraction),
+            "steps": int(ds.steps),
+            "dt": float(ds.attrs["dt"]),
         },
         "rolling": math.isinf(spec.kwargs["mu"]),
-        "body": {"a": body.a, "b": body.b, "c": body.c, "com": body.com.tolist(),
-                 "full_ellipsoid": body.full_ellipsoid},
+        "body": {
+            "a": body.a,
+            "b": body.b,
+            "c": body.c,
+            "com": body.com.tolist(),
+            "full_ellipsoid": body.full_ellipsoid,
+        },
         "python": python_code(spec),
         "warnings": messages,
     }

@@ -57,8 +57,10 @@ class Scheduler:
         self._closed = False
         self.completed = 0
         self.superseded = 0
-        self._threads = [threading.Thread(target=self._work, name=f"explore-worker-{i}",
-                                          daemon=True) for i in range(workers)]
+        self._threads = [
+            threading.Thread(target=self._work, name=f"explore-worker-{i}", daemon=True)
+            for i in range(workers)
+        ]
         for t in self._threads:
             t.start()
 

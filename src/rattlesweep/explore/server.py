@@ -33,15 +33,27 @@ from .caps import CapExceeded, Caps
 from .maps import MapJob
 from .runs import payload, run, to_json
 from .scheduler import Scheduler, Superseded
-from .settings import (LABELS, UNITS, SettingError, defaults, map_axes, map_sweep,
-                       preset_bodies, run_spec)
+from .settings import (
+    LABELS,
+    UNITS,
+    SettingError,
+    defaults,
+    map_axes,
+    map_sweep,
+    preset_bodies,
+    run_spec,
+)
 
 __all__ = ["Explorer", "LOCAL_HOSTS", "Server", "start"]
 
 STATIC = Path(__file__).with_name("static")
 LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1")
-_TYPES = {".html": "text/html; charset=utf-8", ".js": "text/javascript; charset=utf-8",
-          ".css": "text/css; charset=utf-8", ".txt": "text/plain; charset=utf-8"}
+_TYPES = {
+    ".html": "text/html; charset=utf-8",
+    ".js": "text/javascript; charset=utf-8",
+    ".css": "text/css; charset=utf-8",
+    ".txt": "text/plain; charset=utf-8",
+}
 _MAX_BODY = 1 << 20  # bytes of a request body
 _MAX_SESSIONS = 256  # sessions remembered (their last run and map); the oldest go first
 _CACHED_RUNS = 64  # runs kept for the next request of the same settings (~0.4 MB each)
@@ -77,9 +89,15 @@ class Explorer:
             return s
 
     def config(self) -> dict[str, Any]:
-        return {"caps": self.caps.to_dict(), "defaults": defaults(),
-                "presets": preset_bodies(), "labels": LABELS, "units": UNITS,
-                "map_axes": map_axes(), "version": __version__}
+        return {
+            "caps": self.caps.to_dict(),
+            "defaults": defaults(),
+            "presets": preset_bodies(),
+            "labels": LABELS,
+            "units": UNITS,
+            "map_axes": map_axes(),
+            "version": __version__,
+        }
 
     def run(self, key: str, settings: dict[str, Any]) -> dict[str, Any]:
         """Check and run the settings for session ``key`` (waits for the scheduler)."""
@@ -108,11 +126,14 @@ class Explorer:
             while len(self._runs) > _CACHED_RUNS:
                 self._runs.popitem(last=False)
         assert job.started is not None and job.finished is not None
-        return {"_json": text, "_timing": (job.started - job.queued,
-                                           job.finished - job.started)}
+        return {
+            "_json": text,
+            "_timing": (job.started - job.queued, job.finished - job.started),
+        }
 
-    def start_map(self, key: str, settings: dict[str, Any], axes: dict[str, Any]
-                  ) -> dict[str, Any]:
+    def start_map(
+        self, key: str, settings: dict[str, Any], axes: dict[str, Any]
+    ) -> dict[str, Any]:
         sweep = map_sweep(settings, axes, self.caps)
         job = MapJob(sweep)
         session = self.session(key)
@@ -145,8 +166,9 @@ class _Handler(BaseHTTPRequestHandler):
             super().log_message(format, *args)
 
     # --- responses -------------------------------------------------------------------
-    def _send(self, status: int, body: bytes, ctype: str, extra: dict[str, str] | None = None
-              ) -> None:
+    def _send(
+        self, status: int, body: bytes, ctype: str, extra: dict[str, str] | None = None
+    ) -> None:
         if len(body) > 1024 and "gzip" in self.headers.get("Accept-Encoding", ""):
             body = gzip.compress(body, compresslevel=1)
             extra = {**(extra or {}), "Content-Encoding": "gzip"}
@@ -164,14 +186,17 @@ class _Handler(BaseHTTPRequestHandler):
         extra = {}
         if isinstance(obj, dict) and "_timing" in obj:  # seconds waiting and computing
             wait, compute = obj["_timing"]
-            extra["Server-Timing"] = (f"queue;dur={1000 * wait:.1f}, "
-                                      f"compute;dur={1000 * compute:.1f}")
+            extra["Server-Timing"] = (
+                f"queue;dur={1000 * wait:.1f}, compute;dur={1000 * compute:.1f}"
+            )
         self._send(status, text.encode(), "application/json", extra)
 
     def _error(self, exc: Exception) -> None:
         if isinstance(exc, CapExceeded):
-            self._json(HTTPStatus.REQUEST_ENTITY_TOO_LARGE,
-                       {"error": str(exc), "cap": True, "control": exc.control})
+            self._json(
+                HTTPStatus.REQUEST_ENTITY_TOO_LARGE,
+                {"error": str(exc), "cap": True, "control": exc.control},
+            )
         elif isinstance(exc, SettingError):
             self._json(HTTPStatus.BAD_REQUEST, {"error": str(exc), "control": exc.control})
         elif isinstance(exc, Superseded):
@@ -179,8 +204,9 @@ class _Handler(BaseHTTPRequestHandler):
         elif isinstance(exc, ValueError):
             self._json(HTTPStatus.BAD_REQUEST, {"error": str(exc), "control": None})
         else:
-            self._json(HTTPStatus.INTERNAL_SERVER_ERROR,
-                       {"error": f"{type(exc).__name__}: {exc}"})
+            self._json(
+                HTTPStatus.INTERNAL_SERVER_ERROR, {"error": f"{type(exc).__name__}: {exc}"}
+            )
 
     def _foreign_host(self) -> bool:
         """On a loopback address, refuse requests naming another host: a web page
@@ -189,7 +215,9 @@ class _Handler(BaseHTTPRequestHandler):
         if not self.server.loopback:
             return False
         host = self.headers.get("Host", "")
-        name = host.rsplit(":", 1)[0] if not host.startswith("[") else host[1:].split("]")[0]
+        name = (
+            host.rsplit(":", 1)[0] if not host.startswith("[") else host[1:].split("]")[0]
+        )
         if name in LOCAL_HOSTS:
             return False
         self._json(HTTPStatus.FORBIDDEN, {"error": f"host {host!r} is not this machine"})
@@ -205,7 +233,7 @@ class _Handler(BaseHTTPRequestHandler):
         if url.path in ("/", "/index.html"):
             return self._static("index.html")
         if url.path.startswith("/static/"):
-            return self._static(url.path[len("/static/"):])
+            return self._static(url.path[len("/static/") :])
         if url.path == "/api/config":
             return self._json(HTTPStatus.OK, app.config())
         if url.path == "/api/map":
@@ -217,8 +245,12 @@ class _Handler(BaseHTTPRequestHandler):
             data = app.netcdf(query.get("session", ""))
             if data is None:
                 return self._json(HTTPStatus.NOT_FOUND, {"error": "no run in this session"})
-            return self._send(HTTPStatus.OK, data, "application/x-netcdf",
-                              {"Content-Disposition": 'attachment; filename="run.nc"'})
+            return self._send(
+                HTTPStatus.OK,
+                data,
+                "application/x-netcdf",
+                {"Content-Disposition": 'attachment; filename="run.nc"'},
+            )
         self._json(HTTPStatus.NOT_FOUND, {"error": f"no such page: {url.path}"})
 
     def do_POST(self) -> None:
@@ -227,8 +259,10 @@ class _Handler(BaseHTTPRequestHandler):
         url = urlparse(self.path)
         length = int(self.headers.get("Content-Length", "0") or 0)
         if length > _MAX_BODY:
-            return self._json(HTTPStatus.REQUEST_ENTITY_TOO_LARGE,
-                              {"error": f"request body over {_MAX_BODY} bytes"})
+            return self._json(
+                HTTPStatus.REQUEST_ENTITY_TOO_LARGE,
+                {"error": f"request body over {_MAX_BODY} bytes"},
+            )
         try:
             body = json.loads(self.rfile.read(length) or b"{}")
             if not isinstance(body, dict):
@@ -242,12 +276,17 @@ class _Handler(BaseHTTPRequestHandler):
             if url.path == "/api/run":
                 return self._json(HTTPStatus.OK, app.run(key, settings))
             if url.path == "/api/map":
-                return self._json(HTTPStatus.OK, app.start_map(key, settings,
-                                                               body.get("map") or {}))
+                return self._json(
+                    HTTPStatus.OK, app.start_map(key, settings, body.get("map") or {})
+                )
             if url.path == "/api/toml":
                 text = map_sweep(settings, body.get("map") or {}, app.caps).to_toml()
-                return self._send(HTTPStatus.OK, text.encode(), "application/toml",
-                                  {"Content-Disposition": 'attachment; filename="map.toml"'})
+                return self._send(
+                    HTTPStatus.OK,
+                    text.encode(),
+                    "application/toml",
+                    {"Content-Disposition": 'attachment; filename="map.toml"'},
+                )
         except Exception as exc:  # every failure becomes an answer, never a dead request
             return self._error(exc)
         self._json(HTTPStatus.NOT_FOUND, {"error": f"no such endpoint: {url.path}"})
@@ -261,8 +300,9 @@ class _Handler(BaseHTTPRequestHandler):
 
 
 def _static_files() -> dict[str, bytes]:
-    return {str(p.relative_to(STATIC)): p.read_bytes()
-            for p in STATIC.rglob("*") if p.is_file()}
+    return {
+        str(p.relative_to(STATIC)): p.read_bytes() for p in STATIC.rglob("*") if p.is_file()
+    }
 
 
 class Server(ThreadingHTTPServer):
@@ -272,8 +312,15 @@ class Server(ThreadingHTTPServer):
     # a classroom connects at once: socketserver's default backlog of 5 resets the rest
     request_queue_size = 128
 
-    def __init__(self, host: str = "127.0.0.1", port: int = 0, *, caps: Caps | None = None,
-                 workers: int | None = None, verbose: bool = False) -> None:
+    def __init__(
+        self,
+        host: str = "127.0.0.1",
+        port: int = 0,
+        *,
+        caps: Caps | None = None,
+        workers: int | None = None,
+        verbose: bool = False,
+    ) -> None:
         super().__init__((host, port), _Handler)
         self.app = Explorer(caps, workers)
         self.static = _static_files()
@@ -308,5 +355,7 @@ def start(host: str = "127.0.0.1", port: int = 0, **kwargs: Any) -> Server:
         ``server.shutdown(); server.server_close()``.
     """
     server = Server(host, port, **kwargs)
-    threading.Thread(target=server.serve_forever, name="explore-server", daemon=True).start()
+    threading.Thread(
+        target=server.serve_forever, name="explore-server", daemon=True
+    ).start()
     return server

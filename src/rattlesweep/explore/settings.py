@@ -19,27 +19,91 @@ from ..rattleback.batch import launch_inputs
 from ..rattleback.body import PRESETS, Body
 from .caps import Caps
 
-__all__ = ["CONTROLS", "LABELS", "MAP_AXES", "MAX_SPIN", "RunSpec", "SettingError", "UNITS",
-           "defaults", "map_axes", "map_sweep", "preset_bodies", "run_spec"]
+__all__ = [
+    "CONTROLS",
+    "LABELS",
+    "MAP_AXES",
+    "MAX_SPIN",
+    "RunSpec",
+    "SettingError",
+    "UNITS",
+    "defaults",
+    "map_axes",
+    "map_sweep",
+    "preset_bodies",
+    "run_spec",
+]
 
-CONTROLS = ("preset", "a", "b", "c", "mass", "delta_deg", "masses", "spin", "roll_deg",
-            "pitch_deg", "mu", "mu_static", "mu_spin", "mu_roll", "damping", "t_end")
+CONTROLS = (
+    "preset",
+    "a",
+    "b",
+    "c",
+    "mass",
+    "delta_deg",
+    "masses",
+    "spin",
+    "roll_deg",
+    "pitch_deg",
+    "mu",
+    "mu_static",
+    "mu_spin",
+    "mu_roll",
+    "damping",
+    "t_end",
+)
 """The page's controls, in the order their messages are matched."""
 
-UNITS = {"a": "m", "b": "m", "c": "m", "mass": "kg", "delta_deg": "deg", "spin": "rad/s",
-         "roll_deg": "deg", "pitch_deg": "deg", "mu": "1", "mu_static": "1", "mu_spin": "m",
-         "mu_roll": "m", "damping": "N m s", "t_end": "s"}
+UNITS = {
+    "a": "m",
+    "b": "m",
+    "c": "m",
+    "mass": "kg",
+    "delta_deg": "deg",
+    "spin": "rad/s",
+    "roll_deg": "deg",
+    "pitch_deg": "deg",
+    "mu": "1",
+    "mu_static": "1",
+    "mu_spin": "m",
+    "mu_roll": "m",
+    "damping": "N m s",
+    "t_end": "s",
+}
 """Units of each numeric control, as the page writes them."""
 
-LABELS = {"a": "a (semi-axis x)", "b": "b (semi-axis y)", "c": "c (semi-axis z)",
-          "mass": "mass", "delta_deg": "misalignment δ", "spin": "spin", "roll_deg": "roll",
-          "pitch_deg": "pitch", "mu": "μ kinetic", "mu_static": "μ static",
-          "mu_spin": "μ spin", "mu_roll": "μ roll", "damping": "damping",
-          "t_end": "run length"}
+LABELS = {
+    "a": "a (semi-axis x)",
+    "b": "b (semi-axis y)",
+    "c": "c (semi-axis z)",
+    "mass": "mass",
+    "delta_deg": "misalignment δ",
+    "spin": "spin",
+    "roll_deg": "roll",
+    "pitch_deg": "pitch",
+    "mu": "μ kinetic",
+    "mu_static": "μ static",
+    "mu_spin": "μ spin",
+    "mu_roll": "μ roll",
+    "damping": "damping",
+    "t_end": "run length",
+}
 """The page's label of each numeric control (the map's axes use the same)."""
 
-MAP_AXES = ("spin", "delta_deg", "mu", "roll_deg", "pitch_deg", "mu_spin", "mu_roll",
-            "damping", "a", "b", "c", "mass")
+MAP_AXES = (
+    "spin",
+    "delta_deg",
+    "mu",
+    "roll_deg",
+    "pitch_deg",
+    "mu_spin",
+    "mu_roll",
+    "damping",
+    "a",
+    "b",
+    "c",
+    "mass",
+)
 """Inputs a map may vary (sweep parameter names); each is also a control."""
 
 MAX_SPIN = 1e8
@@ -47,12 +111,22 @@ MAX_SPIN = 1e8
 launch lifts off at once), yet below where its energy overflows what the page can draw."""
 
 # a map axis's default range, for inputs without a natural one relative to the body
-_RANGES = {"spin": (-30.0, 30.0), "delta_deg": (-8.0, 8.0), "mu": (0.05, 1.0),
-           "roll_deg": (0.5, 10.0), "pitch_deg": (0.5, 10.0), "mu_spin": (0.0, 0.002),
-           "mu_roll": (0.0, 0.002), "damping": (0.0, 2e-7)}
+_RANGES = {
+    "spin": (-30.0, 30.0),
+    "delta_deg": (-8.0, 8.0),
+    "mu": (0.05, 1.0),
+    "roll_deg": (0.5, 10.0),
+    "pitch_deg": (0.5, 10.0),
+    "mu_spin": (0.0, 0.002),
+    "mu_roll": (0.0, 0.002),
+    "damping": (0.0, 2e-7),
+}
 
-_PRESET_NAMES = {"kane_levinson": "Kane & Levinson (1982)", "golden": "golden (Kuypers)",
-                 "toy": "toy (plastic, 95 mm)"}
+_PRESET_NAMES = {
+    "kane_levinson": "Kane & Levinson (1982)",
+    "golden": "golden (Kuypers)",
+    "toy": "toy (plastic, 95 mm)",
+}
 
 
 def map_axes() -> dict[str, dict[str, Any]]:
@@ -64,8 +138,11 @@ def map_axes() -> dict[str, dict[str, Any]]:
     out: dict[str, dict[str, Any]] = {}
     for k in MAP_AXES:
         param = PARAMS[k[:-4] if k.endswith("_deg") else k]
-        entry: dict[str, Any] = {"label": LABELS[k], "units": UNITS[k],
-                                 "description": param.long_name}
+        entry: dict[str, Any] = {
+            "label": LABELS[k],
+            "units": UNITS[k],
+            "description": param.long_name,
+        }
         if k in _RANGES:
             entry["start"], entry["stop"] = _RANGES[k]
         else:  # a, b, c, mass: half to one and a half times the current body's
@@ -79,8 +156,13 @@ def preset_bodies() -> dict[str, dict[str, Any]]:
     out = {}
     for name in sorted(PRESETS):
         b = Body.preset(name)
-        out[name] = {"label": _PRESET_NAMES.get(name, name.replace("_", " ")),
-                     "a": b.a, "b": b.b, "c": b.c, "mass": b.mass}
+        out[name] = {
+            "label": _PRESET_NAMES.get(name, name.replace("_", " ")),
+            "a": b.a,
+            "b": b.b,
+            "c": b.c,
+            "mass": b.mass,
+        }
     return out
 
 
@@ -99,17 +181,36 @@ class SettingError(ValueError):
 def defaults() -> dict[str, Any]:
     """The page's starting settings: the toy rattleback spun against its preferred sense."""
     toy = Body.preset("toy")
-    return {"preset": "custom", "a": toy.a, "b": toy.b, "c": toy.c, "mass": toy.mass,
-            "delta_deg": 5.0, "masses": [], "spin": -5.0, "roll_deg": 0.5,
-            "pitch_deg": 0.0, "mu": 0.3, "mu_static": "", "mu_spin": 0.0, "mu_roll": 0.0,
-            "damping": 0.0, "t_end": 5.0}
+    return {
+        "preset": "custom",
+        "a": toy.a,
+        "b": toy.b,
+        "c": toy.c,
+        "mass": toy.mass,
+        "delta_deg": 5.0,
+        "masses": [],
+        "spin": -5.0,
+        "roll_deg": 0.5,
+        "pitch_deg": 0.0,
+        "mu": 0.3,
+        "mu_static": "",
+        "mu_spin": 0.0,
+        "mu_roll": 0.0,
+        "damping": 0.0,
+        "t_end": 5.0,
+    }
 
 
 def control_of(message: str) -> str | None:
     """The control a library message is about: the parameter it starts with."""
     head = message.split(" ", 1)[0].rstrip(":,")
-    aliases = {"roll": "roll_deg", "pitch": "pitch_deg", "roll/pitch/orientation": "roll_deg",
-               "delta": "delta_deg", "com": "masses"}
+    aliases = {
+        "roll": "roll_deg",
+        "pitch": "pitch_deg",
+        "roll/pitch/orientation": "roll_deg",
+        "delta": "delta_deg",
+        "com": "masses",
+    }
     if head.startswith("masses["):
         return "masses"
     if head in CONTROLS:
@@ -117,8 +218,9 @@ def control_of(message: str) -> str | None:
     return aliases.get(head)
 
 
-def _number(name: str, value: Any, control: str | None = None, finite: bool = False
-            ) -> float:
+def _number(
+    name: str, value: Any, control: str | None = None, finite: bool = False
+) -> float:
     """A control's value as a float; text that is no number is refused as the library
     refuses it, and so is a non-finite value where ``finite`` (the library gives such a
     launch a status, not an error, so the page refuses it here)."""
@@ -142,7 +244,7 @@ class RunSpec:
 
     body: Body
     body_args: dict[str, Any]  # preset name, or semi-ellipsoid arguments and masses
-    kwargs: dict[str, Any]     # simulate() keywords, SI
+    kwargs: dict[str, Any]  # simulate() keywords, SI
     steps: int
 
 
@@ -150,8 +252,9 @@ def _body(s: Mapping[str, Any], caps: Caps) -> tuple[Body, dict[str, Any]]:
     preset = str(s.get("preset", "custom"))
     masses = s.get("masses") or []
     if not isinstance(masses, list):
-        raise SettingError(f"masses must be a list of [mass, x, y, z], got {masses!r}",
-                           "masses")
+        raise SettingError(
+            f"masses must be a list of [mass, x, y, z], got {masses!r}", "masses"
+        )
     caps.check("number of point masses", len(masses), "max_point_masses", control="masses")
     try:
         if preset != "custom":
@@ -160,16 +263,23 @@ def _body(s: Mapping[str, Any], caps: Caps) -> tuple[Body, dict[str, Any]]:
         else:
             values = {k: _number(k, s.get(k), finite=True) for k in _BODY_KEYS}
             args = {k: values[k] for k in _BODY_KEYS}
-            body = Body.semi_ellipsoid(values["a"], values["b"], values["c"], values["mass"],
-                                       math.radians(values["delta_deg"]))
+            body = Body.semi_ellipsoid(
+                values["a"],
+                values["b"],
+                values["c"],
+                values["mass"],
+                math.radians(values["delta_deg"]),
+            )
         items = []
         for i, row in enumerate(masses):
             if not isinstance(row, (list, tuple)) or len(row) != 4:
-                raise SettingError(f"masses[{i}] must be [mass (kg), x, y, z (m)], got "
-                                   f"{row!r}", "masses")
+                raise SettingError(
+                    f"masses[{i}] must be [mass (kg), x, y, z (m)], got {row!r}", "masses"
+                )
             m = _number(f"masses[{i}] mass", row[0], "masses", finite=True)
-            pos = [_number(f"masses[{i}] position", v, "masses", finite=True)
-                   for v in row[1:]]
+            pos = [
+                _number(f"masses[{i}] position", v, "masses", finite=True) for v in row[1:]
+            ]
             items.append((m, pos))
         if items:
             body = body.with_point_masses(items)
@@ -185,8 +295,9 @@ def _launch(s: Mapping[str, Any]) -> dict[str, Any]:
     mu_static = s.get("mu_static")
     spin = _number("spin", s.get("spin"), finite=True)
     if abs(spin) > MAX_SPIN:
-        raise SettingError(f"spin must be at most {MAX_SPIN:g} rad/s in size, got {spin!r}",
-                           "spin")
+        raise SettingError(
+            f"spin must be at most {MAX_SPIN:g} rad/s in size, got {spin!r}", "spin"
+        )
     kw: dict[str, Any] = {
         "spin": spin,
         "roll": math.radians(_number("roll_deg", s.get("roll_deg", 0.0), finite=True)),
@@ -237,17 +348,24 @@ def python_code(spec: RunSpec) -> str:
     if "preset" in args:
         lines.append(f"body = rs.Body.preset({args['preset']!r})")
     else:
-        lines.append(f"body = rs.Body.semi_ellipsoid(a={_fmt(args['a'])}, b={_fmt(args['b'])}, "
-                     f"c={_fmt(args['c'])}, mass={_fmt(args['mass'])}, "
-                     f"delta=math.radians({_fmt(args['delta_deg'])}))")
+        lines.append(
+            f"body = rs.Body.semi_ellipsoid(a={_fmt(args['a'])}, b={_fmt(args['b'])}, "
+            f"c={_fmt(args['c'])}, mass={_fmt(args['mass'])}, "
+            f"delta=math.radians({_fmt(args['delta_deg'])}))"
+        )
     if args.get("masses"):
-        items = ", ".join(f"({_fmt(m)}, ({_fmt(x)}, {_fmt(y)}, {_fmt(z)}))"
-                          for m, x, y, z in args["masses"])
+        items = ", ".join(
+            f"({_fmt(m)}, ({_fmt(x)}, {_fmt(y)}, {_fmt(z)}))"
+            for m, x, y, z in args["masses"]
+        )
         lines.append(f"body = body.with_point_masses([{items}])  # (kg, (x, y, z) m)")
     kw = spec.kwargs
-    parts = [f"spin={_fmt(kw['spin'])}",
-             f"roll_deg={_fmt(_degrees(kw['roll']))}",
-             f"pitch_deg={_fmt(_degrees(kw['pitch']))}", f"mu={_fmt(kw['mu'])}"]
+    parts = [
+        f"spin={_fmt(kw['spin'])}",
+        f"roll_deg={_fmt(_degrees(kw['roll']))}",
+        f"pitch_deg={_fmt(_degrees(kw['pitch']))}",
+        f"mu={_fmt(kw['mu'])}",
+    ]
     if kw["mu_static"] is not None:
         parts.append(f"mu_static={_fmt(kw['mu_static'])}")
     for k in ("mu_spin", "mu_roll", "damping"):
@@ -274,13 +392,17 @@ def map_sweep(settings: Mapping[str, Any], axes: Mapping[str, Any], caps: Caps) 
         ax = axes.get(key) or {}
         param = str(ax.get("param"))
         if param not in MAP_AXES:
-            raise SettingError(f"map {key} axis must be one of {sorted(MAP_AXES)}, got "
-                               f"{param!r}", f"map_{key}")
+            raise SettingError(
+                f"map {key} axis must be one of {sorted(MAP_AXES)}, got {param!r}",
+                f"map_{key}",
+            )
         num = int(_number(f"map {key} num", ax.get("num"), f"map_{key}", finite=True))
         caps.check(f"map {key} num", num, "max_map_num", control=f"map_{key}")
-        grid[param] = {"start": _number(f"map {key} start", ax.get("start"), f"map_{key}"),
-                       "stop": _number(f"map {key} stop", ax.get("stop"), f"map_{key}"),
-                       "num": num}
+        grid[param] = {
+            "start": _number(f"map {key} start", ax.get("start"), f"map_{key}"),
+            "stop": _number(f"map {key} stop", ax.get("stop"), f"map_{key}"),
+            "num": num,
+        }
     if len(grid) != 2:
         raise SettingError("the map's two axes must be different inputs", "map_y")
     fixed: dict[str, Any] = {}
@@ -288,27 +410,43 @@ def map_sweep(settings: Mapping[str, Any], axes: Mapping[str, Any], caps: Caps) 
     body_on_axis = any(k in grid for k in _BODY_KEYS)
     if "preset" in args and not args.get("masses"):
         if body_on_axis:
-            raise SettingError(f"a map over {'/'.join(k for k in grid if k in _BODY_KEYS)} "
-                               "needs the custom (semi-ellipsoid) body, not a preset", "preset")
+            raise SettingError(
+                f"a map over {'/'.join(k for k in grid if k in _BODY_KEYS)} "
+                "needs the custom (semi-ellipsoid) body, not a preset",
+                "preset",
+            )
         fixed["body"] = args["preset"]
     elif args.get("masses"):
         if body_on_axis:
-            raise SettingError("a map over a body parameter needs a body without point "
-                               "masses", "masses")
+            raise SettingError(
+                "a map over a body parameter needs a body without point masses", "masses"
+            )
         fixed["body"] = spec.body
     else:
         fixed.update({k: args[k] for k in _BODY_KEYS if k not in grid})
     kw = spec.kwargs
-    launch = {"spin": kw["spin"], "roll_deg": math.degrees(kw["roll"]),
-              "pitch_deg": math.degrees(kw["pitch"]), "mu": kw["mu"],
-              "mu_static": kw["mu_static"], "mu_spin": kw["mu_spin"],
-              "mu_roll": kw["mu_roll"], "damping": kw["damping"], "t_end": kw["t_end"]}
+    launch = {
+        "spin": kw["spin"],
+        "roll_deg": math.degrees(kw["roll"]),
+        "pitch_deg": math.degrees(kw["pitch"]),
+        "mu": kw["mu"],
+        "mu_static": kw["mu_static"],
+        "mu_spin": kw["mu_spin"],
+        "mu_roll": kw["mu_roll"],
+        "damping": kw["damping"],
+        "t_end": kw["t_end"],
+    }
     for k, v in launch.items():
         if k not in grid and v is not None and not (k == "mu_static" and "mu" in grid):
             fixed[k] = v
     try:
-        return Sweep(axes=grid, fixed=fixed, name="rattlesweep explore map",
-                     stop="first_reversal", refine={"levels": levels} if levels else None)
+        return Sweep(
+            axes=grid,
+            fixed=fixed,
+            name="rattlesweep explore map",
+            stop="first_reversal",
+            refine={"levels": levels} if levels else None,
+        )
     except ValueError as exc:
         raise SettingError(str(exc), None) from None
 

@@ -35,12 +35,28 @@ __all__ = ["MODEL", "prepare", "run_attrs", "run_planar_batch"]
 TITLE = "rattlesweep planar rocking semi-ellipse simulation"
 
 MODEL = Model(
-    PLANAR, layout,
-    observables=("energy_initial", "energy_final", "energy_lost", "slip_fraction",
-                 "max_angle", "final_angle", "final_rate", "t_final", "steps", "status"),
+    PLANAR,
+    layout,
+    observables=(
+        "energy_initial",
+        "energy_final",
+        "energy_lost",
+        "slip_fraction",
+        "max_angle",
+        "final_angle",
+        "final_rate",
+        "t_final",
+        "steps",
+        "status",
+    ),
     status_attrs=attrs_for("status"),
-    derived={"energy_lost": (lambda v: v["energy_initial"] - v["energy_final"], "J",
-                             "energy_initial - energy_final")},
+    derived={
+        "energy_lost": (
+            lambda v: v["energy_initial"] - v["energy_final"],
+            "J",
+            "energy_initial - energy_final",
+        )
+    },
 )
 """The planar model as the batch layer sees it."""
 
@@ -50,11 +66,19 @@ BODY = tuple(s.name for s in INPUTS.values() if s.group == "body")
 """The body's parameters, results' coordinates too."""
 
 
-def prepare(body: PlanarBodies, *, theta: ArrayLike, rate: ArrayLike = 0.0,
-            velocity: ArrayLike | None = None, mu: ArrayLike = math.inf,
-            mu_static: ArrayLike | None = None, mu_roll: ArrayLike = 0.0,
-            g: ArrayLike = 9.81, dt: ArrayLike | None = None, t_end: ArrayLike
-            ) -> Prepared:
+def prepare(
+    body: PlanarBodies,
+    *,
+    theta: ArrayLike,
+    rate: ArrayLike = 0.0,
+    velocity: ArrayLike | None = None,
+    mu: ArrayLike = math.inf,
+    mu_static: ArrayLike | None = None,
+    mu_roll: ArrayLike = 0.0,
+    g: ArrayLike = 9.81,
+    dt: ArrayLike | None = None,
+    t_end: ArrayLike,
+) -> Prepared:
     """Check, broadcast and pack planar launches for the kernel.
 
     See :func:`run_planar_batch` for the arguments. Raises ValueError naming the parameter,
@@ -65,9 +89,16 @@ def prepare(body: PlanarBodies, *, theta: ArrayLike, rate: ArrayLike = 0.0,
         raise ValueError("theta (rad) is required")
     if t_end is None:
         raise ValueError("t_end (s) is required")
-    scalars = {"theta": theta, "rate": rate, "mu": mu,
-               "mu_static": mu if mu_static is None else mu_static, "mu_roll": mu_roll,
-               "mu_spin": 0.0, "g": g, "t_end": t_end}
+    scalars = {
+        "theta": theta,
+        "rate": rate,
+        "mu": mu,
+        "mu_static": mu if mu_static is None else mu_static,
+        "mu_roll": mu_roll,
+        "mu_spin": 0.0,
+        "g": g,
+        "t_end": t_end,
+    }
     if velocity is not None:
         scalars["velocity"] = velocity
     if dt is not None:
@@ -76,8 +107,9 @@ def prepare(body: PlanarBodies, *, theta: ArrayLike, rate: ArrayLike = 0.0,
     flat, table, index, n = launch.flat, launch.bodies, launch.index, launch.n
     # warn at the user's call: run_planar_batch or simulate_planar -> prepare
     flat["dt"], default_from = time_steps(table, index, flat, stacklevel=3)
-    columns = {k: np.array([getattr(b, k) for b in table], dtype=float)[index]
-               for k in BODY}
+    columns = {
+        k: np.array([getattr(b, k) for b in table], dtype=float)[index] for k in BODY
+    }
 
     # initial state: rolling (contact point at rest) unless a velocity is given
     rate0 = flat["rate"]
@@ -86,8 +118,12 @@ def prepare(body: PlanarBodies, *, theta: ArrayLike, rate: ArrayLike = 0.0,
     if "velocity" in flat:
         v0 = flat["velocity"]
         sliding = np.isfinite(v0) & np.isfinite(rolling) & (v0 != rolling)
-        fail_where("velocity", v0, sliding & np.isinf(flat["mu_static"]),
-                   "makes a sliding launch, which needs a finite mu_static")
+        fail_where(
+            "velocity",
+            v0,
+            sliding & np.isinf(flat["mu_static"]),
+            "makes a sliding launch, which needs a finite mu_static",
+        )
     else:
         v0 = rolling
     state = {"angle": flat["theta"], "rate": rate0, "x_G": np.zeros(n), "velocity_x": v0}
@@ -95,10 +131,23 @@ def prepare(body: PlanarBodies, *, theta: ArrayLike, rate: ArrayLike = 0.0,
     used = {**flat, "velocity": v0, **columns}  # the velocity actually used
     coords = {INPUTS[k].result_name: used[k] for k in (*LAUNCH, *BODY)}
     coords["body_name"] = np.array([b.name for b in table])[index]
-    steps = step_counts(flat["t_end"], flat["dt"], default_from, (table, index),
-                        announce=False, stacklevel=3)
-    return prepared(MODEL, {**columns, **flat}, state, steps, n, launch.shape,
-                    {k: (dim, v) for k, v in coords.items()})
+    steps = step_counts(
+        flat["t_end"],
+        flat["dt"],
+        default_from,
+        (table, index),
+        announce=False,
+        stacklevel=3,
+    )
+    return prepared(
+        MODEL,
+        {**columns, **flat},
+        state,
+        steps,
+        n,
+        launch.shape,
+        {k: (dim, v) for k, v in coords.items()},
+    )
 
 
 def run_attrs(method: str, record_every: int | None) -> dict[str, Any]:
@@ -112,10 +161,19 @@ def run_attrs(method: str, record_every: int | None) -> dict[str, Any]:
 def run_planar_batch(
     body: PlanarBodies,
     *,
-    theta: ArrayLike, rate: ArrayLike = 0.0, velocity: ArrayLike | None = None,
-    mu: ArrayLike = math.inf, mu_static: ArrayLike | None = None, mu_roll: ArrayLike = 0.0,
-    g: ArrayLike = 9.81, dt: ArrayLike | None = None, t_end: ArrayLike, method: str = "rk4",
-    record_every: int | None = None, parallel: bool = True, threads: int | None = None,
+    theta: ArrayLike,
+    rate: ArrayLike = 0.0,
+    velocity: ArrayLike | None = None,
+    mu: ArrayLike = math.inf,
+    mu_static: ArrayLike | None = None,
+    mu_roll: ArrayLike = 0.0,
+    g: ArrayLike = 9.81,
+    dt: ArrayLike | None = None,
+    t_end: ArrayLike,
+    method: str = "rk4",
+    record_every: int | None = None,
+    parallel: bool = True,
+    threads: int | None = None,
 ) -> xr.Dataset:
     """Integrate many planar launches at once; return per-trajectory observables.
 
@@ -176,11 +234,23 @@ def run_planar_batch(
     """
     m = check_method(method)
     rec_every = check_record_every(record_every)
-    prep = prepare(body, theta=theta, rate=rate, velocity=velocity, mu=mu,
-                   mu_static=mu_static, mu_roll=mu_roll, g=g, dt=dt, t_end=t_end)
+    prep = prepare(
+        body,
+        theta=theta,
+        rate=rate,
+        velocity=velocity,
+        mu=mu,
+        mu_static=mu_static,
+        mu_roll=mu_roll,
+        g=g,
+        dt=dt,
+        t_end=t_end,
+    )
     if rec_every is not None:
         check_single_step(prep)
-    raw = execute(prep, method=m, record_every=rec_every, parallel=parallel,
-                  threads=threads)
-    return results.batch_dataset(prep, raw, rec_every, attrs_for,
-                                 run_attrs(method, rec_every))
+    raw = execute(
+        prep, method=m, record_every=rec_every, parallel=parallel, threads=threads
+    )
+    return results.batch_dataset(
+        prep, raw, rec_every, attrs_for, run_attrs(method, rec_every)
+    )

@@ -75,8 +75,15 @@ class PlanarBody:
         com_depth: float
         inertia: float
 
-        def __init__(self, a: float, b: float, mass: float, com_depth: float | None = None,
-                     inertia: float | None = None, name: str = "semi_ellipse") -> None: ...
+        def __init__(
+            self,
+            a: float,
+            b: float,
+            mass: float,
+            com_depth: float | None = None,
+            inertia: float | None = None,
+            name: str = "semi_ellipse",
+        ) -> None: ...
     else:
         com_depth: float | None = None
         inertia: float | None = None
@@ -90,32 +97,46 @@ class PlanarBody:
             if self.inertia is None:
                 raise ValueError(
                     "com_depth needs inertia too: the default inertia formula holds only "
-                    "for the homogeneous lamina, whose com_depth is 4b/(3 pi)")
+                    "for the homogeneous lamina, whose com_depth is 4b/(3 pi)"
+                )
             d = positive("com_depth", self.com_depth)
             if not d < b:
-                raise ValueError(f"com_depth must be < b = {b!r} (G inside the body), "
-                                 f"got {self.com_depth!r}")
-        inertia = (m * ((a * a + b * b) / 4.0 - d * d) if self.inertia is None
-                   else positive("inertia", self.inertia))
+                raise ValueError(
+                    f"com_depth must be < b = {b!r} (G inside the body), "
+                    f"got {self.com_depth!r}"
+                )
+        inertia = (
+            m * ((a * a + b * b) / 4.0 - d * d)
+            if self.inertia is None
+            else positive("inertia", self.inertia)
+        )
         radius, height = a * a / b, b - d
         if radius < height * (1.0 - _REL_TOL):
             raise ValueError(
                 f"upright pose is unstable: radius of curvature a**2/b = {radius:.6g} m is "
                 f"smaller than the height of G above the contact point b - com_depth = "
-                f"{height:.6g} m (need a**2/b >= b - com_depth)")
-        for key, value in (("a", a), ("b", b), ("mass", m), ("com_depth", d),
-                           ("inertia", inertia)):
+                f"{height:.6g} m (need a**2/b >= b - com_depth)"
+            )
+        for key, value in (
+            ("a", a),
+            ("b", b),
+            ("mass", m),
+            ("com_depth", d),
+            ("inertia", inertia),
+        ):
             object.__setattr__(self, key, value)
 
     @classmethod
-    def homogeneous(cls, a: float, b: float, mass: float, *, name: str = "semi_ellipse"
-                    ) -> "PlanarBody":
+    def homogeneous(
+        cls, a: float, b: float, mass: float, *, name: str = "semi_ellipse"
+    ) -> "PlanarBody":
         """Homogeneous half-ellipse lamina (m, m, kg): d = 4b/(3π), I_G = m[(a²+b²)/4 − d²]."""
         return cls(a, b, mass, name=name)
 
     # --- geometry ----------------------------------------------------------------------
-    def height_derivatives(self, theta: npt.ArrayLike
-                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def height_derivatives(
+        self, theta: npt.ArrayLike
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(h, h′, h″) at θ (rad, array_like): the height of G above the floor (m) and its
         first and second derivatives (m/rad, m/rad²), in closed form.
 
@@ -175,17 +196,27 @@ class PlanarBody:
         (this only matters when a²/b − (b − d) is small against b).
         """
         g = positive("g", g)
-        w = max(self.rocking_frequency(g, True), self.rocking_frequency(g, False),
-                math.sqrt(g / self.b))
+        w = max(
+            self.rocking_frequency(g, True),
+            self.rocking_frequency(g, False),
+            math.sqrt(g / self.b),
+        )
         return 2.0 * math.pi / w / 64.0
 
     def describe(self) -> dict[str, Any]:
         """Plain-number description for result attributes."""
-        return {"body_name": self.name, "a": self.a, "b": self.b, "mass": self.mass,
-                "com_depth": self.com_depth, "inertia": self.inertia}
+        return {
+            "body_name": self.name,
+            "a": self.a,
+            "b": self.b,
+            "mass": self.mass,
+            "com_depth": self.com_depth,
+            "inertia": self.inertia,
+        }
 
 
-PlanarBodies: TypeAlias = Union[PlanarBody, "npt.NDArray[np.object_]",
-                                Sequence["PlanarBodies"]]
+PlanarBodies: TypeAlias = Union[
+    PlanarBody, "npt.NDArray[np.object_]", Sequence["PlanarBodies"]
+]
 """A planar body, or an array of them: an object array, or sequences nested to any
 depth."""

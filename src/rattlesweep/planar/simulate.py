@@ -21,10 +21,16 @@ __all__ = ["simulate_planar"]
 def simulate_planar(
     body: PlanarBody,
     *,
-    theta: float, rate: float = 0.0, velocity: float | None = None,
-    mu: float = math.inf, mu_static: float | None = None, mu_roll: float = 0.0,
+    theta: float,
+    rate: float = 0.0,
+    velocity: float | None = None,
+    mu: float = math.inf,
+    mu_static: float | None = None,
+    mu_roll: float = 0.0,
     g: float = 9.81,
-    dt: float | None = None, t_end: float, method: str = "rk4",
+    dt: float | None = None,
+    t_end: float,
+    method: str = "rk4",
     record_every: int | None = None,
 ) -> xr.Dataset:
     """Simulate one launch of a rocking semi-ellipse and return its time series.
@@ -61,21 +67,33 @@ def simulate_planar(
         raise ValueError(f"body must be a PlanarBody, got {body!r}")
     m = check_method(method)
     rec_every = check_record_every(record_every)
-    inputs: dict[str, Any] = dict(theta=theta, rate=rate, velocity=velocity, mu=mu,
-                                  mu_static=mu_static, mu_roll=mu_roll, g=g, dt=dt,
-                                  t_end=t_end)
+    inputs: dict[str, Any] = dict(
+        theta=theta,
+        rate=rate,
+        velocity=velocity,
+        mu=mu,
+        mu_static=mu_static,
+        mu_roll=mu_roll,
+        g=g,
+        dt=dt,
+        t_end=t_end,
+    )
     for name, value in inputs.items():
         if value is not None and np.ndim(value) != 0:
-            raise ValueError(f"{name} must be a scalar for simulate_planar(); "
-                             f"use run_planar_batch for arrays")
+            raise ValueError(
+                f"{name} must be a scalar for simulate_planar(); "
+                f"use run_planar_batch for arrays"
+            )
     prep = prepare(body, **inputs)
     rec_every = results.default_record_every(prep, rec_every)
     raw = execute(prep, method=m, record_every=rec_every, parallel=False)
     config = {
         "body": body.describe(),
         "launch": {k: (None if v is None else float(v)) for k, v in inputs.items()},
-        "dt_used": float(prep.coords["dt"][1][0]), "method": method,
+        "dt_used": float(prep.coords["dt"][1][0]),
+        "method": method,
         "record_every": rec_every,
     }
-    return results.run_dataset(prep, raw, rec_every, attrs_for,
-                              run_attrs(method, rec_every), config)
+    return results.run_dataset(
+        prep, raw, rec_every, attrs_for, run_attrs(method, rec_every), config
+    )

@@ -4,13 +4,26 @@ they work headless and inside libraries. Axis labels carry the variables' units.
 
 from .animation import InlineAnimation, animate, animate_inline
 from .maps import (
-    OUTCOME_COLOURS, mpl_cmap, reversal_map, reversal_vs_growth, reversed_fraction,
+    OUTCOME_COLOURS,
+    mpl_cmap,
+    reversal_map,
+    reversal_vs_growth,
+    reversed_fraction,
     stability_map,
 )
 from .runs import contact_path, spin_history, time_series
 
 __all__ = [
-    "InlineAnimation", "OUTCOME_COLOURS", "animate", "animate_inline", "contact_path",
-    "mpl_cmap", "reversal_map", "reversal_vs_growth", "reversed_fraction", "spin_history", "stability_map",
+    "InlineAnimation",
+    "OUTCOME_COLOURS",
+    "animate",
+    "animate_inline",
+    "contact_path",
+    "mpl_cmap",
+    "reversal_map",
+    "reversal_vs_growth",
+    "reversed_fraction",
+    "spin_history",
+    "stability_map",
     "time_series",
 ]

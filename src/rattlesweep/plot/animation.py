@@ -18,13 +18,19 @@ __all__ = ["InlineAnimation", "WRITERS", "animate", "animate_inline"]
 WRITERS = {".gif": "pillow", ".mp4": "ffmpeg"}
 
 
-def _surface(a: float, b: float, c: float, full: bool, n_u: int = 28, n_v: int = 10
-             ) -> np.ndarray:
+def _surface(
+    a: float, b: float, c: float, full: bool, n_u: int = 28, n_v: int = 10
+) -> np.ndarray:
     """Body-frame mesh (3, n_v, n_u) of the curved surface (the lower half unless full)."""
     u = np.linspace(0.0, 2.0 * np.pi, n_u)
     v = np.linspace(0.0 if full else 0.5 * np.pi, np.pi, n_v)
-    return np.stack([a * np.outer(np.sin(v), np.cos(u)), b * np.outer(np.sin(v), np.sin(u)),
-                     c * np.outer(np.cos(v), np.ones_like(u))])
+    return np.stack(
+        [
+            a * np.outer(np.sin(v), np.cos(u)),
+            b * np.outer(np.sin(v), np.sin(u)),
+            c * np.outer(np.cos(v), np.ones_like(u)),
+        ]
+    )
 
 
 Draw = Callable[[int], list[Any]]
@@ -35,29 +41,43 @@ CONTACT_COLOUR = "#e8000b"
 def _check_frames(run: xr.Dataset, frames: object, fps: float) -> None:
     n_samples = run.sizes["time"]
     if not isinstance(frames, (int, np.integer)) or not 1 <= frames <= n_samples:
-        raise ValueError(f"frames must be an integer from 1 to the run's {n_samples} "
-                         f"recorded samples, got {frames!r} (record more with "
-                         "simulate(..., record_every=...))")
+        raise ValueError(
+            f"frames must be an integer from 1 to the run's {n_samples} "
+            f"recorded samples, got {frames!r} (record more with "
+            "simulate(..., record_every=...))"
+        )
     if not fps > 0:
         raise ValueError(f"fps must be > 0, got {fps!r}")
 
 
 def _check_planar(run: object) -> None:
     if not isinstance(run, xr.Dataset) or "time" not in run.dims:
-        raise ValueError("run must be an xarray.Dataset over 'time' (a simulate or "
-                         f"simulate_planar result, or its file), got {type(run).__name__}")
+        raise ValueError(
+            "run must be an xarray.Dataset over 'time' (a simulate or "
+            f"simulate_planar result, or its file), got {type(run).__name__}"
+        )
     for name in ("angle", "rate", "x_G", "y_G"):
         if name not in run:
-            raise ValueError(f"run has no variable {name!r}; a planar animation needs a "
-                             "rattlesweep.simulate_planar result (or its netCDF file)")
+            raise ValueError(
+                f"run has no variable {name!r}; a planar animation needs a "
+                "rattlesweep.simulate_planar result (or its netCDF file)"
+            )
     for name in ("a", "b", "com_depth"):
         if name not in run.attrs:
-            raise ValueError(f"run has no attribute {name!r}; a planar animation needs a "
-                             "rattlesweep.simulate_planar result (or its netCDF file)")
+            raise ValueError(
+                f"run has no attribute {name!r}; a planar animation needs a "
+                "rattlesweep.simulate_planar result (or its netCDF file)"
+            )
 
 
-def _scene(run: xr.Dataset, frames: int, dpi: float, elev: float, azim: float,
-           z_stretch: float | None) -> tuple[Figure, Draw]:
+def _scene(
+    run: xr.Dataset,
+    frames: int,
+    dpi: float,
+    elev: float,
+    azim: float,
+    z_stretch: float | None,
+) -> tuple[Figure, Draw]:
     """The figure and the function that draws frame k of ``frames`` of a run: the 3-D
     rattleback scene, or the planar one for a :func:`simulate_planar` result."""
     if isinstance(run, xr.Dataset) and "angle" in run and "quaternion" not in run:
@@ -76,8 +96,14 @@ def _frames(run: xr.Dataset, frames: int) -> np.ndarray:
     return np.round(np.linspace(0, n_samples - 1, frames)).astype(int)
 
 
-def _rattleback_scene(run: xr.Dataset, frames: int, dpi: float, elev: float, azim: float,
-                      z_stretch: float | None) -> tuple[Figure, Draw]:
+def _rattleback_scene(
+    run: xr.Dataset,
+    frames: int,
+    dpi: float,
+    elev: float,
+    azim: float,
+    z_stretch: float | None,
+) -> tuple[Figure, Draw]:
     from ..rattleback.contact import body_geometry, contact_dataset
     from ..rattleback.launch import rotation_matrices
 
@@ -125,14 +151,19 @@ def _rattleback_scene(run: xr.Dataset, frames: int, dpi: float, elev: float, azi
     ax.set_zlabel("Z [m]", fontsize="small")
     ax.tick_params(labelsize="x-small")
     fx, fy = np.meshgrid([x_lo, x_hi], [y_lo, y_hi])
-    ax.plot_surface(fx, fy, np.zeros_like(fx), color="0.85", alpha=0.5, shade=False,
-                    zorder=0)
+    ax.plot_surface(
+        fx, fy, np.zeros_like(fx), color="0.85", alpha=0.5, shade=False, zorder=0
+    )
     floor_track = contact.contact_floor.values
     ax.plot(floor_track[:, 0], floor_track[:, 1], 0.0, color="0.5", lw=0.6, zorder=1)
     name = run.attrs.get("body_name", "body")
     stretch = f", Z drawn x{z_stretch:.3g}" if z_stretch != 1.0 else ""
-    fig.text(0.02, 0.905, f"red dot: contact point; arrow: spin (blue +, red -){stretch}",
-             fontsize="x-small")
+    fig.text(
+        0.02,
+        0.905,
+        f"red dot: contact point; arrow: spin (blue +, red -){stretch}",
+        fontsize="x-small",
+    )
     heading = fig.text(0.02, 0.95, "", fontsize="small", family="monospace")
     drawn: list[Any] = []
 
@@ -140,23 +171,55 @@ def _rattleback_scene(run: xr.Dataset, frames: int, dpi: float, elev: float, azi
         for artist in drawn:
             artist.remove()
         drawn.clear()
-        drawn.append(ax.plot_surface(*world[k], color="#c8a165", edgecolor="#8a6a3a",
-                                     lw=0.15, alpha=0.85, zorder=2))
+        drawn.append(
+            ax.plot_surface(
+                *world[k],
+                color="#c8a165",
+                edgecolor="#8a6a3a",
+                lw=0.15,
+                alpha=0.85,
+                zorder=2,
+            )
+        )
         r = rot[k] @ rim + pos[k][:, None]
         drawn.extend(ax.plot(*r, color="#5a3d1a", lw=1.2, zorder=3))
         tip = rot[k] @ nose + pos[k]
         drawn.extend(ax.plot(*tip[:, None], "o", color="#5a3d1a", ms=3, zorder=3))
         p = floor_track[k]
-        drawn.extend(ax.plot([p[0]], [p[1]], [0.0], "o", color=CONTACT_COLOUR, ms=7,
-                             markeredgecolor="white", markeredgewidth=1.0, zorder=10))
+        drawn.extend(
+            ax.plot(
+                [p[0]],
+                [p[1]],
+                [0.0],
+                "o",
+                color=CONTACT_COLOUR,
+                ms=7,
+                markeredgecolor="white",
+                markeredgewidth=1.0,
+                zorder=10,
+            )
+        )
         length = spin[k] * spin_scale
         base = top[k] + 0.1 * arrow + max(0.0, -length)
         colour = "#1f77b4" if spin[k] >= 0 else "#d62728"
-        drawn.append(ax.quiver(pos[k, 0], pos[k, 1], base, 0.0, 0.0, length,
-                               color=colour, lw=3, arrow_length_ratio=0.3, zorder=11))
+        drawn.append(
+            ax.quiver(
+                pos[k, 0],
+                pos[k, 1],
+                base,
+                0.0,
+                0.0,
+                length,
+                color=colour,
+                lw=3,
+                arrow_length_ratio=0.3,
+                zorder=11,
+            )
+        )
         # the frame number keeps every frame distinct (GIF writers merge equal frames)
-        heading.set_text(f"{name}  t = {t[k]:8.4f} s  spin = {spin[k]:+7.3f} rad/s  "
-                         f"[{k + 1}/{frames}]")
+        heading.set_text(
+            f"{name}  t = {t[k]:8.4f} s  spin = {spin[k]:+7.3f} rad/s  [{k + 1}/{frames}]"
+        )
         return drawn
 
     return fig, draw
@@ -199,21 +262,48 @@ def _planar_scene(run: xr.Dataset, frames: int, dpi: float) -> tuple[Figure, Dra
         for artist in drawn:
             artist.remove()
         drawn.clear()
-        drawn.extend(ax.fill(world[k, 0], world[k, 1], facecolor="#c8a165",
-                             edgecolor="#5a3d1a", lw=1.2, zorder=2))
+        drawn.extend(
+            ax.fill(
+                world[k, 0],
+                world[k, 1],
+                facecolor="#c8a165",
+                edgecolor="#5a3d1a",
+                lw=1.2,
+                zorder=2,
+            )
+        )
         drawn.extend(ax.plot([g[k, 0]], [g[k, 1]], "+", color="#5a3d1a", ms=8, zorder=3))
-        drawn.extend(ax.plot([contact[k, 0]], [contact[k, 1]], "o", color=CONTACT_COLOUR,
-                             ms=7, markeredgecolor="white", zorder=10))
-        heading.set_text(f"{name}  t = {t[k]:6.3f} s  angle = {theta[k]:+6.3f} rad  "
-                         f"rate = {rate[k]:+7.3f} rad/s  [{k + 1}/{frames}]")
+        drawn.extend(
+            ax.plot(
+                [contact[k, 0]],
+                [contact[k, 1]],
+                "o",
+                color=CONTACT_COLOUR,
+                ms=7,
+                markeredgecolor="white",
+                zorder=10,
+            )
+        )
+        heading.set_text(
+            f"{name}  t = {t[k]:6.3f} s  angle = {theta[k]:+6.3f} rad  "
+            f"rate = {rate[k]:+7.3f} rad/s  [{k + 1}/{frames}]"
+        )
         return drawn
 
     return fig, draw
 
 
-def animate(run: xr.Dataset, path: str | os.PathLike, *, frames: int = 100,
-            fps: float = 20.0, dpi: int = 80, elev: float = 25.0,
-            azim: float = -60.0, z_stretch: float | None = None) -> Path:
+def animate(
+    run: xr.Dataset,
+    path: str | os.PathLike,
+    *,
+    frames: int = 100,
+    fps: float = 20.0,
+    dpi: int = 80,
+    elev: float = 25.0,
+    azim: float = -60.0,
+    z_stretch: float | None = None,
+) -> Path:
     """Write an animation of a :func:`rattlesweep.simulate` run (3-D) or of a
     :func:`rattlesweep.simulate_planar` run (the lamina rocking on its line) to ``path``.
 
@@ -237,11 +327,15 @@ def animate(run: xr.Dataset, path: str | os.PathLike, *, frames: int = 100,
     if writer is None:
         raise ValueError(f"path {str(path)!r}: the suffix must be one of {sorted(WRITERS)}")
     if not animation.writers.is_available(writer):
-        raise ValueError(f"path {str(path)!r}: writing {path.suffix} needs {writer!r}, which "
-                         "is not available here; use a .gif path")
+        raise ValueError(
+            f"path {str(path)!r}: writing {path.suffix} needs {writer!r}, which "
+            "is not available here; use a .gif path"
+        )
     _check_options(run, frames, fps, z_stretch)
     if not path.parent.is_dir():
-        raise ValueError(f"path {str(path)!r}: directory {str(path.parent)!r} does not exist")
+        raise ValueError(
+            f"path {str(path)!r}: directory {str(path.parent)!r} does not exist"
+        )
     fig, draw = _scene(run, frames, dpi, elev, azim, z_stretch)
     anim = animation.FuncAnimation(fig, draw, frames=frames, blit=False)
     tmp = path.with_name(f".{path.name}.tmp{path.suffix}")
@@ -255,8 +349,9 @@ def animate(run: xr.Dataset, path: str | os.PathLike, *, frames: int = 100,
     return path
 
 
-def _check_options(run: xr.Dataset, frames: int, fps: float,
-                   z_stretch: float | None) -> None:
+def _check_options(
+    run: xr.Dataset, frames: int, fps: float, z_stretch: float | None
+) -> None:
     if isinstance(run, xr.Dataset) and "time" in run.dims:
         _check_frames(run, frames, fps)
     if z_stretch is not None and not (np.isfinite(z_stretch) and z_stretch >= 1.0):
@@ -275,9 +370,16 @@ class InlineAnimation:
         return self.html
 
 
-def animate_inline(run: xr.Dataset, *, frames: int = 60, fps: float = 15.0,
-                   dpi: int = 72, elev: float = 25.0, azim: float = -60.0,
-                   z_stretch: float | None = None) -> InlineAnimation:
+def animate_inline(
+    run: xr.Dataset,
+    *,
+    frames: int = 60,
+    fps: float = 15.0,
+    dpi: int = 72,
+    elev: float = 25.0,
+    azim: float = -60.0,
+    z_stretch: float | None = None,
+) -> InlineAnimation:
     """The animation of :func:`animate` for playing inline in a notebook: put
     ``animate_inline(run)`` last in a cell. Fewer frames and a lower dpi by default,
     since every frame is embedded in the notebook (about 30 kB each at dpi 72)."""
@@ -285,8 +387,9 @@ def animate_inline(run: xr.Dataset, *, frames: int = 60, fps: float = 15.0,
 
     _check_options(run, frames, fps, z_stretch)
     fig, draw = _scene(run, frames, dpi, elev, azim, z_stretch)
-    anim = animation.FuncAnimation(fig, draw, frames=frames, interval=1000.0 / fps,
-                                   blit=False)
+    anim = animation.FuncAnimation(
+        fig, draw, frames=frames, interval=1000.0 / fps, blit=False
+    )
     # to_jshtml's stubs say an int rate; it only writes the rate into the page's script
     page = anim.to_jshtml(fps=fps, default_mode="loop")  # type: ignore[arg-type]
     return InlineAnimation(page)

@@ -12,8 +12,14 @@ import xarray as xr
 __all__ = ["HUMAN_UNITS", "axis_label", "human_units", "value_label"]
 
 HUMAN_UNITS = {
-    "rad s-1": "rad/s", "m s-1": "m/s", "m s-2": "m/s²", "s-1": "1/s", "degree": "°",
-    "kg m2": "kg m²", "kg m2 s-1": "kg m²/s", "rad s-2": "rad/s²",
+    "rad s-1": "rad/s",
+    "m s-1": "m/s",
+    "m s-2": "m/s²",
+    "s-1": "1/s",
+    "degree": "°",
+    "kg m2": "kg m²",
+    "kg m2 s-1": "kg m²/s",
+    "rad s-2": "rad/s²",
 }
 """CF unit strings of results and how pictures write them; others read as they are."""
 
@@ -39,8 +45,11 @@ def axis_label(da: xr.DataArray, fallback: str) -> str:
 def value_label(ds: xr.Dataset | xr.DataArray, name: Hashable, value: Any) -> str:
     """``name = value units`` for a coordinate value in a title or legend: ``μ = 0.3``,
     ``μ = ∞ (rolling)``, ``delta_deg = 4°``, ``launch_spin = 5 rad/s``."""
-    units = human_units(ds[name].attrs.get("units")) if name in ds.coords or (
-        isinstance(ds, xr.Dataset) and name in ds) else ""
+    units = (
+        human_units(ds[name].attrs.get("units"))
+        if name in ds.coords or (isinstance(ds, xr.Dataset) and name in ds)
+        else ""
+    )
     label = _SYMBOLS.get(str(name), str(name))
     if isinstance(value, (float, int)) and not isinstance(value, bool):
         if math.isinf(value):

@@ -19,14 +19,23 @@ if TYPE_CHECKING:
     from matplotlib.colors import Colormap, Normalize
 
 __all__ = [
-    "FLAG_COLOURS", "OUTCOME_COLOURS", "reversal_map", "mpl_cmap", "reversed_fraction",
-    "stability_map", "reversal_vs_growth",
+    "FLAG_COLOURS",
+    "OUTCOME_COLOURS",
+    "reversal_map",
+    "mpl_cmap",
+    "reversed_fraction",
+    "stability_map",
+    "reversal_vs_growth",
 ]
 
 
 OUTCOME_COLOURS = {
-    "no_reversal": "#d9d9d9", "reversed": "#1f77b4", "several_reversals": "#17becf",
-    "stopped": "#f2b701", "capsized": "#d62728", "lifted_off": "#9467bd",
+    "no_reversal": "#d9d9d9",
+    "reversed": "#1f77b4",
+    "several_reversals": "#17becf",
+    "stopped": "#f2b701",
+    "capsized": "#d62728",
+    "lifted_off": "#9467bd",
     "numerical_failure": "#000000",
 }
 """Fixed colours of outcome classes, so maps from different sweeps read alike."""
@@ -59,7 +68,8 @@ def _axis_values(da: xr.DataArray, dim: str) -> tuple[np.ndarray, list[str] | No
         return np.arange(len(values)), [str(v) for v in values]
     if values.dtype.kind == "f" and not np.all(np.isfinite(values)):
         return np.arange(len(values)), [
-            "∞" if v == np.inf else ("−∞" if v == -np.inf else f"{v:g}") for v in values]
+            "∞" if v == np.inf else ("−∞" if v == -np.inf else f"{v:g}") for v in values
+        ]
     return values, None
 
 
@@ -97,11 +107,20 @@ def _edges(values: np.ndarray, log: bool) -> np.ndarray:
     return np.exp(edges) if log else edges
 
 
-def reversal_map(ds: xr.Dataset, x: str, y: str, var: str = "outcome", *,
-                 facet: str | None = None, select: Mapping[str, Any] | None = None,
-                 reduce: str | None = None, title: str | None = None,
-                 ncols: int = 3, cmap: str = "viridis",
-                 overlay: xr.Dataset | None = None) -> Figure:
+def reversal_map(
+    ds: xr.Dataset,
+    x: str,
+    y: str,
+    var: str = "outcome",
+    *,
+    facet: str | None = None,
+    select: Mapping[str, Any] | None = None,
+    reduce: str | None = None,
+    title: str | None = None,
+    ncols: int = 3,
+    cmap: str = "viridis",
+    overlay: xr.Dataset | None = None,
+) -> Figure:
     """Map of a sweep result over two of its axes.
 
     Parameters
@@ -128,21 +147,27 @@ def reversal_map(ds: xr.Dataset, x: str, y: str, var: str = "outcome", *,
     from matplotlib.patches import Patch
 
     if var not in ds.data_vars:
-        raise ValueError(f"var {var!r} is not in the dataset; it has "
-                         f"{sorted(str(name) for name in ds.data_vars)}")
+        raise ValueError(
+            f"var {var!r} is not in the dataset; it has "
+            f"{sorted(str(name) for name in ds.data_vars)}"
+        )
     da = ds[var]
     for role, dim in (("x", x), ("y", y), ("facet", facet)):
         if dim is not None and dim not in da.dims:
-            raise ValueError(f"{role} {dim!r} is not a dimension of {var!r}; its dimensions "
-                             f"are {list(da.dims)}")
+            raise ValueError(
+                f"{role} {dim!r} is not a dimension of {var!r}; its dimensions "
+                f"are {list(da.dims)}"
+            )
     if len({x, y, facet} - {None}) != len([d for d in (x, y, facet) if d is not None]):
-        raise ValueError(f"x, y and facet must be different dimensions, got {x!r}, {y!r}, "
-                         f"{facet!r}")
+        raise ValueError(
+            f"x, y and facet must be different dimensions, got {x!r}, {y!r}, {facet!r}"
+        )
     if select:
         for dim in select:
             if dim not in da.dims:
-                raise ValueError(f"select: {dim!r} is not a dimension of {var!r} "
-                                 f"({list(da.dims)})")
+                raise ValueError(
+                    f"select: {dim!r} is not a dimension of {var!r} ({list(da.dims)})"
+                )
         da = _select(da, select)
     categorical = "flag_values" in da.attrs
     extra = [d for d in da.dims if d not in (x, y, facet)]
@@ -151,13 +176,18 @@ def reversal_map(ds: xr.Dataset, x: str, y: str, var: str = "outcome", *,
             da = da.mean(extra, keep_attrs=True)
         else:
             hint = "" if categorical else ", or reduce='mean'"
-            raise ValueError(f"{var!r} also varies along {extra}; pick values with "
-                             f"select={{{extra[0]!r}: ...}}, or facet={extra[0]!r}{hint}")
+            raise ValueError(
+                f"{var!r} also varies along {extra}; pick values with "
+                f"select={{{extra[0]!r}: ...}}, or facet={extra[0]!r}{hint}"
+            )
     elif reduce not in (None, "mean"):
         raise ValueError(f"reduce must be None or 'mean', got {reduce!r}")
 
-    panels = [(None, da)] if facet is None else [
-        (v, da.sel({facet: v})) for v in da[facet].values]
+    panels = (
+        [(None, da)]
+        if facet is None
+        else [(v, da.sel({facet: v})) for v in da[facet].values]
+    )
     ncols = max(1, min(ncols, len(panels)))
     nrows = -(-len(panels) // ncols)
     fig = Figure(figsize=(4.0 * ncols + 2.2, 3.4 * nrows + 0.6), layout="constrained")
@@ -188,8 +218,9 @@ def reversal_map(ds: xr.Dataset, x: str, y: str, var: str = "outcome", *,
             z = np.vectorize({f: i for i, f in enumerate(flags)}.get, otypes=[float])(z)
         any_nan |= bool(np.isnan(z).any())
         if xlog or ylog:  # cells between geometric midpoints along a log axis
-            mesh = ax.pcolormesh(_edges(xs, xlog), _edges(ys, ylog), z, cmap=cm, norm=norm,
-                                 shading="flat")
+            mesh = ax.pcolormesh(
+                _edges(xs, xlog), _edges(ys, ylog), z, cmap=cm, norm=norm, shading="flat"
+            )
         else:
             mesh = ax.pcolormesh(xs, ys, z, cmap=cm, norm=norm, shading="nearest")
         if xlog:
@@ -197,8 +228,9 @@ def reversal_map(ds: xr.Dataset, x: str, y: str, var: str = "outcome", *,
         if ylog:
             ax.set_yscale("log")
         if overlay is not None:
-            _draw_boundary(ax, overlay, x, y, {**(select or {}),
-                                               **({facet: value} if facet else {})})
+            _draw_boundary(
+                ax, overlay, x, y, {**(select or {}), **({facet: value} if facet else {})}
+            )
         if value is not None and facet is not None:  # a value comes with its facet
             ax.set_title(_fmt_coord(da, facet, value), fontsize="medium")
         if xlabels:
@@ -215,27 +247,36 @@ def reversal_map(ds: xr.Dataset, x: str, y: str, var: str = "outcome", *,
     handles: list[Artist] = []
     if categorical:
         present = set(np.unique(da.values[~np.isnan(da.values.astype(float))]).tolist())
-        handles = [Patch(color=c, label=m.replace("_", " "))
-                   for f, m, c in zip(flags, meanings, colours) if f in present]
+        handles = [
+            Patch(color=c, label=m.replace("_", " "))
+            for f, m, c in zip(flags, meanings, colours)
+            if f in present
+        ]
     else:
         assert mesh is not None  # there is a panel
         fig.colorbar(mesh, ax=axes.ravel().tolist(), label=_label(da, var))
     if overlay is not None:
         from matplotlib.lines import Line2D
 
-        handles.append(Line2D([], [], color="black", lw=1.5,
-                              label="simulated reversal boundary"))
+        handles.append(
+            Line2D([], [], color="black", lw=1.5, label="simulated reversal boundary")
+        )
     if any_nan:
         # matplotlib takes an RGBA array as a colour; its stubs' ColorType has no arrays
         bad = cm.get_bad() if not categorical else "white"
         handles.append(Patch(color=bad, label="no value (NaN)"))  # type: ignore[arg-type]
     if handles:
         # beside the panels, level with their middle: clear of the title above them
-        fig.legend(handles=handles, loc="outside right center" if categorical
-                   else "outside lower center", title=da.attrs.get(
-                       "long_name", var) if categorical else None)
-    fixed = [_fmt_coord(ds, c, ds[c].values.item()) for c in ds.coords
-             if ds[c].ndim == 0 and c in ds.coords and ds[c].dtype.kind in "fiu"]
+        fig.legend(
+            handles=handles,
+            loc="outside right center" if categorical else "outside lower center",
+            title=da.attrs.get("long_name", var) if categorical else None,
+        )
+    fixed = [
+        _fmt_coord(ds, c, ds[c].values.item())
+        for c in ds.coords
+        if ds[c].ndim == 0 and c in ds.coords and ds[c].dtype.kind in "fiu"
+    ]
     fig.suptitle(title or _wrap_items(fixed[:6], fig), fontsize="small")
     return fig
 
@@ -268,27 +309,37 @@ def reversed_fraction(sweep: xr.Dataset) -> xr.DataArray:
     return sweep.outcome.isin([REVERSED, SEVERAL]).astype(float)
 
 
-def _draw_boundary(ax: Axes, sweep: xr.Dataset, x: str, y: str,
-                   select: Mapping[str, Any]) -> None:
+def _draw_boundary(
+    ax: Axes, sweep: xr.Dataset, x: str, y: str, select: Mapping[str, Any]
+) -> None:
     import numpy as np
 
     frac = reversed_fraction(sweep)
     for dim in (x, y):
         if dim not in frac.dims:
-            raise ValueError(f"overlay: the sweep has no dimension {dim!r} "
-                             f"({list(frac.dims)})")
+            raise ValueError(
+                f"overlay: the sweep has no dimension {dim!r} ({list(frac.dims)})"
+            )
     frac = _select(frac, {k: v for k, v in select.items() if k in frac.dims})
     extra = [d for d in frac.dims if d not in (x, y)]
     if extra:
         frac = frac.mean(extra)
     z = frac.transpose(y, x).values
     if np.nanmin(z) < 0.5 < np.nanmax(z):
-        ax.contour(frac[x].values, frac[y].values, z, levels=[0.5], colors="black",
-                   linewidths=1.5)
+        ax.contour(
+            frac[x].values, frac[y].values, z, levels=[0.5], colors="black", linewidths=1.5
+        )
 
 
-def stability_map(ds: xr.Dataset, x: str, y: str, var: str = "growth_rate", *,
-                  overlay: xr.Dataset | None = None, **kwargs: Any) -> Figure:
+def stability_map(
+    ds: xr.Dataset,
+    x: str,
+    y: str,
+    var: str = "growth_rate",
+    *,
+    overlay: xr.Dataset | None = None,
+    **kwargs: Any,
+) -> Figure:
     """Map of a linear-stability result (:func:`rattlesweep.stability.stability_dataset`)
     over two axes: ``growth_rate`` (1/s) by default, or ``mode`` (stable / neutral /
     pitch- or roll-unstable) as categories, any other variable of the file alike.
@@ -305,15 +356,25 @@ def _log_ticks(axis: Any, values: np.ndarray) -> None:
     from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
 
     decades = float(np.log10(values.max() / values.min())) if values.size else 0.0
-    subs: tuple[float, ...] = (tuple(np.arange(1.0, 10.0)) if decades < 1.0
-                               else (1.0, 2.0, 5.0) if decades <= 3.0 else (1.0,))
+    subs: tuple[float, ...] = (
+        tuple(np.arange(1.0, 10.0))
+        if decades < 1.0
+        else (1.0, 2.0, 5.0)
+        if decades <= 3.0
+        else (1.0,)
+    )
     axis.set_major_locator(LogLocator(base=10.0, subs=subs))
     axis.set_major_formatter(FormatStrFormatter("%g"))
     axis.set_minor_formatter(NullFormatter())
 
 
-def reversal_vs_growth(stability: xr.Dataset, sweep: xr.Dataset, *,
-                       color_by: str | None = None, title: str | None = None) -> Figure:
+def reversal_vs_growth(
+    stability: xr.Dataset,
+    sweep: xr.Dataset,
+    *,
+    color_by: str | None = None,
+    title: str | None = None,
+) -> Figure:
     """Predicted against simulated: first reversal time (s) of each launch that reversed
     against the linear e-folding time 1/growth_rate (s) at the same grid point, log-log,
     coloured by ``color_by`` (a dimension) when given: a legend when the dimension has up to 8
@@ -324,8 +385,10 @@ def reversal_vs_growth(stability: xr.Dataset, sweep: xr.Dataset, *,
     efold = stability.e_folding_time
     shared = [d for d in efold.dims if d in t_rev.dims]
     if not shared:
-        raise ValueError(f"the files share no dimension: stability {list(efold.dims)}, "
-                         f"sweep {list(t_rev.dims)}")
+        raise ValueError(
+            f"the files share no dimension: stability {list(efold.dims)}, "
+            f"sweep {list(t_rev.dims)}"
+        )
     efold, t_rev = xr.align(efold, t_rev, join="inner")
     efold, t_rev = xr.broadcast(efold, t_rev)
     ok = np.isfinite(t_rev.values) & np.isfinite(efold.values) & (efold.values > 0)
@@ -335,19 +398,31 @@ def reversal_vs_growth(stability: xr.Dataset, sweep: xr.Dataset, *,
     ax = fig.add_subplot()
     if color_by is not None:
         if color_by not in t_rev.dims:
-            raise ValueError(f"color_by {color_by!r} is not a dimension ({list(t_rev.dims)})")
-        c = np.broadcast_to(t_rev[color_by].values.reshape(
-            [-1 if d == color_by else 1 for d in t_rev.dims]), t_rev.shape)
+            raise ValueError(
+                f"color_by {color_by!r} is not a dimension ({list(t_rev.dims)})"
+            )
+        c = np.broadcast_to(
+            t_rev[color_by].values.reshape(
+                [-1 if d == color_by else 1 for d in t_rev.dims]
+            ),
+            t_rev.shape,
+        )
         values = np.unique(c[ok])
         if t_rev.sizes[color_by] <= 8 or c.dtype.kind not in "fiu":
             for i, v in enumerate(values):
                 sel = ok & (c == v)
-                ax.scatter(efold.values[sel], t_rev.values[sel], s=8, color=f"C{i % 10}",
-                           label=_fmt_coord(t_rev, color_by, v.item()))
+                ax.scatter(
+                    efold.values[sel],
+                    t_rev.values[sel],
+                    s=8,
+                    color=f"C{i % 10}",
+                    label=_fmt_coord(t_rev, color_by, v.item()),
+                )
             ax.legend(fontsize="small")
         else:  # too many values for a legend: a colour bar
-            points = ax.scatter(efold.values[ok], t_rev.values[ok], s=8, c=c[ok],
-                                cmap="viridis")
+            points = ax.scatter(
+                efold.values[ok], t_rev.values[ok], s=8, c=c[ok], cmap="viridis"
+            )
             fig.colorbar(points, ax=ax, label=_label(t_rev[color_by], color_by))
     else:
         ax.scatter(efold.values[ok], t_rev.values[ok], s=8)

@@ -12,7 +12,11 @@ from matplotlib.figure import Figure
 from .labels import axis_label
 
 __all__ = [
-    "RATTLEBACK_PANELS", "PLANAR_PANELS", "SLIP_SHADE", "spin_history", "time_series",
+    "RATTLEBACK_PANELS",
+    "PLANAR_PANELS",
+    "SLIP_SHADE",
+    "spin_history",
+    "time_series",
     "contact_path",
 ]
 
@@ -40,9 +44,12 @@ def _labels(labels: Iterable[str] | None, n: int) -> list[str]:
     return labels
 
 
-def spin_history(runs: xr.Dataset | Iterable[xr.Dataset],
-                 labels: Sequence[str] | None = None, *, title: str | None = None
-                 ) -> Figure:
+def spin_history(
+    runs: xr.Dataset | Iterable[xr.Dataset],
+    labels: Sequence[str] | None = None,
+    *,
+    title: str | None = None,
+) -> Figure:
     """Spin (rad/s) against time (s) for one or more :func:`rattlesweep.simulate` results,
     with each run's first reversal marked."""
     runs = _runs(runs)
@@ -63,8 +70,13 @@ def spin_history(runs: xr.Dataset | Iterable[xr.Dataset],
     return fig
 
 
-def time_series(run: xr.Dataset, variables: Sequence[str] | None = None, *,
-                shade_slip: bool = True, title: str | None = None) -> Figure:
+def time_series(
+    run: xr.Dataset,
+    variables: Sequence[str] | None = None,
+    *,
+    shade_slip: bool = True,
+    title: str | None = None,
+) -> Figure:
     """Stacked panels of a run's series against time (s), sharing the time axis.
 
     Parameters
@@ -101,8 +113,9 @@ def time_series(run: xr.Dataset, variables: Sequence[str] | None = None, *,
     series = [v for v in run.data_vars if "time" in run[v].dims]
     for v in variables:
         if v not in series:
-            raise ValueError(f"variable {v!r} is not a series over time in this run; "
-                             f"it has {series}")
+            raise ValueError(
+                f"variable {v!r} is not a series over time in this run; it has {series}"
+            )
     t = run.time.values
     fig = Figure(figsize=(7.5, 1.5 + 1.6 * len(variables)), layout="constrained")
     axes = fig.subplots(len(variables), 1, sharex=True, squeeze=False)[:, 0]
@@ -111,8 +124,10 @@ def time_series(run: xr.Dataset, variables: Sequence[str] | None = None, *,
         da = run[name]
         other = [d for d in da.dims if d != "time"]
         if len(other) > 1:
-            raise ValueError(f"{name!r} has dimensions {list(da.dims)}; time_series draws "
-                             "series over time with at most one other dimension")
+            raise ValueError(
+                f"{name!r} has dimensions {list(da.dims)}; time_series draws "
+                "series over time with at most one other dimension"
+            )
         if other:
             for comp in da[other[0]].values:
                 ax.plot(t, da.sel({other[0]: comp}).values, lw=1, label=str(comp))
@@ -125,8 +140,17 @@ def time_series(run: xr.Dataset, variables: Sequence[str] | None = None, *,
                 ax.axvline(t_rev, color="k", ls=":", lw=1)
                 ax.axhline(0.0, color="0.6", lw=0.8)
         if slipping is not None and slipping.any():
-            ax.fill_between(t, 0, 1, where=slipping, step="post", color=SLIP_SHADE,
-                            transform=ax.get_xaxis_transform(), lw=0, zorder=0)
+            ax.fill_between(
+                t,
+                0,
+                1,
+                where=slipping,
+                step="post",
+                color=SLIP_SHADE,
+                transform=ax.get_xaxis_transform(),
+                lw=0,
+                zorder=0,
+            )
         ax.set_ylabel(_wrap(axis_label(da, name)), fontsize="small")
     axes[-1].set_xlabel(axis_label(run.time, "time"))
     axes[-1].set_xlim(t[0], t[-1])
@@ -134,9 +158,15 @@ def time_series(run: xr.Dataset, variables: Sequence[str] | None = None, *,
         from matplotlib.patches import Patch
 
         # below the time axis: a title of any length has the top to itself
-        fig.legend(handles=[Patch(color=SLIP_SHADE, label="slipping"),
-                            Patch(facecolor="white", edgecolor="0.7", label="sticking")],
-                   loc="outside lower center", ncols=2, fontsize="small")
+        fig.legend(
+            handles=[
+                Patch(color=SLIP_SHADE, label="slipping"),
+                Patch(facecolor="white", edgecolor="0.7", label="sticking"),
+            ],
+            loc="outside lower center",
+            ncols=2,
+            fontsize="small",
+        )
     if title:
         fig.suptitle(title, fontsize="medium")
     return fig
@@ -150,9 +180,13 @@ def _wrap(text: str, width: int = 22) -> str:
     return "\n".join(textwrap.wrap(text, width)) or text
 
 
-def contact_path(runs: xr.Dataset | Iterable[xr.Dataset],
-                 labels: Sequence[str] | None = None, *, frame: str = "body",
-                 title: str | None = None) -> Figure:
+def contact_path(
+    runs: xr.Dataset | Iterable[xr.Dataset],
+    labels: Sequence[str] | None = None,
+    *,
+    frame: str = "body",
+    title: str | None = None,
+) -> Figure:
     """The contact point's path, one panel per run, coloured by time (s).
 
     ``frame="body"``: where on the body's curved surface it touches, in body x, y (mm;
@@ -189,13 +223,17 @@ def contact_path(runs: xr.Dataset | Iterable[xr.Dataset],
     pad = 0.08 * (hi - lo) + 1e-3  # per axis: a flat path stays a flat picture
     for k, (ax, run, label, c, xy) in enumerate(zip(axes, runs, labels, paths, xys)):
         if frame == "floor":
-            ax.plot(run.position.sel(axis="X") * 1e3, run.position.sel(axis="Y") * 1e3,
-                    color="0.6", lw=0.8, label="centre of mass")
+            ax.plot(
+                run.position.sel(axis="X") * 1e3,
+                run.position.sel(axis="Y") * 1e3,
+                color="0.6",
+                lw=0.8,
+                label="centre of mass",
+            )
         segments = np.stack([xy[:-1], xy[1:]], axis=1)
         # an (n, 2, 2) array is the sequence of segments matplotlib asks for; its stubs
         # take only a Sequence
-        lines = LineCollection(
-            segments, cmap="viridis", norm=norm, lw=1.2)  # type: ignore[arg-type]
+        lines = LineCollection(segments, cmap="viridis", norm=norm, lw=1.2)  # type: ignore[arg-type]
         lines.set_array(c.time.values[:-1])
         ax.add_collection(lines)
         ax.plot(*xy[0], "o", color="k", ms=4, label="start")
@@ -204,8 +242,15 @@ def contact_path(runs: xr.Dataset | Iterable[xr.Dataset],
         if frame == "body":
             a, b = (float(run.attrs[k]) * 1e3 for k in ("a", "b"))
             phi = np.linspace(0, 2 * np.pi, 721)
-            ax.plot(a * np.cos(phi), b * np.sin(phi), "k--", lw=0.8, scalex=False,
-                    scaley=False, label="rim")
+            ax.plot(
+                a * np.cos(phi),
+                b * np.sin(phi),
+                "k--",
+                lw=0.8,
+                scalex=False,
+                scaley=False,
+                label="rim",
+            )
         ax.set_xlabel(f"{names[0]} [mm]")
         if k == 0:  # the shared y axis is labelled once
             ax.set_ylabel(f"{names[1]} [mm]")

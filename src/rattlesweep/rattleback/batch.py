@@ -25,7 +25,11 @@ from .. import _results as results
 from .._launches import as_bodies, launches
 from .._model import Model, Prepared
 from .._options import (
-    check_band, check_method, check_record_every, check_single_step, check_stop,
+    check_band,
+    check_method,
+    check_record_every,
+    check_single_step,
+    check_stop,
 )
 from .._pack import blocked, prepared
 from .._run import contact_slip_velocity, execute
@@ -36,30 +40,62 @@ from ..core.rattleback import layout
 from ..inputs import RATTLEBACK as INPUTS
 from .body import Bodies, Body
 from .launch import (
-    angles_in_radians, check_unit_quaternion, quaternion_from_angles, tilt_limit_error,
+    angles_in_radians,
+    check_unit_quaternion,
+    quaternion_from_angles,
+    tilt_limit_error,
     up_vector,
 )
 from .metadata import attrs_for
 
-__all__ = ["MODEL", "Inputs", "damping_dts", "launch_inputs", "max_steps", "prepare",
-           "radian_angles", "run_attrs", "run_batch"]
+__all__ = [
+    "MODEL",
+    "Inputs",
+    "damping_dts",
+    "launch_inputs",
+    "max_steps",
+    "prepare",
+    "radian_angles",
+    "run_attrs",
+    "run_batch",
+]
 
 TITLE = "rattlesweep rattleback simulation"
 
 MODEL = Model(
-    RATTLEBACK, layout,
-    observables=("first_reversal_time", "n_reversals", "initial_spin", "final_spin",
-                 "mean_final_spin", "max_tilt", "energy_initial", "energy_final",
-                 "energy_lost", "slip_fraction", "t_final", "steps", "status"),
+    RATTLEBACK,
+    layout,
+    observables=(
+        "first_reversal_time",
+        "n_reversals",
+        "initial_spin",
+        "final_spin",
+        "mean_final_spin",
+        "max_tilt",
+        "energy_initial",
+        "energy_final",
+        "energy_lost",
+        "slip_fraction",
+        "t_final",
+        "steps",
+        "status",
+    ),
     status_attrs=attrs_for("status"),
-    derived={"energy_lost": (lambda v: v["energy_initial"] - v["energy_final"], "J",
-                             "energy_initial - energy_final")},
+    derived={
+        "energy_lost": (
+            lambda v: v["energy_initial"] - v["energy_final"],
+            "J",
+            "energy_initial - energy_final",
+        )
+    },
 )
 """The rattleback model as the batch layer sees it."""
 
-SETTINGS = tuple(s.name for s in INPUTS.values()
-                 if s.group in ("friction", "numerics") and s.in_results)
+SETTINGS = tuple(
+    s.name for s in INPUTS.values() if s.group in ("friction", "numerics") and s.in_results
+)
 """The inputs results hold as they are given: friction and numerics."""
+
 
 @dataclass(frozen=True)
 class Inputs:
@@ -77,13 +113,21 @@ class Inputs:
     def body_columns(self) -> dict[str, np.ndarray]:
         """Each trajectory's body parameters by name (``com`` is (n, 3))."""
         rows = {
-            "a": [b.a for b in self.bodies], "b": [b.b for b in self.bodies],
-            "c": [b.c for b in self.bodies], "mass": [b.mass for b in self.bodies],
+            "a": [b.a for b in self.bodies],
+            "b": [b.b for b in self.bodies],
+            "c": [b.c for b in self.bodies],
+            "mass": [b.mass for b in self.bodies],
             "com": [b.com for b in self.bodies],
             "full_ellipsoid": [float(b.full_ellipsoid) for b in self.bodies],
         }
-        for name, (r, c) in (("xx", (0, 0)), ("yy", (1, 1)), ("zz", (2, 2)), ("xy", (0, 1)),
-                             ("xz", (0, 2)), ("yz", (1, 2))):
+        for name, (r, c) in (
+            ("xx", (0, 0)),
+            ("yy", (1, 1)),
+            ("zz", (2, 2)),
+            ("xy", (0, 1)),
+            ("xz", (0, 2)),
+            ("yz", (1, 2)),
+        ):
             rows[f"inertia_{name}"] = [b.inertia[r, c] for b in self.bodies]
         columns = {k: np.array(v, dtype=float)[self.index] for k, v in rows.items()}
         columns["com"] = columns["com"].reshape(-1, 3)  # (0, 3) for an empty batch
@@ -91,12 +135,24 @@ class Inputs:
 
 
 def launch_inputs(
-    body: Bodies, *, spin: ArrayLike | None = None, omega: ArrayLike | None = None,
-    roll: ArrayLike = 0.0, pitch: ArrayLike = 0.0, yaw: ArrayLike = 0.0,
-    orientation: ArrayLike | None = None, velocity: ArrayLike | None = None,
-    mu: ArrayLike = math.inf, mu_static: ArrayLike | None = None, mu_spin: ArrayLike = 0.0,
-    mu_roll: ArrayLike = 0.0, damping: ArrayLike = 0.0, g: ArrayLike = 9.81,
-    dt: ArrayLike | None = None, t_end: ArrayLike, announce: bool = True,
+    body: Bodies,
+    *,
+    spin: ArrayLike | None = None,
+    omega: ArrayLike | None = None,
+    roll: ArrayLike = 0.0,
+    pitch: ArrayLike = 0.0,
+    yaw: ArrayLike = 0.0,
+    orientation: ArrayLike | None = None,
+    velocity: ArrayLike | None = None,
+    mu: ArrayLike = math.inf,
+    mu_static: ArrayLike | None = None,
+    mu_spin: ArrayLike = 0.0,
+    mu_roll: ArrayLike = 0.0,
+    damping: ArrayLike = 0.0,
+    g: ArrayLike = 9.81,
+    dt: ArrayLike | None = None,
+    t_end: ArrayLike,
+    announce: bool = True,
 ) -> Inputs:
     """Check and broadcast launch inputs (see :func:`run_batch` for their meaning and
     units), without the kernel. Raises ValueError naming the parameter, the value and
@@ -105,38 +161,58 @@ def launch_inputs(
     ``non_finite``. ``announce`` warns (:class:`~rattlesweep.LongRunWarning`) of
     a batch of more than :data:`~rattlesweep._steps.LONG_RUN_STEPS` steps."""
     if spin is not None and omega is not None:
-        raise ValueError("give either spin (about the vertical) or omega (body frame), not both")
+        raise ValueError(
+            "give either spin (about the vertical) or omega (body frame), not both"
+        )
     angles = {"roll": roll, "pitch": pitch, "yaw": yaw}
-    if orientation is not None and any(np.any(as_float_array(k, x) != 0)
-                                       for k, x in angles.items()):
+    if orientation is not None and any(
+        np.any(as_float_array(k, x) != 0) for k, x in angles.items()
+    ):
         raise ValueError("give either orientation or roll/pitch/yaw, not both")
     if t_end is None:
         raise ValueError("t_end (s) is required")
-    scalars = {"roll": roll, "pitch": pitch, "yaw": yaw, "mu": mu,
-               "mu_static": mu if mu_static is None else mu_static,
-               "mu_spin": mu_spin, "mu_roll": mu_roll,
-               "damping": damping, "g": g, "t_end": t_end}
+    scalars = {
+        "roll": roll,
+        "pitch": pitch,
+        "yaw": yaw,
+        "mu": mu,
+        "mu_static": mu if mu_static is None else mu_static,
+        "mu_spin": mu_spin,
+        "mu_roll": mu_roll,
+        "damping": damping,
+        "g": g,
+        "t_end": t_end,
+    }
     if omega is None:
         scalars["spin"] = 0.0 if spin is None else spin
     if dt is not None:
         scalars["dt"] = dt
     vectors: dict[str, np.ndarray] = {}
-    for name, value in (("omega", omega), ("orientation", orientation),
-                        ("velocity", velocity)):
+    for name, value in (
+        ("omega", omega),
+        ("orientation", orientation),
+        ("velocity", velocity),
+    ):
         width = INPUTS[name].width
         if value is not None:
             arr = as_float_array(name, value)
             if arr.ndim == 0 or arr.shape[-1] != width:
-                raise ValueError(f"{name} must have a last axis of length {width}, "
-                                 f"got shape {arr.shape}")
+                raise ValueError(
+                    f"{name} must have a last axis of length {width}, got shape {arr.shape}"
+                )
             vectors[name] = arr
     launch = launches(body, Body, scalars, INPUTS, vectors)
     flat, flat_vec, table, index = launch.flat, launch.vectors, launch.bodies, launch.index
     # warnings at the user's call: run_batch or simulate -> prepare -> launch_inputs
     longest = damping_dts(table, index, flat["damping"])
-    flat["dt"], default_from = time_steps(table, index, flat,
-                                          longest=(longest, ("damping",)),
-                                          dt_at_most_t_end=True, stacklevel=4)
+    flat["dt"], default_from = time_steps(
+        table,
+        index,
+        flat,
+        longest=(longest, ("damping",)),
+        dt_at_most_t_end=True,
+        stacklevel=4,
+    )
     if "orientation" in flat_vec:
         q = flat_vec["orientation"].copy()
         check_unit_quaternion(q)
@@ -144,8 +220,14 @@ def launch_inputs(
         q = quaternion_from_angles(flat["roll"], flat["pitch"], flat["yaw"])
     full = np.array([b.full_ellipsoid for b in table], dtype=bool)[index]
     tilt_limit_error(up_vector(q)[:, 2], full)
-    steps = step_counts(flat["t_end"], flat["dt"], default_from, (table, index),
-                        announce=announce, stacklevel=4)
+    steps = step_counts(
+        flat["t_end"],
+        flat["dt"],
+        default_from,
+        (table, index),
+        announce=announce,
+        stacklevel=4,
+    )
     return Inputs(launch.shape, launch.n, table, index, flat, flat_vec, steps, q)
 
 
@@ -169,7 +251,6 @@ def damping_dts(table: list[Body], index: np.ndarray, damping: np.ndarray) -> np
         return np.where(damping > 0, i_min / damping, np.inf)
 
 
-
 def max_steps(body: Bodies, **kwargs: Any) -> int:
     """The largest number of steps a trajectory of these launches takes, 0 for an empty
     batch (checks every input as :func:`launch_inputs` does, without the kernel)."""
@@ -181,12 +262,20 @@ def _launch_state(inputs: Inputs) -> dict[str, np.ndarray]:
     once the kernel has given the rolling one."""
     q, vec = inputs.quaternion, inputs.vectors
     w = vec["omega"] if "omega" in vec else inputs.flat["spin"][:, None] * up_vector(q)
-    return {"quaternion": q, "omega": w, "position": np.zeros((inputs.n, 2)),
-            "velocity": np.zeros((inputs.n, 2))}
+    return {
+        "quaternion": q,
+        "omega": w,
+        "position": np.zeros((inputs.n, 2)),
+        "velocity": np.zeros((inputs.n, 2)),
+    }
 
 
-def _coords(inputs: Inputs, columns: dict[str, np.ndarray], velocity: np.ndarray | None,
-            degrees: Mapping[str, ArrayLike]) -> dict[str, Any]:
+def _coords(
+    inputs: Inputs,
+    columns: dict[str, np.ndarray],
+    velocity: np.ndarray | None,
+    degrees: Mapping[str, ArrayLike],
+) -> dict[str, Any]:
     """Every input, per trajectory: name -> (dims, values). Angles are in degrees, named
     ``roll_deg``, ``pitch_deg``, ``yaw_deg``: the values of ``degrees`` (the user's,
     unrounded) where given, else converted from radians."""
@@ -197,7 +286,9 @@ def _coords(inputs: Inputs, columns: dict[str, np.ndarray], velocity: np.ndarray
     else:
         for k in ("roll", "pitch", "yaw"):
             if k in degrees:
-                given = np.broadcast_to(as_float_array(f"{k}_deg", degrees[k]), inputs.shape)
+                given = np.broadcast_to(
+                    as_float_array(f"{k}_deg", degrees[k]), inputs.shape
+                )
                 coords[f"{k}_deg"] = (dim, given.reshape(-1).copy())
             else:
                 coords[f"{k}_deg"] = (dim, np.degrees(flat[k]))
@@ -216,9 +307,14 @@ def _coords(inputs: Inputs, columns: dict[str, np.ndarray], velocity: np.ndarray
     return coords
 
 
-def prepare(body: Bodies, *, stop: str | None = None,
-            degrees: Mapping[str, ArrayLike] | None = None, announce: bool = True,
-            **kwargs: Any) -> Prepared:
+def prepare(
+    body: Bodies,
+    *,
+    stop: str | None = None,
+    degrees: Mapping[str, ArrayLike] | None = None,
+    announce: bool = True,
+    **kwargs: Any,
+) -> Prepared:
     """Check, broadcast and pack launches for the kernel; arguments as for
     :func:`run_batch`, angles in radians; ``degrees`` maps ``roll``, ``pitch``, ``yaw``
     to the values the user gave in degrees, which the coordinates keep as given
@@ -227,16 +323,21 @@ def prepare(body: Bodies, *, stop: str | None = None,
     inputs = launch_inputs(body, announce=announce, **kwargs)
     n = inputs.n
     columns = {**inputs.body_columns(), **inputs.flat, "stop_rule": np.full(n, rule)}
-    prep = prepared(MODEL, columns, _launch_state(inputs), inputs.nsteps, n, inputs.shape,
-                    {})
+    prep = prepared(
+        MODEL, columns, _launch_state(inputs), inputs.nsteps, n, inputs.shape, {}
+    )
     # G's velocity: rolling (material contact point at rest) unless given
     rolling = -contact_slip_velocity(MODEL, prep.P, prep.Y)[:, :n]
     given = inputs.vectors.get("velocity")
     if given is not None:
         v = given.T
         sliding = np.isfinite(v).all(axis=0) & np.any(v != rolling, axis=0)
-        fail_where("velocity", given, sliding & np.isinf(inputs.flat["mu_static"]),
-                   "makes a sliding launch, which needs a finite mu_static")
+        fail_where(
+            "velocity",
+            given,
+            sliding & np.isinf(inputs.flat["mu_static"]),
+            "makes a sliding launch, which needs a finite mu_static",
+        )
     else:
         v = rolling
     prep.Y[:, layout.STATE.slice("velocity"), :] = blocked(v, n)
@@ -246,16 +347,29 @@ def prepare(body: Bodies, *, stop: str | None = None,
 def run_batch(
     body: Bodies,
     *,
-    spin: ArrayLike | None = None, omega: ArrayLike | None = None,
-    roll: ArrayLike | None = None, pitch: ArrayLike | None = None,
-    yaw: ArrayLike | None = None, roll_deg: ArrayLike | None = None,
-    pitch_deg: ArrayLike | None = None, yaw_deg: ArrayLike | None = None,
-    orientation: ArrayLike | None = None, velocity: ArrayLike | None = None,
+    spin: ArrayLike | None = None,
+    omega: ArrayLike | None = None,
+    roll: ArrayLike | None = None,
+    pitch: ArrayLike | None = None,
+    yaw: ArrayLike | None = None,
+    roll_deg: ArrayLike | None = None,
+    pitch_deg: ArrayLike | None = None,
+    yaw_deg: ArrayLike | None = None,
+    orientation: ArrayLike | None = None,
+    velocity: ArrayLike | None = None,
     mu: ArrayLike = math.inf,
-    mu_static: ArrayLike | None = None, mu_spin: ArrayLike = 0.0, mu_roll: ArrayLike = 0.0,
-    damping: ArrayLike = 0.0, g: ArrayLike = 9.81, dt: ArrayLike | None = None,
-    t_end: ArrayLike, method: str = "rk4", record_every: int | None = None,
-    reversal_band: float = 0.05, stop: str | None = None, parallel: bool = True,
+    mu_static: ArrayLike | None = None,
+    mu_spin: ArrayLike = 0.0,
+    mu_roll: ArrayLike = 0.0,
+    damping: ArrayLike = 0.0,
+    g: ArrayLike = 9.81,
+    dt: ArrayLike | None = None,
+    t_end: ArrayLike,
+    method: str = "rk4",
+    record_every: int | None = None,
+    reversal_band: float = 0.05,
+    stop: str | None = None,
+    parallel: bool = True,
     threads: int | None = None,
 ) -> xr.Dataset:
     """Integrate many launches at once; return per-trajectory observables.
@@ -365,24 +479,58 @@ def run_batch(
     m = check_method(method)
     rec_every = check_record_every(record_every)
     band = check_band(reversal_band)
-    degrees = {k: v for k, v in (("roll", roll_deg), ("pitch", pitch_deg), ("yaw", yaw_deg))
-               if v is not None}
-    angles = radian_angles(body, dict(roll=roll, pitch=pitch, yaw=yaw, roll_deg=roll_deg,
-                                      pitch_deg=pitch_deg, yaw_deg=yaw_deg))
-    prep = prepare(body, spin=spin, omega=omega, **angles, degrees=degrees,
-                   orientation=orientation, velocity=velocity, mu=mu, mu_static=mu_static,
-                   mu_spin=mu_spin, mu_roll=mu_roll, damping=damping, g=g, dt=dt,
-                   t_end=t_end, stop=stop)
+    degrees = {
+        k: v
+        for k, v in (("roll", roll_deg), ("pitch", pitch_deg), ("yaw", yaw_deg))
+        if v is not None
+    }
+    angles = radian_angles(
+        body,
+        dict(
+            roll=roll,
+            pitch=pitch,
+            yaw=yaw,
+            roll_deg=roll_deg,
+            pitch_deg=pitch_deg,
+            yaw_deg=yaw_deg,
+        ),
+    )
+    prep = prepare(
+        body,
+        spin=spin,
+        omega=omega,
+        **angles,
+        degrees=degrees,
+        orientation=orientation,
+        velocity=velocity,
+        mu=mu,
+        mu_static=mu_static,
+        mu_spin=mu_spin,
+        mu_roll=mu_roll,
+        damping=damping,
+        g=g,
+        dt=dt,
+        t_end=t_end,
+        stop=stop,
+    )
     if rec_every is not None:
         check_single_step(prep)
-    raw = execute(prep, method=m, record_every=rec_every, band=band, parallel=parallel,
-                  threads=threads)
-    return results.batch_dataset(prep, raw, rec_every, attrs_for,
-                                 run_attrs(method, rec_every, band, stop))
+    raw = execute(
+        prep,
+        method=m,
+        record_every=rec_every,
+        band=band,
+        parallel=parallel,
+        threads=threads,
+    )
+    return results.batch_dataset(
+        prep, raw, rec_every, attrs_for, run_attrs(method, rec_every, band, stop)
+    )
 
 
-def run_attrs(method: str, record_every: int | None, band: float,
-              stop: str | None = None) -> dict[str, Any]:
+def run_attrs(
+    method: str, record_every: int | None, band: float, stop: str | None = None
+) -> dict[str, Any]:
     """Global attributes of a rattleback result."""
     attrs = results.run_attrs(method, record_every, band, stop)
     attrs["title"] = TITLE

@@ -51,7 +51,8 @@ def _check_axes_scale(a: float, b: float, c: float, moments: np.ndarray) -> None
             f"semi-axes a = {a!r}, b = {b!r}, c = {c!r} m are too far apart in scale for "
             f"float64: the body's smallest principal moment of inertia ({small:.3g} kg m2) "
             f"must exceed {MOMENT_RATIO_MIN:g} of its largest ({large:.3g} kg m2); keep "
-            "the semi-axes within a factor of about 1e6 of each other")
+            "the semi-axes within a factor of about 1e6 of each other"
+        )
 
 
 # eq=False: the generated __eq__ would compare the ndarray fields with ==, whose
@@ -94,9 +95,17 @@ class Body:
         # The constructor takes com and inertia array_like; __post_init__ stores them as
         # read-only float arrays. A field has one type, so the signature is spelled out
         # for type checkers (at run time the dataclass makes the same __init__).
-        def __init__(self, a: float, b: float, c: float, mass: float, com: npt.ArrayLike,
-                     inertia: npt.ArrayLike, full_ellipsoid: bool = False,
-                     name: str = "custom") -> None: ...
+        def __init__(
+            self,
+            a: float,
+            b: float,
+            c: float,
+            mass: float,
+            com: npt.ArrayLike,
+            inertia: npt.ArrayLike,
+            full_ellipsoid: bool = False,
+            name: str = "custom",
+        ) -> None: ...
 
     def __post_init__(self) -> None:
         # checked first: the rim check below depends on it
@@ -129,11 +138,15 @@ class Body:
             where = "full ellipsoid" if self.full_ellipsoid else "semi-ellipsoid (z < 0)"
             raise ValueError(f"com {com.tolist()} must lie strictly inside the {where}")
         ell = self.c + gz
-        for label, radius in (("a**2/c", self.a**2 / self.c), ("b**2/c", self.b**2 / self.c)):
+        for label, radius in (
+            ("a**2/c", self.a**2 / self.c),
+            ("b**2/c", self.b**2 / self.c),
+        ):
             if not math.isfinite(radius):
                 raise ValueError(
                     f"radius of curvature {label} overflows float64 (a = {self.a!r}, "
-                    f"b = {self.b!r}, c = {self.c!r} m): c is too small for a and b")
+                    f"b = {self.b!r}, c = {self.c!r} m): c is too small for a and b"
+                )
             if radius < ell * (1.0 - _REL_TOL):
                 raise ValueError(
                     f"upright pose is unstable: radius of curvature {label} = {radius:.6g} m "
@@ -144,28 +157,39 @@ class Body:
         inertia.setflags(write=False)
         object.__setattr__(self, "com", com)
         object.__setattr__(self, "inertia", inertia)
-        object.__setattr__(self, "full_ellipsoid", check_boolean("full_ellipsoid",
-                                                                 self.full_ellipsoid))
+        object.__setattr__(
+            self, "full_ellipsoid", check_boolean("full_ellipsoid", self.full_ellipsoid)
+        )
         # Scales so far apart (c = 1e-300 m under a = 486 m, a mass of 1e165 kg) that the
         # rocking frequencies overflow leave no time step to integrate with.
         freqs: tuple[float, ...]
         with np.errstate(all="ignore"):
             try:
-                freqs = (*self.small_oscillation_frequencies(1.0, rolling=True),
-                         *self.small_oscillation_frequencies(1.0, rolling=False))
+                freqs = (
+                    *self.small_oscillation_frequencies(1.0, rolling=True),
+                    *self.small_oscillation_frequencies(1.0, rolling=False),
+                )
             except np.linalg.LinAlgError:
                 freqs = (math.nan,)
         if not all(math.isfinite(f) for f in freqs):
             raise ValueError(
                 f"a = {self.a!r}, b = {self.b!r}, c = {self.c!r} m, mass = {self.mass!r} kg "
                 f"and inertia are too far apart in scale for float64: the body's "
-                f"small-oscillation frequencies overflow")
+                f"small-oscillation frequencies overflow"
+            )
 
     # --- constructors -------------------------------------------------------------
     @classmethod
     def semi_ellipsoid(
-        cls, a: float, b: float, c: float, mass: float, delta: float = 0.0,
-        *, delta_deg: float | None = None, name: str = "semi_ellipsoid",
+        cls,
+        a: float,
+        b: float,
+        c: float,
+        mass: float,
+        delta: float = 0.0,
+        *,
+        delta_deg: float | None = None,
+        name: str = "semi_ellipsoid",
     ) -> "Body":
         """Homogeneous solid semi-ellipsoid (m, kg) with its horizontal principal inertia
         axes rotated by the misalignment ``delta`` (rad) about +z, or ``delta_deg``
@@ -174,13 +198,22 @@ class Body:
         G = (0, 0, −3c/8); inertia about C is diag(b²+c², a²+c², a²+b²)·m/5, moved to G
         by the parallel-axis rule, then rotated.
         """
-        a, b, c, mass = (positive("a", a), positive("b", b), positive("c", c),
-                         positive("mass", mass))
+        a, b, c, mass = (
+            positive("a", a),
+            positive("b", b),
+            positive("c", c),
+            positive("mass", mass),
+        )
         if delta_deg is not None and not (isinstance(delta, (int, float)) and delta == 0.0):
-            raise ValueError(f"give either delta (rad) or delta_deg (degrees), not both; "
-                             f"got delta={delta!r} and delta_deg={delta_deg!r}")
-        key, given, units = (("delta_deg", delta_deg, "degrees") if delta_deg is not None
-                             else ("delta", delta, "rad"))
+            raise ValueError(
+                f"give either delta (rad) or delta_deg (degrees), not both; "
+                f"got delta={delta!r} and delta_deg={delta_deg!r}"
+            )
+        key, given, units = (
+            ("delta_deg", delta_deg, "degrees")
+            if delta_deg is not None
+            else ("delta", delta, "rad")
+        )
         try:
             angle = float(given)
         except (TypeError, ValueError):  # not a number: refused as below
@@ -195,20 +228,27 @@ class Body:
         i_g = i_c - mass * zg * zg * np.array([1.0, 1.0, 0.0])
         _check_axes_scale(a, b, c, i_g)
         ix, iy, iz = i_g
-        return cls(a, b, c, mass, (0.0, 0.0, zg), rotated_inertia(ix, iy, iz, delta),
-                   name=name)
+        return cls(
+            a, b, c, mass, (0.0, 0.0, zg), rotated_inertia(ix, iy, iz, delta), name=name
+        )
 
     @classmethod
-    def ellipsoid(cls, a: float, b: float, c: float, mass: float, *, name: str = "ellipsoid"
-                  ) -> "Body":
+    def ellipsoid(
+        cls, a: float, b: float, c: float, mass: float, *, name: str = "ellipsoid"
+    ) -> "Body":
         """Homogeneous solid full ellipsoid (m, kg), G at its centre. With a = b = c this is
         a uniform sphere."""
-        a, b, c, mass = (positive("a", a), positive("b", b), positive("c", c),
-                         positive("mass", mass))
+        a, b, c, mass = (
+            positive("a", a),
+            positive("b", b),
+            positive("c", c),
+            positive("mass", mass),
+        )
         moments = np.array([b * b + c * c, a * a + c * c, a * a + b * b]) * mass / 5.0
         _check_axes_scale(a, b, c, moments)
-        return cls(a, b, c, mass, (0.0, 0.0, 0.0), np.diag(moments), full_ellipsoid=True,
-                   name=name)
+        return cls(
+            a, b, c, mass, (0.0, 0.0, 0.0), np.diag(moments), full_ellipsoid=True, name=name
+        )
 
     def with_point_masses(self, masses: Iterable[tuple[float, npt.ArrayLike]]) -> "Body":
         """This body plus point masses ``[(mass_kg, (x, y, z)_m), ...]`` (body frame from
@@ -230,8 +270,16 @@ class Body:
         inertia = self.inertia + shift(self.mass, self.com - com)
         for mi, pos in items:
             inertia = inertia + shift(mi, pos - com)
-        return Body(self.a, self.b, self.c, total, com, inertia, self.full_ellipsoid,
-                    name=f"{self.name}+{len(items)} point masses")
+        return Body(
+            self.a,
+            self.b,
+            self.c,
+            total,
+            com,
+            inertia,
+            self.full_ellipsoid,
+            name=f"{self.name}+{len(items)} point masses",
+        )
 
     @classmethod
     def preset(cls, name: str) -> "Body":
@@ -250,8 +298,15 @@ class Body:
     @functools.cached_property
     def _key(self) -> tuple[Any, ...]:
         """Every parameter but the name, as plain Python scalars."""
-        return (self.a, self.b, self.c, self.mass, *self.com.tolist(),
-                *self.inertia.ravel().tolist(), self.full_ellipsoid)
+        return (
+            self.a,
+            self.b,
+            self.c,
+            self.mass,
+            *self.com.tolist(),
+            *self.inertia.ravel().tolist(),
+            self.full_ellipsoid,
+        )
 
     @functools.cached_property
     def _hash(self) -> int:
@@ -297,8 +352,9 @@ class Body:
             return 0.0 if ixy == 0.0 else math.copysign(math.pi / 4.0, ixy)
         return 0.5 * math.atan(2.0 * ixy / (ixx - iyy))
 
-    def small_oscillation_frequencies(self, g: float = 9.81, *, rolling: bool = True
-                                      ) -> tuple[float, float]:
+    def small_oscillation_frequencies(
+        self, g: float = 9.81, *, rolling: bool = True
+    ) -> tuple[float, float]:
         """Angular frequencies (rad/s) of small rocking about the upright pose at zero spin.
 
         Returns (pitch-like, roll-like): the modes mostly about body y and body x. For
@@ -336,15 +392,21 @@ class Body:
         """Plain-number description for result attributes."""
         return {
             "body_name": self.name,
-            "a": self.a, "b": self.b, "c": self.c, "mass": self.mass,
-            "com": self.com.tolist(), "inertia": self.inertia.tolist(),
+            "a": self.a,
+            "b": self.b,
+            "c": self.c,
+            "mass": self.mass,
+            "com": self.com.tolist(),
+            "inertia": self.inertia.tolist(),
             "full_ellipsoid": self.full_ellipsoid,
         }
 
     def __repr__(self) -> str:
-        return (f"Body(name={self.name!r}, a={self.a:g}, b={self.b:g}, c={self.c:g}, "
-                f"mass={self.mass:g}, com={self.com.tolist()}, "
-                f"inertia={self.inertia.tolist()}, full_ellipsoid={self.full_ellipsoid})")
+        return (
+            f"Body(name={self.name!r}, a={self.a:g}, b={self.b:g}, c={self.c:g}, "
+            f"mass={self.mass:g}, com={self.com.tolist()}, "
+            f"inertia={self.inertia.tolist()}, full_ellipsoid={self.full_ellipsoid})"
+        )
 
 
 # Sweeps ask for the default step of the same few bodies once per tile, and each answer
@@ -352,14 +414,18 @@ class Body:
 @functools.lru_cache(maxsize=4096)
 def _default_dt(body: Body, g: float) -> float:
     with np.errstate(all="ignore"):
-        w = max(*body.small_oscillation_frequencies(g, rolling=True),
-                *body.small_oscillation_frequencies(g, rolling=False))
+        w = max(
+            *body.small_oscillation_frequencies(g, rolling=True),
+            *body.small_oscillation_frequencies(g, rolling=False),
+        )
         if w == 0.0:
             w = math.sqrt(g / body.c)
         dt = 2.0 * math.pi / w / 64.0
     if not (math.isfinite(dt) and dt > 0.0):
-        raise ValueError(f"g = {g!r} m s-2 is too large for body {body.name!r}: its "
-                         f"small-oscillation frequencies overflow float64")
+        raise ValueError(
+            f"g = {g!r} m s-2 is too large for body {body.name!r}: its "
+            f"small-oscillation frequencies overflow float64"
+        )
     return dt
 
 
@@ -369,17 +435,27 @@ Bodies: TypeAlias = Union[Body, "npt.NDArray[np.object_]", Sequence["Bodies"]]
 
 def _kane_levinson() -> Body:
     inertia = np.array([[2.0, 0.2, 0.0], [0.2, 16.0, 0.0], [0.0, 0.0, 17.0]]) * 1e-4
-    return Body(0.20, 0.03, 0.02, 1.0, (0.0, 0.0, -0.01), inertia, full_ellipsoid=True,
-                name="kane_levinson")
+    return Body(
+        0.20,
+        0.03,
+        0.02,
+        1.0,
+        (0.0, 0.0, -0.01),
+        inertia,
+        full_ellipsoid=True,
+        name="kane_levinson",
+    )
 
 
 def _golden() -> Body:
     phi = (1.0 + math.sqrt(5.0)) / 2.0
-    inertia = np.array([
-        [0.05796875, -0.025, 0.0],
-        [-0.025, 0.09032943, 0.0],
-        [0.0, 0.0, 0.12236068],
-    ])
+    inertia = np.array(
+        [
+            [0.05796875, -0.025, 0.0],
+            [-0.025, 0.09032943, 0.0],
+            [0.0, 0.0, 0.12236068],
+        ]
+    )
     return Body(phi, 1.0, 1.0, 0.2, (0.0, 0.0, -0.1875), inertia, name="golden")
 
 

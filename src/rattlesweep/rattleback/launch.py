@@ -28,8 +28,13 @@ from numpy.typing import ArrayLike
 from .._validation import as_float_array
 
 __all__ = [
-    "quaternion_from_angles", "rotation_matrices", "up_vector", "check_unit_quaternion",
-    "tilt_limit_error", "UnitsWarning", "angles_in_radians",
+    "quaternion_from_angles",
+    "rotation_matrices",
+    "up_vector",
+    "check_unit_quaternion",
+    "tilt_limit_error",
+    "UnitsWarning",
+    "angles_in_radians",
 ]
 
 
@@ -38,8 +43,9 @@ class UnitsWarning(UserWarning):
     radians that can only be degrees typed as radians (``roll=30``)."""
 
 
-def angles_in_radians(given: dict[str, Any], *, full_ellipsoid: bool,
-                      stacklevel: int = 3) -> dict[str, Any]:
+def angles_in_radians(
+    given: dict[str, Any], *, full_ellipsoid: bool, stacklevel: int = 3
+) -> dict[str, Any]:
     """``roll``, ``pitch``, ``yaw`` in radians from the radian or the degree form of each
     (``given`` maps ``roll`` and ``roll_deg`` etc. to a value or None). Raises ValueError
     when both forms of one angle are given. Warns (:class:`UnitsWarning`) when a tilt
@@ -51,8 +57,10 @@ def angles_in_radians(given: dict[str, Any], *, full_ellipsoid: bool,
     for name in ("roll", "pitch", "yaw"):
         rad, deg = given.get(name), given.get(f"{name}_deg")
         if rad is not None and deg is not None:
-            raise ValueError(f"give either {name} (rad) or {name}_deg (degrees), not both; "
-                             f"got {name}={rad!r} and {name}_deg={deg!r}")
+            raise ValueError(
+                f"give either {name} (rad) or {name}_deg (degrees), not both; "
+                f"got {name}={rad!r} and {name}_deg={deg!r}"
+            )
         if deg is not None:
             out[name] = np.radians(as_float_array(f"{name}_deg", deg))
             continue
@@ -73,7 +81,9 @@ def angles_in_radians(given: dict[str, Any], *, full_ellipsoid: bool,
                 f"{name} = {worst:g} rad ({math.degrees(worst):.0f} degrees) is more than "
                 f"{math.degrees(limit):.0f} degrees from upright; {name} is in radians: "
                 f"if {worst:g} is in degrees, give {name}_deg={worst:g}",
-                UnitsWarning, stacklevel=stacklevel)
+                UnitsWarning,
+                stacklevel=stacklevel,
+            )
     return out
 
 
@@ -85,23 +95,35 @@ def quaternion_from_angles(roll: ArrayLike, pitch: ArrayLike, yaw: ArrayLike) ->
     cr, sr = np.cos(roll / 2), np.sin(roll / 2)
     cp, sp = np.cos(pitch / 2), np.sin(pitch / 2)
     cy, sy = np.cos(yaw / 2), np.sin(yaw / 2)
-    return np.stack([
-        cy * cp * cr + sy * sp * sr,
-        cy * cp * sr - sy * sp * cr,
-        cy * sp * cr + sy * cp * sr,
-        sy * cp * cr - cy * sp * sr,
-    ], axis=-1)
+    return np.stack(
+        [
+            cy * cp * cr + sy * sp * sr,
+            cy * cp * sr - sy * sp * cr,
+            cy * sp * cr + sy * cp * sr,
+            sy * cp * cr - cy * sp * sr,
+        ],
+        axis=-1,
+    )
 
 
 def rotation_matrices(q: np.ndarray) -> np.ndarray:
     """Rotation matrices R (..., 3, 3), body to world, of unit quaternions (..., 4) =
     (w, x, y, z)."""
     w, x, y, z = np.moveaxis(q, -1, 0)
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
-    ], -2)
+    return np.stack(
+        [
+            np.stack(
+                [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1
+            ),
+            np.stack(
+                [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1
+            ),
+            np.stack(
+                [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1
+            ),
+        ],
+        -2,
+    )
 
 
 def up_vector(q: np.ndarray) -> np.ndarray:

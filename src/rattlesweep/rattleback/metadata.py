@@ -16,7 +16,8 @@ __all__ = ["STATUS_ATTRS", "STATUS_COMMENT", "VARIABLE_ATTRS", "attrs_for"]
 STATUS_COMMENT = (
     "ok: ran to t_end; capsized: the rim reached the floor; lifted_off: the normal force "
     "went negative; non_finite: a state or input was NaN or inf. A stopped trajectory "
-    "keeps its last valid state.")
+    "keeps its last valid state."
+)
 
 STATUS_ATTRS = status_attrs(STATUS_COMMENT)
 

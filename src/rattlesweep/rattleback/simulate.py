@@ -23,15 +23,27 @@ __all__ = ["simulate"]
 def simulate(
     body: Body,
     *,
-    spin: float | None = None, omega: ArrayLike | None = None, roll: float | None = None,
-    pitch: float | None = None, yaw: float | None = None, roll_deg: float | None = None,
-    pitch_deg: float | None = None, yaw_deg: float | None = None,
+    spin: float | None = None,
+    omega: ArrayLike | None = None,
+    roll: float | None = None,
+    pitch: float | None = None,
+    yaw: float | None = None,
+    roll_deg: float | None = None,
+    pitch_deg: float | None = None,
+    yaw_deg: float | None = None,
     orientation: ArrayLike | None = None,
     velocity: ArrayLike | None = None,
-    mu: float = math.inf, mu_static: float | None = None, mu_spin: float = 0.0,
-    mu_roll: float = 0.0, damping: float = 0.0,
-    g: float = 9.81, dt: float | None = None, t_end: float,
-    method: str = "rk4", record_every: int | None = None, reversal_band: float = 0.05,
+    mu: float = math.inf,
+    mu_static: float | None = None,
+    mu_spin: float = 0.0,
+    mu_roll: float = 0.0,
+    damping: float = 0.0,
+    g: float = 9.81,
+    dt: float | None = None,
+    t_end: float,
+    method: str = "rk4",
+    record_every: int | None = None,
+    reversal_band: float = 0.05,
 ) -> xr.Dataset:
     """Simulate one launch and return its time series.
 
@@ -72,31 +84,61 @@ def simulate(
     m = check_method(method)
     rec_every = check_record_every(record_every)
     band = check_band(reversal_band)
-    angles = radian_angles(body, dict(roll=roll, pitch=pitch, yaw=yaw, roll_deg=roll_deg,
-                                      pitch_deg=pitch_deg, yaw_deg=yaw_deg))
+    angles = radian_angles(
+        body,
+        dict(
+            roll=roll,
+            pitch=pitch,
+            yaw=yaw,
+            roll_deg=roll_deg,
+            pitch_deg=pitch_deg,
+            yaw_deg=yaw_deg,
+        ),
+    )
     inputs: dict[str, Any] = dict(
-        spin=spin, omega=omega, **angles, orientation=orientation,
-        velocity=velocity, mu=mu, mu_static=mu_static, mu_spin=mu_spin, mu_roll=mu_roll,
-        damping=damping, g=g, dt=dt, t_end=t_end)
+        spin=spin,
+        omega=omega,
+        **angles,
+        orientation=orientation,
+        velocity=velocity,
+        mu=mu,
+        mu_static=mu_static,
+        mu_spin=mu_spin,
+        mu_roll=mu_roll,
+        damping=damping,
+        g=g,
+        dt=dt,
+        t_end=t_end,
+    )
     for name, value in inputs.items():
         width = INPUTS[name].width
         if value is None:
             continue
         if width == 1 and np.ndim(value) != 0:
-            raise ValueError(f"{name} must be a scalar for simulate(); use run_batch for arrays")
+            raise ValueError(
+                f"{name} must be a scalar for simulate(); use run_batch for arrays"
+            )
         if width > 1 and np.shape(value) != (width,):
             raise ValueError(f"{name} must have shape ({width},), got {np.shape(value)}")
-    degrees = {k: v for k, v in (("roll", roll_deg), ("pitch", pitch_deg), ("yaw", yaw_deg))
-               if v is not None}
+    degrees = {
+        k: v
+        for k, v in (("roll", roll_deg), ("pitch", pitch_deg), ("yaw", yaw_deg))
+        if v is not None
+    }
     prep = prepare(body, degrees=degrees, **inputs)
     rec_every = results.default_record_every(prep, rec_every)
     raw = execute(prep, method=m, record_every=rec_every, band=band, parallel=False)
     config = {
         "body": body.describe(),
-        "launch": {k: (np.asarray(v).tolist() if v is not None else None)
-                   for k, v in inputs.items()},
-        "dt_used": float(prep.coords["dt"][1][0]), "method": method,
-        "record_every": rec_every, "reversal_band": band,
+        "launch": {
+            k: (np.asarray(v).tolist() if v is not None else None)
+            for k, v in inputs.items()
+        },
+        "dt_used": float(prep.coords["dt"][1][0]),
+        "method": method,
+        "record_every": rec_every,
+        "reversal_band": band,
     }
-    return results.run_dataset(prep, raw, rec_every, attrs_for,
-                              run_attrs(method, rec_every, band), config)
+    return results.run_dataset(
+        prep, raw, rec_every, attrs_for, run_attrs(method, rec_every, band), config
+    )

@@ -25,8 +25,10 @@ def body_from_toml(path: str | Path) -> Body:
     if entry is None and isinstance(fixed, Mapping) and "body" in fixed:
         entry, where = fixed["body"], f"{path}: fixed.body"
     if entry is None:
-        raise ValueError(f"{path} has no [body] table (a, b, c, mass, com, inertia"
-                         "[, full_ellipsoid, name], SI units), nor a sweep's fixed.body")
+        raise ValueError(
+            f"{path} has no [body] table (a, b, c, mass, com, inertia"
+            "[, full_ellipsoid, name], SI units), nor a sweep's fixed.body"
+        )
     if isinstance(entry, str):
         try:
             return Body.preset(entry)

@@ -31,8 +31,11 @@ def compare_with_full(refined: xr.Dataset, full: xr.Dataset) -> dict[str, Any]:
     if refined.attrs.get("stop") == "first_reversal" and full.attrs.get("stop") is None:
         expected = at_first_reversal(expected, full.n_reversals.values)
     got = refined.outcome.values
-    filled = refined.computed.values == 0 if "computed" in refined else np.zeros(
-        got.shape, dtype=bool)
+    filled = (
+        refined.computed.values == 0
+        if "computed" in refined
+        else np.zeros(got.shape, dtype=bool)
+    )
     wrong = got != expected
     misses: dict[tuple[str, str], int] = {}
     for a, b in zip(expected[wrong], got[wrong]):

@@ -39,22 +39,26 @@ the vertical component cos(roll) cos(pitch), which is extreme over a grid where 
 angle takes a value of smallest or largest cosine (:func:`angle_corners`)."""
 
 
-def angle_corners(values: list[float], lo: float | None = None,
-                  hi: float | None = None) -> list[float]:
+def angle_corners(
+    values: list[float], lo: float | None = None, hi: float | None = None
+) -> list[float]:
     """The values (rad) that stand for a launch angle's axis in the corner check: its
     extremes and its values of smallest and largest cosine; with ``lo`` and ``hi`` (a
     random range, rad), also the multiples of π inside it, where the cosine is ±1."""
     found = {min(values), max(values), min(values, key=math.cos), max(values, key=math.cos)}
     if lo is not None and hi is not None:
         k = math.ceil(lo / math.pi)
-        found.update(min(max(j * math.pi, lo), hi) for j in (k, k + 1)
-                     if j * math.pi <= hi)
+        found.update(min(max(j * math.pi, lo), hi) for j in (k, k + 1) if j * math.pi <= hi)
     return sorted(found)
 
 
-def check_corners(grid_axes: tuple[Axis, ...], random_params: tuple[RandomParam, ...],
-                  fixed_si: dict[str, float], fixed_body: str | Body | None,
-                  fixed_shown: str = "") -> int:
+def check_corners(
+    grid_axes: tuple[Axis, ...],
+    random_params: tuple[RandomParam, ...],
+    fixed_si: dict[str, float],
+    fixed_body: str | Body | None,
+    fixed_shown: str = "",
+) -> int:
     """Check every combination of the extremes of the varying parameters (for a launch
     angle, :func:`angle_corners`) against the batch layer's rules; return the largest
     number of steps any point takes.
@@ -76,8 +80,13 @@ def check_corners(grid_axes: tuple[Axis, ...], random_params: tuple[RandomParam,
             varying.append((ax.key, ax.param, sorted({float(si.min()), float(si.max())})))
     for rp in random_params:
         lo, hi = (bound * rp.factor for bound in rp.bounds())
-        varying.append((rp.key, rp.param,
-                        angle_corners([lo, hi], lo, hi) if rp.param in PERIODIC else [lo, hi]))
+        varying.append(
+            (
+                rp.key,
+                rp.param,
+                angle_corners([lo, hi], lo, hi) if rp.param in PERIODIC else [lo, hi],
+            )
+        )
     combos = list(itertools.product(*[v[2] for v in varying]))
     fixed = dict(fixed_si)
     if "t_end" not in fixed and all(param != "t_end" for _, param, _ in varying):
@@ -92,13 +101,17 @@ def check_corners(grid_axes: tuple[Axis, ...], random_params: tuple[RandomParam,
             columns[param] = np.array(values, dtype=float)
 
     def describe(i: int) -> str:
-        return ", ".join(f"{key}={_show(combos[i][j], param, key)}"
-                         for j, (key, param, _) in enumerate(varying))
+        return ", ".join(
+            f"{key}={_show(combos[i][j], param, key)}"
+            for j, (key, param, _) in enumerate(varying)
+        )
 
     def check(sel: slice) -> int:
-        bodies, kwargs = batch_inputs({k: v[sel] for k, v in columns.items()},
-                                      None if body_column is None else body_column[sel],
-                                      fixed_body)
+        bodies, kwargs = batch_inputs(
+            {k: v[sel] for k, v in columns.items()},
+            None if body_column is None else body_column[sel],
+            fixed_body,
+        )
         return _max_steps(bodies, kwargs)
 
     try:
@@ -111,7 +124,8 @@ def check_corners(grid_axes: tuple[Axis, ...], random_params: tuple[RandomParam,
             except ValueError as exc:
                 fixed_part = f"; fixed: {fixed_shown}" if fixed_shown else ""
                 raise ValueError(
-                    f"{exc} (at the sweep corner {describe(i)}{fixed_part})") from None
+                    f"{exc} (at the sweep corner {describe(i)}{fixed_part})"
+                ) from None
         raise
 
 

@@ -19,8 +19,17 @@ from .spec import Sweep
 from .store import write_failure
 from .tiles import TileResult, result_names, variable_attrs
 
-__all__ = ["CONFIG_NAME", "RESULT_NAME", "TILES_DIR", "TileDirectory", "read_config",
-           "read_tile", "tile_path", "tile_state", "write_text_atomic"]
+__all__ = [
+    "CONFIG_NAME",
+    "RESULT_NAME",
+    "TILES_DIR",
+    "TileDirectory",
+    "read_config",
+    "read_tile",
+    "tile_path",
+    "tile_state",
+    "write_text_atomic",
+]
 
 CONFIG_NAME = "sweep.toml"
 RESULT_NAME = "sweep.nc"
@@ -37,13 +46,15 @@ def read_config(path: Path) -> Sweep:
     try:
         return Sweep.from_toml(path)
     except ValueError as exc:
-        raise ValueError(f"{path} is not a valid sweep configuration ({exc}). It holds the "
-                         "configuration the sweep in this directory was started with: "
-                         "restore it, or start the sweep in a new directory") from None
+        raise ValueError(
+            f"{path} is not a valid sweep configuration ({exc}). It holds the "
+            "configuration the sweep in this directory was started with: "
+            "restore it, or start the sweep in a new directory"
+        ) from None
 
 
 def tile_state(path: Path, sweep: Sweep, tile: int) -> str:
-    """"valid" for a complete tile file of this sweep, "foreign" for a complete tile of
+    """ "valid" for a complete tile file of this sweep, "foreign" for a complete tile of
     another configuration, "damaged" for anything unreadable (truncated, corrupt)."""
     start, stop = sweep.tile_range(tile)
     try:
@@ -71,18 +82,27 @@ def read_tile(path: Path, names: tuple[str, ...]) -> dict[str, np.ndarray]:
 
 def tile_dataset(sweep: Sweep, result: TileResult) -> xr.Dataset:
     """A tile's results as the Dataset of its file, over ``point`` (flat indices)."""
-    ds = xr.Dataset({k: ("point", v, variable_attrs(sweep, k)) for k, v in result.data.items()},
-                    coords={"point": np.arange(result.start, result.stop, dtype=np.int64)})
-    ds.attrs.update({"config_hash": sweep.config_hash(), "tile": result.tile,
-                     "start": result.start, "stop": result.stop})
+    ds = xr.Dataset(
+        {k: ("point", v, variable_attrs(sweep, k)) for k, v in result.data.items()},
+        coords={"point": np.arange(result.start, result.stop, dtype=np.int64)},
+    )
+    ds.attrs.update(
+        {
+            "config_hash": sweep.config_hash(),
+            "tile": result.tile,
+            "start": result.start,
+            "stop": result.stop,
+        }
+    )
     return ds
 
 
 class TileDirectory:
     """The netCDF output of ``sweep`` in ``out_dir`` (see the module's description)."""
 
-    def __init__(self, sweep: Sweep, out_dir: str | os.PathLike[str], *,
-                 command: str | None = None) -> None:
+    def __init__(
+        self, sweep: Sweep, out_dir: str | os.PathLike[str], *, command: str | None = None
+    ) -> None:
         self.sweep = sweep
         self.command = command
         self.out = Path(out_dir)
@@ -119,16 +139,23 @@ class TileDirectory:
         from .zarr_store import is_zarr_store
 
         if self.out.exists() and not self.out.is_dir():
-            raise ValueError(f"output {self.out} exists and is not a directory: a netCDF "
-                             "sweep writes a directory (sweep.toml, tiles/, sweep.nc); "
-                             "give a new path or an earlier sweep's directory")
+            raise ValueError(
+                f"output {self.out} exists and is not a directory: a netCDF "
+                "sweep writes a directory (sweep.toml, tiles/, sweep.nc); "
+                "give a new path or an earlier sweep's directory"
+            )
         if is_zarr_store(self.out):
-            raise ValueError(f"output {self.out} is a zarr store: a netCDF sweep writes a "
-                             "directory of its own (resume the store with `rattlesweep "
-                             f"resume {self.out}`, or give a new path)")
+            raise ValueError(
+                f"output {self.out} is a zarr store: a netCDF sweep writes a "
+                "directory of its own (resume the store with `rattlesweep "
+                f"resume {self.out}`, or give a new path)"
+            )
         if self.out.is_dir() and not (self.out / CONFIG_NAME).exists():
-            others = sorted(p.name + "/" * p.is_dir() for p in self.out.iterdir()
-                            if not self._own(p.name))
+            others = sorted(
+                p.name + "/" * p.is_dir()
+                for p in self.out.iterdir()
+                if not self._own(p.name)
+            )
             if others:
                 many = len(others) > 1
                 raise ValueError(
@@ -136,12 +163,17 @@ class TileDirectory:
                     f"file{'s' if many else ''} ({'the first: ' if many else ''}"
                     f"{others[0]}) and no {CONFIG_NAME}, so it is no sweep's directory: a "
                     f"netCDF sweep writes only into a directory of its own ({CONFIG_NAME}, "
-                    f"{TILES_DIR}/, {RESULT_NAME}). Give a new or empty directory")
+                    f"{TILES_DIR}/, {RESULT_NAME}). Give a new or empty directory"
+                )
 
     def _own(self, name: str) -> bool:
         """Whether ``name`` in the output directory is one a sweep writes."""
-        return (name in (CONFIG_NAME, RESULT_NAME, TILES_DIR, self.tiles_dir.name)
-                or name.startswith((LOCK_NAME, f".{CONFIG_NAME}.", f".{RESULT_NAME}.")))
+        return name in (
+            CONFIG_NAME,
+            RESULT_NAME,
+            TILES_DIR,
+            self.tiles_dir.name,
+        ) or name.startswith((LOCK_NAME, f".{CONFIG_NAME}.", f".{RESULT_NAME}."))
 
     def _check_unclaimed(self) -> None:
         """In a directory without a configuration file, refuse to touch results this
@@ -158,7 +190,8 @@ class TileDirectory:
                 raise ValueError(
                     f"{self.out} holds {RESULT_NAME} but no {CONFIG_NAME}, and that file is "
                     "not this sweep's result (another configuration, or unreadable): not "
-                    "overwriting it. Move it away, or use a new directory")
+                    "overwriting it. Move it away, or use a new directory"
+                )
         if self.tiles_dir.is_dir():
             files = sorted(p for p in self.tiles_dir.rglob("*") if p.is_file())
             if files:
@@ -166,7 +199,8 @@ class TileDirectory:
                     f"{self.tiles_dir} holds {len(files)} files (the first: {files[0].name}) "
                     f"but {self.out} has no {CONFIG_NAME}, so they cannot be shown to be "
                     "this sweep's: not touching them. Restore the configuration, or use a "
-                    "new directory")
+                    "new directory"
+                )
 
     def _check_config(self) -> Path:
         """Refuse a directory that holds another sweep's configuration, or results of
@@ -179,18 +213,22 @@ class TileDirectory:
             stored = read_config(config)
             if stored != sweep:
                 changes = "; ".join(stored.differences(sweep))
-                raise ValueError(f"{out} holds a different sweep (stored -> new: {changes}); "
-                                 f"resume it unchanged with `rattlesweep resume {out}`, or "
-                                 f"use a new directory")
+                raise ValueError(
+                    f"{out} holds a different sweep (stored -> new: {changes}); "
+                    f"resume it unchanged with `rattlesweep resume {out}`, or "
+                    f"use a new directory"
+                )
         return config
 
     def make_tiles_dir(self) -> None:
         """Create the directory of the tile files; a ValueError naming the path when
         something else is in its way."""
         if self.tiles_dir.exists() and not self.tiles_dir.is_dir():
-            raise ValueError(f"{self.tiles_dir} is in the way: a sweep keeps its tile files "
-                             f"in a directory there, and {self.tiles_dir} is a file. Move it "
-                             "away, or give a new directory")
+            raise ValueError(
+                f"{self.tiles_dir} is in the way: a sweep keeps its tile files "
+                f"in a directory there, and {self.tiles_dir} is a file. Move it "
+                "away, or give a new directory"
+            )
         self.tiles_dir.mkdir(exist_ok=True)
 
     def _prepare(self) -> list[int]:
@@ -201,8 +239,10 @@ class TileDirectory:
         # sweep (a directory without sweep.toml holds none of its files); the lock is
         # held, so no other process writes them now
         if config.exists():
-            for stale in (*self.tiles_dir.glob(".*.tmp"),
-                          *self.out.glob(f".{RESULT_NAME}.*.tmp")):
+            for stale in (
+                *self.tiles_dir.glob(".*.tmp"),
+                *self.out.glob(f".{RESULT_NAME}.*.tmp"),
+            ):
                 stale.unlink(missing_ok=True)
         todo, damaged, foreign = [], [], []
         for tile in range(sweep.n_tiles):
@@ -219,20 +259,24 @@ class TileDirectory:
                 f"{self.tiles_dir} holds {len(foreign)} tiles of another configuration "
                 f"(the first: {foreign[0].name}), so {config.name} does not describe them: "
                 "was it edited, or the directory used by another version of rattlesweep? "
-                "Restore the configuration, or use a new directory")
+                "Restore the configuration, or use a new directory"
+            )
         for path in damaged:
             path.unlink()
         if damaged:
-            self.notes.append(f"{len(damaged)} tile files in {self.tiles_dir} were damaged "
-                              f"(the first: {damaged[0].name}); recomputing them")
+            self.notes.append(
+                f"{len(damaged)} tile files in {self.tiles_dir} were damaged "
+                f"(the first: {damaged[0].name}); recomputing them"
+            )
         if not config.exists():
             write_text_atomic(config, sweep.to_toml())
         self.written = sweep.n_tiles - len(todo)
         return todo
 
     def write(self, result: TileResult) -> None:
-        self._write_file(tile_dataset(self.sweep, result),
-                         tile_path(self.tiles_dir, result.tile))
+        self._write_file(
+            tile_dataset(self.sweep, result), tile_path(self.tiles_dir, result.tile)
+        )
         self.written += 1
 
     def finish(self) -> xr.Dataset:
@@ -248,15 +292,22 @@ class TileDirectory:
         try:
             path.parent.mkdir(exist_ok=True)
             write_netcdf(ds, path)
-        except (OSError, RuntimeError) as exc:  # netCDF4 reports HDF5 failures as RuntimeError
-            raise write_failure(path, exc, self.written,
-                                f"rattlesweep resume {self.out}") from exc
+        except (
+            OSError,
+            RuntimeError,
+        ) as exc:  # netCDF4 reports HDF5 failures as RuntimeError
+            raise write_failure(
+                path, exc, self.written, f"rattlesweep resume {self.out}"
+            ) from exc
 
-    def _tile_arrays(self, names: tuple[str, ...]
-                     ) -> Iterator[tuple[tuple[int, int], dict[str, np.ndarray]]]:
+    def _tile_arrays(
+        self, names: tuple[str, ...]
+    ) -> Iterator[tuple[tuple[int, int], dict[str, np.ndarray]]]:
         for tile in range(self.sweep.n_tiles):
-            yield self.sweep.tile_range(tile), read_tile(tile_path(self.tiles_dir, tile),
-                                                         names)
+            yield (
+                self.sweep.tile_range(tile),
+                read_tile(tile_path(self.tiles_dir, tile), names),
+            )
 
     def close(self) -> None:
         self.lock.release()

@@ -100,13 +100,18 @@ def _calibrate(sweep: Sweep, index: np.ndarray, most: int) -> tuple[float, int, 
     prep = prepare(bodies, stop=sweep.stop, announce=False, **kwargs)
     bounded = dataclasses.replace(prep, nsteps=np.minimum(prep.nsteps, most))
     t0 = time.perf_counter()
-    raw = engine.execute(bounded, method=check_method(sweep.method),
-                         record_every=None, band=sweep.reversal_band, parallel=False)
+    raw = engine.execute(
+        bounded,
+        method=check_method(sweep.method),
+        record_every=None,
+        band=sweep.reversal_band,
+        parallel=False,
+    )
     seconds = time.perf_counter() - t0
     ran = results.observables_dataset(MODEL, raw.observables, "point")["steps"].values
     ran = ran.astype(np.int64)
-    own = prep.nsteps.reshape(-1)[:prep.n]
-    cut = bounded.nsteps.reshape(-1)[:prep.n]
+    own = prep.nsteps.reshape(-1)[: prep.n]
+    cut = bounded.nsteps.reshape(-1)[: prep.n]
     full = np.where(ran < cut, ran, own)
     return seconds, int(ran.sum()), int(full.sum())
 
@@ -115,8 +120,10 @@ def estimate(sweep: Sweep, workers: int) -> Estimate:
     """Time a sample of the sweep's points on one thread and size its results; see the
     module docstring. ``workers`` is the number of tasks running at once (>= 1)."""
     if not sweep.simulates:
-        raise ValueError("the sweep has no t_end, so it simulates nothing (it serves "
-                         "'rattlesweep stability' only)")
+        raise ValueError(
+            "the sweep has no t_end, so it simulates nothing (it serves "
+            "'rattlesweep stability' only)"
+        )
     workers = max(1, int(workers))
     n = sweep.size
     _calibrate(sweep, np.zeros(1, dtype=np.int64), _WARM_STEPS)  # loads the kernels
@@ -127,8 +134,11 @@ def estimate(sweep: Sweep, workers: int) -> Estimate:
     finest = sweep.finest()
     # the points shared among the workers, but never less than one whole tile (a tile
     # runs on one worker)
-    seconds = (per_point * max(n / workers, min(n, sweep.tile_size))
-               + _START_SECONDS + _TILE_SECONDS * sweep.n_tiles)
+    seconds = (
+        per_point * max(n / workers, min(n, sweep.tile_size))
+        + _START_SECONDS
+        + _TILE_SECONDS * sweep.n_tiles
+    )
     finest_seconds = per_point * finest.size / workers
     per_result = sum(np.dtype(d).itemsize for d in result_dtypes(sweep).values())
     result_bytes = per_result * finest.size
@@ -137,13 +147,24 @@ def estimate(sweep: Sweep, workers: int) -> Estimate:
     held = result_bytes * (_MERGE_COPIES if sweep.output == "netcdf" else 0)
     if sweep.refine is not None:  # refined levels keep every level's values in memory
         held = result_bytes * _MERGE_COPIES
-    return Estimate(points=n, tiles=sweep.n_tiles, tile_size=sweep.tile_size,
-                    finest_points=finest.size, workers=workers, sample=len(sample),
-                    sample_seconds=sample_seconds, sample_steps=run,
-                    sample_full_steps=full, seconds=seconds,
-                    finest_seconds=finest_seconds, result_bytes=result_bytes,
-                    held_bytes=held, in_flight_bytes=in_flight, process_bytes=process,
-                    peak_bytes=process + in_flight + held)
+    return Estimate(
+        points=n,
+        tiles=sweep.n_tiles,
+        tile_size=sweep.tile_size,
+        finest_points=finest.size,
+        workers=workers,
+        sample=len(sample),
+        sample_seconds=sample_seconds,
+        sample_steps=run,
+        sample_full_steps=full,
+        seconds=seconds,
+        finest_seconds=finest_seconds,
+        result_bytes=result_bytes,
+        held_bytes=held,
+        in_flight_bytes=in_flight,
+        process_bytes=process,
+        peak_bytes=process + in_flight + held,
+    )
 
 
 def _duration(seconds: float) -> str:
@@ -166,30 +187,47 @@ def _size(n: float) -> str:
 def format_estimate(sweep: Sweep, e: Estimate, where: str) -> str:
     """The dry run's report, ``where`` naming the workers (``"2 local threads"``)."""
     dims = ", ".join(f"{d} ({k})" for d, k in zip(sweep.dims, sweep.shape))
-    lines = [f"{sweep.name}: dry run, nothing written (only a few launches timed)",
-             f"  dimensions: {dims}",
-             f"  points: {e.points:,} in {e.tiles:,} tile{'s' if e.tiles > 1 else ''} of "
-             f"at most {e.tile_size:,}"]
+    lines = [
+        f"{sweep.name}: dry run, nothing written (only a few launches timed)",
+        f"  dimensions: {dims}",
+        f"  points: {e.points:,} in {e.tiles:,} tile{'s' if e.tiles > 1 else ''} of "
+        f"at most {e.tile_size:,}",
+    ]
     if sweep.refine is not None:
-        fine = ", ".join(f"{d} ({k})" for d, k in zip(sweep.finest().dims,
-                                                      sweep.finest().shape))
-        lines.append(f"  refined {sweep.refine['levels']} levels to: {fine} = "
-                     f"{e.finest_points:,} points; each level simulates only the cells "
-                     "where the outcome changes (the demo: 9 % of its finest grid)")
+        fine = ", ".join(
+            f"{d} ({k})" for d, k in zip(sweep.finest().dims, sweep.finest().shape)
+        )
+        lines.append(
+            f"  refined {sweep.refine['levels']} levels to: {fine} = "
+            f"{e.finest_points:,} points; each level simulates only the cells "
+            "where the outcome changes (the demo: 9 % of its finest grid)"
+        )
     stop = ", each launch stopped at its first reversal" if sweep.stop else ""
-    bounded = (f" ({e.sample_steps:,} of their {e.sample_full_steps:,} steps, the time "
-               "scaled by steps)" if e.sample_steps < e.sample_full_steps else "")
-    lines.append(f"  calibration: {e.sample} of its launches{bounded} took "
-                 f"{e.sample_seconds:.2f} s on one thread{stop}")
+    bounded = (
+        f" ({e.sample_steps:,} of their {e.sample_full_steps:,} steps, the time "
+        "scaled by steps)"
+        if e.sample_steps < e.sample_full_steps
+        else ""
+    )
+    lines.append(
+        f"  calibration: {e.sample} of its launches{bounded} took "
+        f"{e.sample_seconds:.2f} s on one thread{stop}"
+    )
     declared = " for the declared grid" if sweep.refine is not None else ""
-    time_line = (f"  time: {_duration(e.seconds)}{declared} on {where}, once the kernels "
-                 "are compiled")
+    time_line = (
+        f"  time: {_duration(e.seconds)}{declared} on {where}, once the kernels "
+        "are compiled"
+    )
     if sweep.refine is not None:
-        time_line += ("; if every finer point were simulated, "
-                      f"{_duration(e.finest_seconds)} more at most")
+        time_line += (
+            "; if every finer point were simulated, "
+            f"{_duration(e.finest_seconds)} more at most"
+        )
     lines.append(time_line)
     held = f", results held {_size(e.held_bytes)}" if e.held_bytes else ""
-    lines.append(f"  memory: about {_size(e.peak_bytes)} at peak (this process "
-                 f"{_size(e.process_bytes)}, tiles in flight {_size(e.in_flight_bytes)}"
-                 f"{held})")
+    lines.append(
+        f"  memory: about {_size(e.peak_bytes)} at peak (this process "
+        f"{_size(e.process_bytes)}, tiles in flight {_size(e.in_flight_bytes)}"
+        f"{held})"
+    )
     return "\n".join(lines)

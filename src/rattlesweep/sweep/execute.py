@@ -18,9 +18,16 @@ __all__ = ["run_tiles"]
 Handler = Callable[[Any], None]
 
 
-def run_tiles(sweep: Sweep, todo: list[Any], on_result: Handler, *, client: Any = None,
-              workers: int = 1, compute: Callable[[Sweep, Any], Any] = compute_tile,
-              on_wait: Callable[[], None] | None = None) -> None:
+def run_tiles(
+    sweep: Sweep,
+    todo: list[Any],
+    on_result: Handler,
+    *,
+    client: Any = None,
+    workers: int = 1,
+    compute: Callable[[Sweep, Any], Any] = compute_tile,
+    on_wait: Callable[[], None] | None = None,
+) -> None:
     """Compute the tiles ``todo`` of ``sweep`` and call ``on_result`` with each result as
     it arrives. ``client`` (a ``distributed.Client``) runs them on its cluster; without
     it, ``workers`` local threads run them. A task is ``compute(sweep, item)`` for each
@@ -60,8 +67,10 @@ class _Interrupts:
         self.count += 1
 
     def __enter__(self) -> "_Interrupts":
-        if (threading.current_thread() is threading.main_thread()
-                and signal.getsignal(signal.SIGINT) is signal.default_int_handler):
+        if (
+            threading.current_thread() is threading.main_thread()
+            and signal.getsignal(signal.SIGINT) is signal.default_int_handler
+        ):
             self._previous = signal.signal(signal.SIGINT, self._handler)
         return self
 
@@ -75,9 +84,14 @@ _POLL = 0.1
 """Seconds between checks for Ctrl-C while tiles run."""
 
 
-def _run_threads(sweep: Sweep, todo: list[Any], on_result: Handler, workers: int,
-                 compute: Callable[[Sweep, Any], Any],
-                 on_wait: Callable[[], None] | None = None) -> None:
+def _run_threads(
+    sweep: Sweep,
+    todo: list[Any],
+    on_result: Handler,
+    workers: int,
+    compute: Callable[[Sweep, Any], Any],
+    on_wait: Callable[[], None] | None = None,
+) -> None:
     # a few tiles queued per thread keeps the threads busy while this thread writes;
     # the rest are handed out as tiles finish, so results never pile up in memory
     window = 2 * workers
@@ -116,8 +130,13 @@ def _run_threads(sweep: Sweep, todo: list[Any], on_result: Handler, workers: int
             raise KeyboardInterrupt
 
 
-def _run_cluster(sweep: Sweep, todo: list[Any], on_result: Handler, client: Any,
-                 compute: Callable[[Sweep, Any], Any]) -> None:
+def _run_cluster(
+    sweep: Sweep,
+    todo: list[Any],
+    on_result: Handler,
+    client: Any,
+    compute: Callable[[Sweep, Any], Any],
+) -> None:
     import dask
     from distributed import as_completed
 
@@ -126,9 +145,12 @@ def _run_cluster(sweep: Sweep, todo: list[Any], on_result: Handler, client: Any,
     tag = sweep.config_hash()[:12]
     shared = dask.delayed(sweep, traverse=False, name=f"rattlesweep-config-{tag}")
     task = dask.delayed(compute, pure=False)
-    futures = client.compute([task(shared, t, dask_key_name=f"rattlesweep-tile-{tag}-"
-                                                            f"{getattr(t, 'key', t)}")
-                              for t in todo])
+    futures = client.compute(
+        [
+            task(shared, t, dask_key_name=f"rattlesweep-tile-{tag}-{getattr(t, 'key', t)}")
+            for t in todo
+        ]
+    )
     try:
         for future in as_completed(futures):
             result = future.result()

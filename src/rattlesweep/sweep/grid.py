@@ -19,8 +19,15 @@ import numpy as np
 from ..rattleback.body import Body
 from .params import BODY_PARAMS, DEFAULTS, PARAMS, result_name, result_values
 
-__all__ = ["NORMAL_CLIP", "Axis", "RandomParam", "batch_inputs", "body_for",
-           "semi_ellipsoid_defaults", "uniform01"]
+__all__ = [
+    "NORMAL_CLIP",
+    "Axis",
+    "RandomParam",
+    "batch_inputs",
+    "body_for",
+    "semi_ellipsoid_defaults",
+    "uniform01",
+]
 
 NORMAL_CLIP = 4.0
 """Normal draws are truncated at mean ± NORMAL_CLIP standard deviations (so validation of
@@ -151,8 +158,11 @@ def _object_array(items: list[Any]) -> np.ndarray:
     return out
 
 
-def batch_inputs(columns: dict[str, np.ndarray], body_column: np.ndarray | None,
-                 fixed_body: str | Body | None) -> tuple[np.ndarray, dict[str, Any]]:
+def batch_inputs(
+    columns: dict[str, np.ndarray],
+    body_column: np.ndarray | None,
+    fixed_body: str | Body | None,
+) -> tuple[np.ndarray, dict[str, Any]]:
     """Bodies and :func:`prepare` keyword arguments for a set of points.
 
     ``columns`` maps parameter names to SI arrays over the points (every swept, random and
@@ -164,8 +174,10 @@ def batch_inputs(columns: dict[str, np.ndarray], body_column: np.ndarray | None,
     n = len(next(iter(columns.values())))
     shape_params = [k for k in BODY_PARAMS if k in columns]
     if shape_params:
-        full: dict[str, float | np.ndarray] = {**semi_ellipsoid_defaults(),
-                                               **{k: columns[k] for k in shape_params}}
+        full: dict[str, float | np.ndarray] = {
+            **semi_ellipsoid_defaults(),
+            **{k: columns[k] for k in shape_params},
+        }
         table = np.stack([np.broadcast_to(full[k], (n,)) for k in BODY_PARAMS], axis=1)
         uniq, inverse = np.unique(table, axis=0, return_inverse=True)
         made = _object_array([body_for(None, dict(zip(BODY_PARAMS, row))) for row in uniq])
@@ -177,6 +189,9 @@ def batch_inputs(columns: dict[str, np.ndarray], body_column: np.ndarray | None,
         bodies = _object_array([body_for(fixed_body, {})])[np.zeros(n, dtype=np.intp)]
     # an input neither given nor with a number for its default (mu_static, dt) is left
     # to the batch's own default; t_end, required, is None
-    kwargs = {k: columns.get(k, DEFAULTS.get(k)) for k, p in PARAMS.items()
-              if p.group != "body" and (k in columns or k in DEFAULTS or p.spec.required)}
+    kwargs = {
+        k: columns.get(k, DEFAULTS.get(k))
+        for k, p in PARAMS.items()
+        if p.group != "body" and (k in columns or k in DEFAULTS or p.spec.required)
+    }
     return bodies, kwargs

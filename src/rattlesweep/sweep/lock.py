@@ -33,7 +33,7 @@ def _start_time(pid: int) -> str | None:
     except OSError:
         return None
     # the command name (field 2) is in parentheses and may hold spaces
-    return stat[stat.rindex(")") + 2:].split()[19]
+    return stat[stat.rindex(")") + 2 :].split()[19]
 
 
 def _running(pid: int, started: str | None) -> bool:
@@ -57,10 +57,13 @@ class SweepLock:
         self.held = False
 
     def _describe(self) -> dict[str, Any]:
-        return {"host": socket.gethostname(), "pid": os.getpid(),
-                "started": _start_time(os.getpid()),
-                "since": datetime.datetime.now().isoformat(timespec="seconds"),
-                "command": " ".join(sys.argv)}
+        return {
+            "host": socket.gethostname(),
+            "pid": os.getpid(),
+            "started": _start_time(os.getpid()),
+            "since": datetime.datetime.now().isoformat(timespec="seconds"),
+            "command": " ".join(sys.argv),
+        }
 
     def _create(self) -> bool:
         # written in full under a private name, then linked into place: the link fails
@@ -111,8 +114,9 @@ class SweepLock:
                 os.rename(aside, self.path)
                 continue
             aside.unlink()
-        raise SweepLocked(f"cannot take the lock {self.path}: other processes keep "
-                          "taking it")
+        raise SweepLocked(
+            f"cannot take the lock {self.path}: other processes keep taking it"
+        )
 
     def _stale(self, holder: dict[str, Any]) -> bool:
         if holder.get("host") != socket.gethostname():
@@ -124,13 +128,19 @@ class SweepLock:
         return not _running(pid, holder.get("started"))
 
     def _refusal(self, holder: dict[str, Any]) -> str:
-        where = self.path.parent if self.path.name == LOCK_NAME else \
-            self.path.with_suffix("")
+        where = (
+            self.path.parent if self.path.name == LOCK_NAME else self.path.with_suffix("")
+        )
         here = holder.get("host") == socket.gethostname()
-        who = (f"process {holder.get('pid')} on {'this host' if here else holder.get('host')}"
-               f", since {holder.get('since')} ({holder.get('command', '')})")
-        advice = ("wait for it to finish or stop it" if here else
-                  f"if that process is gone, remove {self.path}")
+        who = (
+            f"process {holder.get('pid')} on {'this host' if here else holder.get('host')}"
+            f", since {holder.get('since')} ({holder.get('command', '')})"
+        )
+        advice = (
+            "wait for it to finish or stop it"
+            if here
+            else f"if that process is gone, remove {self.path}"
+        )
         return f"{where} is in use by another sweep: {who}; {advice}"
 
     def release(self) -> None:

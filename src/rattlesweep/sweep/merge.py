@@ -26,9 +26,12 @@ __all__ = ["grid_coords", "merge_arrays", "result_attrs", "sweep_attrs", "versio
 def versions() -> dict[str, str]:
     """Versions of rattlesweep and the libraries that shape its results."""
     return {
-        "rattlesweep_version": __version__, "numba_version": numba.__version__,
-        "numpy_version": np.__version__, "xarray_version": xr.__version__,
-        "dask_version": dask.__version__, "netCDF4_version": netCDF4.__version__,
+        "rattlesweep_version": __version__,
+        "numba_version": numba.__version__,
+        "numpy_version": np.__version__,
+        "xarray_version": xr.__version__,
+        "dask_version": dask.__version__,
+        "netCDF4_version": netCDF4.__version__,
         "netcdf_library_version": netCDF4.__netcdf4libversion__,
         "python_version": platform.python_version(),
     }
@@ -39,10 +42,15 @@ def sweep_attrs(sweep: Sweep, title: str, command: str | None) -> dict[str, Any]
     hash, the dimensions, versions, and ``history`` (UTC date and ``command``, by default
     the process's command line)."""
     now = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
-    return {**versions(), "title": title, "sweep_name": sweep.name,
-            "sweep_config": sweep.to_toml(), "sweep_config_hash": sweep.config_hash(),
-            "sweep_dims": list(sweep.dims),
-            "history": f"{now} {command or ' '.join(sys.argv)}"}
+    return {
+        **versions(),
+        "title": title,
+        "sweep_name": sweep.name,
+        "sweep_config": sweep.to_toml(),
+        "sweep_config_hash": sweep.config_hash(),
+        "sweep_dims": list(sweep.dims),
+        "history": f"{now} {command or ' '.join(sys.argv)}",
+    }
 
 
 def grid_coords(sweep: Sweep) -> dict[str, Any]:
@@ -58,20 +66,35 @@ def grid_coords(sweep: Sweep) -> dict[str, Any]:
             attrs["units"] = units
         coords[ax.name] = (ax.name, values, attrs)
     if sweep.random:
-        coords["repeat"] = ("repeat", np.arange(sweep.repeats),
-                            {"long_name": "repeat of the grid cell (random draws)"})
+        coords["repeat"] = (
+            "repeat",
+            np.arange(sweep.repeats),
+            {"long_name": "repeat of the grid cell (random draws)"},
+        )
     for key, value in sweep.fixed.items():
         if key == "body":
-            name = value if isinstance(value, str) else value.get(
-                "name", value.get("body_name", "custom"))
-            coords["body"] = ((), name, {"long_name": "body (preset name or label); full "
-                                         "description in sweep_config"})
+            name = (
+                value
+                if isinstance(value, str)
+                else value.get("name", value.get("body_name", "custom"))
+            )
+            coords["body"] = (
+                (),
+                name,
+                {
+                    "long_name": "body (preset name or label); full "
+                    "description in sweep_config"
+                },
+            )
             continue
         number, given_units = fixed_value(value)
         param, factor, cf = resolve(key, given_units, f"fixed.{key}")
         number, cf = result_values(key, number, factor, cf)
-        coords[result_name(key)] = ((), float(number),
-                                    {"units": cf, "long_name": param.long_name})
+        coords[result_name(key)] = (
+            (),
+            float(number),
+            {"units": cf, "long_name": param.long_name},
+        )
     return coords
 
 
@@ -84,8 +107,12 @@ def result_attrs(sweep: Sweep, command: str | None) -> dict[str, Any]:
     return attrs
 
 
-def merge_arrays(sweep: Sweep, tiles: Iterable[tuple[tuple[int, int], dict[str, np.ndarray]]],
-                 *, command: str | None = None) -> xr.Dataset:
+def merge_arrays(
+    sweep: Sweep,
+    tiles: Iterable[tuple[tuple[int, int], dict[str, np.ndarray]]],
+    *,
+    command: str | None = None,
+) -> xr.Dataset:
     """A Dataset over the sweep's dimensions, with CF attributes and the configuration
     and versions as global attributes, from every tile's ``((start, stop), arrays)``.
 
@@ -97,6 +124,8 @@ def merge_arrays(sweep: Sweep, tiles: Iterable[tuple[tuple[int, int], dict[str, 
             if name not in flat:
                 flat[name] = np.empty(sweep.size, dtype=values.dtype)
             flat[name][start:stop] = values
-    data = {name: (sweep.dims, values.reshape(sweep.shape), variable_attrs(sweep, name))
-            for name, values in flat.items()}
+    data = {
+        name: (sweep.dims, values.reshape(sweep.shape), variable_attrs(sweep, name))
+        for name, values in flat.items()
+    }
     return xr.Dataset(data, coords=grid_coords(sweep), attrs=result_attrs(sweep, command))

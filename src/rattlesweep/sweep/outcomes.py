@@ -7,23 +7,48 @@ import numpy as np
 from ..core import workspace as _status
 from .._metadata import flag_attrs
 
-__all__ = ["CAPSIZED", "FAILED", "LIFTED_OFF", "NO_REVERSAL", "OUTCOME_ATTRS",
-           "OUTCOME_NAMES", "REVERSED", "SEVERAL", "STOPPED", "at_first_reversal", "classify"]
+__all__ = [
+    "CAPSIZED",
+    "FAILED",
+    "LIFTED_OFF",
+    "NO_REVERSAL",
+    "OUTCOME_ATTRS",
+    "OUTCOME_NAMES",
+    "REVERSED",
+    "SEVERAL",
+    "STOPPED",
+    "at_first_reversal",
+    "classify",
+]
 
-OUTCOME_NAMES = ("no_reversal", "reversed", "several_reversals", "stopped", "capsized",
-                 "lifted_off", "numerical_failure")
+OUTCOME_NAMES = (
+    "no_reversal",
+    "reversed",
+    "several_reversals",
+    "stopped",
+    "capsized",
+    "lifted_off",
+    "numerical_failure",
+)
 NO_REVERSAL, REVERSED, SEVERAL, STOPPED, CAPSIZED, LIFTED_OFF, FAILED = range(7)
 
 OUTCOME_ATTRS = flag_attrs(
-    "outcome of the launch", OUTCOME_NAMES,
+    "outcome of the launch",
+    OUTCOME_NAMES,
     "capsized, lifted_off, numerical_failure: the trajectory stopped with that status "
     "(whatever it did before); otherwise reversed: exactly one reversal of the heading "
     "(the long axis seen from above), several_reversals: two or more; stopped: no reversal and the mean spin over the last "
-    "10% of the run is within the reversal band of zero; no_reversal: none of these.")
+    "10% of the run is within the reversal band of zero; no_reversal: none of these.",
+)
 
 
-def classify(status: np.ndarray, n_reversals: np.ndarray, mean_final_spin: np.ndarray,
-             initial_spin: np.ndarray, band: float) -> np.ndarray:
+def classify(
+    status: np.ndarray,
+    n_reversals: np.ndarray,
+    mean_final_spin: np.ndarray,
+    initial_spin: np.ndarray,
+    band: float,
+) -> np.ndarray:
     """Outcome codes (int8, see :data:`OUTCOME_NAMES`) from kernel observables.
 
     ``band`` is the reversal band, a fraction of the initial spin's magnitude: a run without reversal

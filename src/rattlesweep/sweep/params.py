@@ -18,13 +18,29 @@ import numpy as np
 
 from ..inputs import RATTLEBACK, Input, Rule
 
-__all__ = ["BODY_PARAMS", "DEFAULTS", "PARAMS", "Param", "check_values", "resolve",
-           "result_name", "result_values"]
+__all__ = [
+    "BODY_PARAMS",
+    "DEFAULTS",
+    "PARAMS",
+    "Param",
+    "check_values",
+    "resolve",
+    "result_name",
+    "result_values",
+]
 
-_ANGLE = {"rad": (1.0, "rad"), "deg": (math.pi / 180.0, "degree"),
-          "degree": (math.pi / 180.0, "degree"), "degrees": (math.pi / 180.0, "degree")}
-_SPIN = {"rad/s": (1.0, "rad s-1"), "rad s-1": (1.0, "rad s-1"),
-         "rpm": (2.0 * math.pi / 60.0, "rpm"), "rev/s": (2.0 * math.pi, "s-1")}
+_ANGLE = {
+    "rad": (1.0, "rad"),
+    "deg": (math.pi / 180.0, "degree"),
+    "degree": (math.pi / 180.0, "degree"),
+    "degrees": (math.pi / 180.0, "degree"),
+}
+_SPIN = {
+    "rad/s": (1.0, "rad s-1"),
+    "rad s-1": (1.0, "rad s-1"),
+    "rpm": (2.0 * math.pi / 60.0, "rpm"),
+    "rev/s": (2.0 * math.pi, "s-1"),
+}
 _LENGTH = {"m": (1.0, "m"), "cm": (0.01, "cm"), "mm": (0.001, "mm")}
 _MASS = {"kg": (1.0, "kg"), "g": (0.001, "g")}
 _TIME = {"s": (1.0, "s"), "ms": (0.001, "ms")}
@@ -32,8 +48,16 @@ _ONE = {"1": (1.0, "1")}
 _DAMPING = {"N m s": (1.0, "N m s")}
 _ACCEL = {"m/s2": (1.0, "m s-2"), "m s-2": (1.0, "m s-2")}
 
-_UNITS = {"rad": _ANGLE, "rad s-1": _SPIN, "m": _LENGTH, "kg": _MASS, "s": _TIME,
-          "1": _ONE, "N m s": _DAMPING, "m s-2": _ACCEL}
+_UNITS = {
+    "rad": _ANGLE,
+    "rad s-1": _SPIN,
+    "m": _LENGTH,
+    "kg": _MASS,
+    "s": _TIME,
+    "1": _ONE,
+    "N m s": _DAMPING,
+    "m s-2": _ACCEL,
+}
 """The units a configuration may give a parameter in, by the SI units of its
 description (the first is the default)."""
 
@@ -64,15 +88,19 @@ class Param:
         return self.spec.rule
 
 
-PARAMS: dict[str, Param] = {i.name: Param(i, _UNITS[i.units])
-                            for i in RATTLEBACK.values() if i.sweep}
+PARAMS: dict[str, Param] = {
+    i.name: Param(i, _UNITS[i.units]) for i in RATTLEBACK.values() if i.sweep
+}
 """The inputs a sweep can vary (:mod:`rattlesweep.inputs`: those marked ``sweep``)."""
 
 BODY_PARAMS = tuple(k for k, p in PARAMS.items() if p.group == "body")
 """Parameters of a homogeneous semi-ellipsoid (:meth:`rattlesweep.Body.semi_ellipsoid`)."""
 
-DEFAULTS = {k: float(p.spec.default) for k, p in PARAMS.items()
-            if p.group != "body" and isinstance(p.spec.default, float)}
+DEFAULTS = {
+    k: float(p.spec.default)
+    for k, p in PARAMS.items()
+    if p.group != "body" and isinstance(p.spec.default, float)
+}
 """Values (SI) of launch, friction and numerics parameters a sweep leaves out."""
 
 
@@ -87,19 +115,26 @@ def resolve(key: str, units: str | None, where: str) -> tuple[Param, float, str]
     if name not in PARAMS:
         import difflib
 
-        allowed = sorted(PARAMS) + ["body"] + [f"{n}_deg" for n in PARAMS
-                                                if PARAMS[n].units is _ANGLE]
+        allowed = (
+            sorted(PARAMS)
+            + ["body"]
+            + [f"{n}_deg" for n in PARAMS if PARAMS[n].units is _ANGLE]
+        )
         close = difflib.get_close_matches(key, allowed, n=1)
         hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise ValueError(f"{where}: unknown parameter {key!r}{hint}; sweepable parameters "
-                         f"are {', '.join(allowed)}")
+        raise ValueError(
+            f"{where}: unknown parameter {key!r}{hint}; sweepable parameters "
+            f"are {', '.join(allowed)}"
+        )
     param = PARAMS[name]
     if suffix_units and units not in (None, "deg", "degree", "degrees"):
         raise ValueError(f"{where}: {key!r} is in degrees by its name; got units {units!r}")
     u = units or suffix_units or next(iter(param.units))
     if u not in param.units:
-        raise ValueError(f"{where}: units {u!r} are not allowed for {name!r}; use one of "
-                         f"{', '.join(repr(k) for k in param.units)}")
+        raise ValueError(
+            f"{where}: units {u!r} are not allowed for {name!r}; use one of "
+            f"{', '.join(repr(k) for k in param.units)}"
+        )
     factor, cf = param.units[u]
     return param, factor, cf
 
@@ -120,8 +155,9 @@ def result_name(key: str) -> str:
     return "launch_spin" if name == "spin" else name
 
 
-def result_values(key: str, values: np.ndarray, factor: float, units: str
-                  ) -> tuple[np.ndarray, str]:
+def result_values(
+    key: str, values: np.ndarray, factor: float, units: str
+) -> tuple[np.ndarray, str]:
     """Values (user units: SI = values * factor, CF ``units``) as the result holds them
     under :func:`result_name`: angles in degrees (the user's numbers when given in
     degrees), anything else as given."""
@@ -136,5 +172,7 @@ def check_values(param: Param, values: np.ndarray, factor: float, where: str) ->
     the parameter's rule; the message quotes the value as the user wrote it."""
     bad = param.rule.bad(np.asarray(values, dtype=float) * factor)
     if np.any(bad):
-        raise ValueError(f"{where}: {param.name} {param.rule.message}; got "
-                         f"{float(values[np.argmax(bad)])!r}")
+        raise ValueError(
+            f"{where}: {param.name} {param.rule.message}; got "
+            f"{float(values[np.argmax(bad)])!r}"
+        )

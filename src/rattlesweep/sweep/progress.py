@@ -18,9 +18,18 @@ class Progress:
     minute): the bar says so, and the rate and ETA leave out the time to the first
     finished tile, which would otherwise inflate the ETA many times over."""
 
-    def __init__(self, total_tiles: int, total_points: int, done_tiles: int,
-                 done_points: int, *, stream: TextIO | None = None, enabled: bool = True,
-                 every: float = 10.0, compiling: bool = False) -> None:
+    def __init__(
+        self,
+        total_tiles: int,
+        total_points: int,
+        done_tiles: int,
+        done_points: int,
+        *,
+        stream: TextIO | None = None,
+        enabled: bool = True,
+        every: float = 10.0,
+        compiling: bool = False,
+    ) -> None:
         self.total_tiles, self.total_points = total_tiles, total_points
         self.done_tiles, self.done_points = done_tiles, done_points
         self.reused = done_tiles
@@ -38,8 +47,10 @@ class Progress:
         if enabled and done_tiles:
             self._write(f"resuming: {done_tiles} of {total_tiles} tiles already done\n")
         if enabled and self._compiling:
-            self._write("compiling the simulation kernels (first run only: about a minute "
-                        "on 2 cores)...\n")
+            self._write(
+                "compiling the simulation kernels (first run only: about a minute "
+                "on 2 cores)...\n"
+            )
 
     def note(self, text: str) -> None:
         """Report something the user must know (even with the bar disabled), on a line
@@ -75,8 +86,11 @@ class Progress:
             self._show(time.perf_counter())
 
     def _show(self, now: float) -> None:
-        if self.enabled and (self._tty or now - self._last >= self.every
-                             or self.done_tiles == self.total_tiles):
+        if self.enabled and (
+            self._tty
+            or now - self._last >= self.every
+            or self.done_tiles == self.total_tiles
+        ):
             self._last, self._shown = now, self.done_tiles
             self._write(self.line() + ("\r" if self._tty else "\n"))
 
@@ -86,24 +100,30 @@ class Progress:
         rate = self.rate
         left = self.total_points - self.done_points
         eta = _clock(left / rate) if rate > 0 else "?"
-        return (f"[{bar:<24}] {self.done_tiles}/{self.total_tiles} tiles  "
-                f"{rate:,.0f} traj/s  ETA {eta}")
+        return (
+            f"[{bar:<24}] {self.done_tiles}/{self.total_tiles} tiles  "
+            f"{rate:,.0f} traj/s  ETA {eta}"
+        )
 
     def close(self, message: str = "") -> None:
         if not self.enabled:
             return
         elapsed = time.perf_counter() - self.t0
         end = "\n" if self._tty and self.done_tiles > self.reused else ""
-        self._write(f"{end}{message or 'done'}: {self.done_tiles - self.reused} tiles "
-                    f"computed, {self.reused} reused, {self.new_points:,} trajectories "
-                    f"in {elapsed:.1f} s ({self.rate:,.0f} traj/s)\n")
+        self._write(
+            f"{end}{message or 'done'}: {self.done_tiles - self.reused} tiles "
+            f"computed, {self.reused} reused, {self.new_points:,} trajectories "
+            f"in {elapsed:.1f} s ({self.rate:,.0f} traj/s)\n"
+        )
 
     def interrupted(self, location: str) -> None:
         """Close on Ctrl-C, saying how to continue the sweep in ``location``."""
         self.close("interrupted")
         if self.enabled:
-            self._write(f"stopped; finished tiles are kept. Continue with: rattlesweep "
-                        f"resume {location}\n")
+            self._write(
+                f"stopped; finished tiles are kept. Continue with: rattlesweep "
+                f"resume {location}\n"
+            )
 
     def _write(self, text: str) -> None:
         self.stream.write(text)

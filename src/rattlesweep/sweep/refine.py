@@ -36,8 +36,15 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
-__all__ = ["NEAREST", "Levels", "boundary_cells", "fill_from_corners", "new_points",
-           "plan_level", "refined_cells"]
+__all__ = [
+    "NEAREST",
+    "Levels",
+    "boundary_cells",
+    "fill_from_corners",
+    "new_points",
+    "plan_level",
+    "refined_cells",
+]
 
 NEAREST = ("status", "outcome", "n_reversals", "steps")
 """Variables a filled point takes from its cell's nearest corner (the others, floating
@@ -60,13 +67,16 @@ class Levels:
     def lattice(self, level: int) -> tuple[slice, ...]:
         """The index of level ``level``'s lattice into an array over the finest grid."""
         s = self.stride(level)
-        return tuple(slice(None, None, s) if d in self.axes else slice(None)
-                     for d in range(len(self.shape)))
+        return tuple(
+            slice(None, None, s) if d in self.axes else slice(None)
+            for d in range(len(self.shape))
+        )
 
     def lattice_shape(self, level: int) -> tuple[int, ...]:
         s = self.stride(level)
-        return tuple((n - 1) // s + 1 if d in self.axes else n
-                     for d, n in enumerate(self.shape))
+        return tuple(
+            (n - 1) // s + 1 if d in self.axes else n for d, n in enumerate(self.shape)
+        )
 
     def level0(self) -> np.ndarray:
         """Flat indices (into the finest grid) of the declared grid, in C order."""
@@ -83,17 +93,22 @@ def _along(ndim: int, axes: tuple[int, ...], parts: Sequence[slice]) -> tuple[sl
     return tuple(index)
 
 
-def _corners(lattice: np.ndarray, axes: tuple[int, ...]
-             ) -> Iterator[tuple[tuple[int, ...], np.ndarray]]:
+def _corners(
+    lattice: np.ndarray, axes: tuple[int, ...]
+) -> Iterator[tuple[tuple[int, ...], np.ndarray]]:
     """(offsets, array over the cells) for each corner of the cells of a lattice."""
     for offs in itertools.product((0, 1), repeat=len(axes)):
         parts = [slice(o, lattice.shape[a] - 1 + o) for a, o in zip(axes, offs)]
         yield offs, lattice[_along(lattice.ndim, axes, parts)]
 
 
-def boundary_cells(outcome: np.ndarray, first_reversal_time: np.ndarray,
-                   computed: np.ndarray, axes: tuple[int, ...],
-                   reversal_time_jump: float | None) -> tuple[np.ndarray, np.ndarray]:
+def boundary_cells(
+    outcome: np.ndarray,
+    first_reversal_time: np.ndarray,
+    computed: np.ndarray,
+    axes: tuple[int, ...],
+    reversal_time_jump: float | None,
+) -> tuple[np.ndarray, np.ndarray]:
     """(boundary, full) over the cells of a lattice, from the lattice's values: ``full``
     where every corner is simulated, ``boundary`` where a full cell's corners differ in
     outcome or (with ``reversal_time_jump``, s) all reversed with first reversal times
@@ -127,8 +142,9 @@ def refined_cells(boundary: np.ndarray, axes: tuple[int, ...]) -> np.ndarray:
     return out
 
 
-def new_points(refine: np.ndarray, computed_next: np.ndarray,
-               axes: tuple[int, ...]) -> np.ndarray:
+def new_points(
+    refine: np.ndarray, computed_next: np.ndarray, axes: tuple[int, ...]
+) -> np.ndarray:
     """Mask over the next level's lattice (twice as dense) of its points in the refined
     cells ``refine`` that are not simulated yet (``computed_next``: the simulated points
     of that lattice)."""
@@ -140,8 +156,13 @@ def new_points(refine: np.ndarray, computed_next: np.ndarray,
     return mark & ~computed_next
 
 
-def fill_from_corners(values: dict[str, np.ndarray], computed: np.ndarray,
-                      full: np.ndarray, levels: Levels, level: int) -> None:
+def fill_from_corners(
+    values: dict[str, np.ndarray],
+    computed: np.ndarray,
+    full: np.ndarray,
+    levels: Levels,
+    level: int,
+) -> None:
     """Fill, in place, every point of the finest grid that is not simulated and lies in a
     full cell (``full``, over the cells of level ``level``'s lattice) from the cell's
     corners (see the module's description). ``values`` maps each variable to its array
@@ -160,9 +181,10 @@ def fill_from_corners(values: dict[str, np.ndarray], computed: np.ndarray,
         if not target.any():
             continue
         nearest = tuple(int(2 * x > s) for x in q)
-        weights = {offs: float(np.prod([x / s if o else 1.0 - x / s
-                                        for o, x in zip(offs, q)]))
-                   for offs in itertools.product((0, 1), repeat=len(axes))}
+        weights = {
+            offs: float(np.prod([x / s if o else 1.0 - x / s for o, x in zip(offs, q)]))
+            for offs in itertools.product((0, 1), repeat=len(axes))
+        }
         for name, v in values.items():
             near = corners[name][nearest]
             if name in NEAREST or v.dtype.kind != "f":
@@ -173,8 +195,13 @@ def fill_from_corners(values: dict[str, np.ndarray], computed: np.ndarray,
             v[where][target] = mix[target]
 
 
-def plan_level(values: dict[str, np.ndarray], computed: np.ndarray, levels: Levels,
-               level: int, reversal_time_jump: float | None) -> np.ndarray:
+def plan_level(
+    values: dict[str, np.ndarray],
+    computed: np.ndarray,
+    levels: Levels,
+    level: int,
+    reversal_time_jump: float | None,
+) -> np.ndarray:
     """Prepare level ``level`` (>= 1) from the state after the levels before it: fill
     the points of the full cells of level ``level - 1`` (in place, see
     :func:`fill_from_corners`) and return the flat indices, into the finest grid, of the
@@ -183,9 +210,13 @@ def plan_level(values: dict[str, np.ndarray], computed: np.ndarray, levels: Leve
     ``first_reversal_time`` and ``t_final``."""
     axes = levels.axes
     coarse = levels.lattice(level - 1)
-    boundary, full = boundary_cells(values["outcome"][coarse],
-                                    values["first_reversal_time"][coarse],
-                                    computed[coarse], axes, reversal_time_jump)
+    boundary, full = boundary_cells(
+        values["outcome"][coarse],
+        values["first_reversal_time"][coarse],
+        computed[coarse],
+        axes,
+        reversal_time_jump,
+    )
     fill_from_corners(values, computed, full, levels, level - 1)
     mark = new_points(refined_cells(boundary, axes), computed[levels.lattice(level)], axes)
     where = list(np.nonzero(mark))

@@ -29,22 +29,37 @@ from .merge import grid_coords, result_attrs
 from .progress import Progress
 from .refine import Levels, plan_level
 from .spec import Sweep
-from .tiles import (NOT_COMPUTED, compute_points, extra_vars, result_dtypes, result_names,
-                    variable_attrs)
+from .tiles import (
+    NOT_COMPUTED,
+    compute_points,
+    extra_vars,
+    result_dtypes,
+    result_names,
+    variable_attrs,
+)
 
-__all__ = ["COMPUTED_ATTRS", "LEVELS_DIR", "LevelTile", "LevelTileResult",
-           "RefinedDirectory", "compute_level_tile", "level_tile_path", "run_refined"]
+__all__ = [
+    "COMPUTED_ATTRS",
+    "LEVELS_DIR",
+    "LevelTile",
+    "LevelTileResult",
+    "RefinedDirectory",
+    "compute_level_tile",
+    "level_tile_path",
+    "run_refined",
+]
 
 LEVELS_DIR = "levels"
 
 COMPUTED_ATTRS = {
     "long_name": "point simulated or filled",
-    "flag_values": [0, 1], "flag_meanings": "filled simulated",
+    "flag_values": [0, 1],
+    "flag_meanings": "filled simulated",
     "comment": "simulated: the launch was run. filled: it was not; the point lies in a "
-               "cell of the refined grid whose simulated corners agree (same outcome, and "
-               "first reversal times within reversal_time_jump when given), and has "
-               "their outcome, status, n_reversals and steps from the nearest corner and "
-               "the other results interpolated between them.",
+    "cell of the refined grid whose simulated corners agree (same outcome, and "
+    "first reversal times within reversal_time_jump when given), and has "
+    "their outcome, status, n_reversals and steps from the nearest corner and "
+    "the other results interpolated between them.",
 }
 """CF attributes of a refined result's ``computed`` flag."""
 
@@ -76,16 +91,21 @@ class LevelTileResult:
     seconds: float
 
     def summary(self) -> dict[str, Any]:
-        return {"tile": self.tile, "n": len(self.index), "steps": self.steps,
-                "seconds": self.seconds}
+        return {
+            "tile": self.tile,
+            "n": len(self.index),
+            "steps": self.steps,
+            "seconds": self.seconds,
+        }
 
 
 def compute_level_tile(fine: Sweep, item: LevelTile) -> LevelTileResult:
     """Simulate the points of one level's tile on the finest grid ``fine``."""
     t0 = time.perf_counter()
     data, steps = compute_points(fine, item.index)
-    return LevelTileResult(item.level, item.tile, item.index, data, steps,
-                           time.perf_counter() - t0)
+    return LevelTileResult(
+        item.level, item.tile, item.index, data, steps, time.perf_counter() - t0
+    )
 
 
 def level_tile_path(levels_dir: Path, level: int, tile: int) -> Path:
@@ -96,8 +116,9 @@ class RefinedDirectory(TileDirectory):
     """The output directory of a refined sweep (see the module's description): the
     configuration check and lock of :class:`.TileDirectory`, tiles per level."""
 
-    def __init__(self, sweep: Sweep, out_dir: str | os.PathLike[str], *,
-                 command: str | None = None) -> None:
+    def __init__(
+        self, sweep: Sweep, out_dir: str | os.PathLike[str], *, command: str | None = None
+    ) -> None:
         super().__init__(sweep, out_dir, command=command)
         self.tiles_dir = self.out / LEVELS_DIR
         self.fine = sweep.finest()
@@ -132,7 +153,8 @@ class RefinedDirectory(TileDirectory):
             raise ValueError(
                 f"{self.tiles_dir} holds {len(foreign)} tiles of another configuration (the "
                 f"first: {foreign[0]}), so {self.out / CONFIG_NAME} does not describe "
-                "them: restore the configuration, or use a new directory")
+                "them: restore the configuration, or use a new directory"
+            )
         return done, todo
 
     def _read(self, path: Path, item: LevelTile) -> LevelTileResult | str:
@@ -142,26 +164,40 @@ class RefinedDirectory(TileDirectory):
                 if nc.getncattr("config_hash") != self.sweep.config_hash():
                     return "foreign"
                 nc.set_auto_mask(False)
-                if (int(nc.getncattr("level")) != item.level
-                        or int(nc.getncattr("tile")) != item.tile
-                        or not np.array_equal(nc.variables["point"][:], item.index)):
+                if (
+                    int(nc.getncattr("level")) != item.level
+                    or int(nc.getncattr("tile")) != item.tile
+                    or not np.array_equal(nc.variables["point"][:], item.index)
+                ):
                     return "damaged"
                 data = {name: nc.variables[name][:] for name in names}
         except Exception:  # any failure to read means: recompute
             return "damaged"
-        return LevelTileResult(item.level, item.tile, item.index, data,
-                               int(np.sum(data["steps"])), 0.0)
+        return LevelTileResult(
+            item.level, item.tile, item.index, data, int(np.sum(data["steps"])), 0.0
+        )
 
     # The ignores: a refined directory keeps TileDirectory's configuration check and lock
     # but holds other tiles and result; it is never used as a TileDirectory.
     def write(self, result: LevelTileResult) -> None:  # type: ignore[override]
         path = level_tile_path(self.tiles_dir, result.level, result.tile)
-        ds = xr.Dataset({k: ("point", v, variable_attrs(self.fine, k))
-                         for k, v in result.data.items()},
-                        coords={"point": ("point", result.index,
-                                          {"long_name": "flat index into the finest grid"})})
-        ds.attrs.update({"config_hash": self.sweep.config_hash(), "level": result.level,
-                         "tile": result.tile})
+        ds = xr.Dataset(
+            {k: ("point", v, variable_attrs(self.fine, k)) for k, v in result.data.items()},
+            coords={
+                "point": (
+                    "point",
+                    result.index,
+                    {"long_name": "flat index into the finest grid"},
+                )
+            },
+        )
+        ds.attrs.update(
+            {
+                "config_hash": self.sweep.config_hash(),
+                "level": result.level,
+                "tile": result.tile,
+            }
+        )
         self._write_file(ds, path)
         self.written += 1
 
@@ -189,24 +225,36 @@ def _inputs(fine: Sweep) -> dict[str, np.ndarray]:
     out = {}
     if "dt" in extra_vars(fine):
         bodies, kwargs = fine.points_at(index)
-        out["dt"] = batch.launch_inputs(bodies, announce=False, **kwargs
-                                        ).flat["dt"].reshape(fine.shape)
+        out["dt"] = (
+            batch.launch_inputs(bodies, announce=False, **kwargs)
+            .flat["dt"]
+            .reshape(fine.shape)
+        )
     for rp in fine.random_params:
         out[rp.name] = rp.result_draw(fine.seed, index).reshape(fine.shape)
     return out
 
 
-def run_refined(sweep: Sweep, out: str | os.PathLike[str], *, client: Any = None,
-                workers: int = 1, progress: bool = True, command: str | None = None
-                ) -> xr.Dataset:
+def run_refined(
+    sweep: Sweep,
+    out: str | os.PathLike[str],
+    *,
+    client: Any = None,
+    workers: int = 1,
+    progress: bool = True,
+    command: str | None = None,
+) -> xr.Dataset:
     """Run the refined sweep ``sweep`` into the directory ``out`` and return its result
     on the finest grid (arguments as for :func:`rattlesweep.sweep.run_sweep`, which
     calls this for a sweep with ``refine``)."""
     refine = sweep.refine
     assert refine is not None, "run_refined runs a sweep with refine"
     fine = sweep.finest()
-    levels = Levels(fine.shape, tuple(list(fine.axes).index(k) for k in refine["axes"]),
-                    refine["levels"])
+    levels = Levels(
+        fine.shape,
+        tuple(list(fine.axes).index(k) for k in refine["axes"]),
+        refine["levels"],
+    )
     values = _empty_values(fine)
     computed = np.zeros(fine.shape, dtype=bool)
 
@@ -219,18 +267,30 @@ def run_refined(sweep: Sweep, out: str | os.PathLike[str], *, client: Any = None
     store.open()
     try:
         for level in range(levels.levels + 1):
-            index = levels.level0() if level == 0 else plan_level(
-                values, computed, levels, level, refine.get("reversal_time_jump"))
+            index = (
+                levels.level0()
+                if level == 0
+                else plan_level(
+                    values, computed, levels, level, refine.get("reversal_time_jump")
+                )
+            )
             size = sweep.tile_size
-            items = [LevelTile(level, t, index[a:a + size])
-                     for t, a in enumerate(range(0, len(index), size))]
+            items = [
+                LevelTile(level, t, index[a : a + size])
+                for t, a in enumerate(range(0, len(index), size))
+            ]
             done, todo = store.scan(items)
             for result in done:
                 apply(result)
-            bar = Progress(len(items), len(index), len(done),
-                           sum(len(r.index) for r in done), enabled=progress,
-                           compiling=client is None and not kernels_compiled(
-                               parallel=False, level=sweep.friction_level))
+            bar = Progress(
+                len(items),
+                len(index),
+                len(done),
+                sum(len(r.index) for r in done),
+                enabled=progress,
+                compiling=client is None
+                and not kernels_compiled(parallel=False, level=sweep.friction_level),
+            )
 
             def write(result: LevelTileResult) -> None:
                 store.write(result)
@@ -238,8 +298,15 @@ def run_refined(sweep: Sweep, out: str | os.PathLike[str], *, client: Any = None
                 bar.update(result.summary())
 
             try:
-                run_tiles(fine, todo, write, client=client, workers=workers,
-                          compute=compute_level_tile, on_wait=bar.tick)
+                run_tiles(
+                    fine,
+                    todo,
+                    write,
+                    client=client,
+                    workers=workers,
+                    compute=compute_level_tile,
+                    on_wait=bar.tick,
+                )
             except KeyboardInterrupt:
                 bar.interrupted(store.location)
                 raise
@@ -249,11 +316,18 @@ def run_refined(sweep: Sweep, out: str | os.PathLike[str], *, client: Any = None
         store.close()
 
 
-def _dataset(sweep: Sweep, fine: Sweep, values: dict[str, np.ndarray],
-             computed: np.ndarray, command: str | None) -> xr.Dataset:
+def _dataset(
+    sweep: Sweep,
+    fine: Sweep,
+    values: dict[str, np.ndarray],
+    computed: np.ndarray,
+    command: str | None,
+) -> xr.Dataset:
     arrays = {**values, **_inputs(fine)}
-    data = {name: (fine.dims, arrays[name], variable_attrs(fine, name))
-            for name in result_names(fine)}
+    data = {
+        name: (fine.dims, arrays[name], variable_attrs(fine, name))
+        for name in result_names(fine)
+    }
     data["computed"] = (fine.dims, computed.astype(np.int8), COMPUTED_ATTRS)
     ds = xr.Dataset(data, coords=grid_coords(fine), attrs=result_attrs(sweep, command))
     ds.attrs["points_simulated"] = int(computed.sum())

@@ -24,8 +24,16 @@ from .tiles import TileResult
 if TYPE_CHECKING:
     from distributed import Client
 
-__all__ = ["CONFIG_NAME", "RESULT_NAME", "TILES_DIR", "export", "open_output", "resume",
-           "run_sweep", "stored_sweep"]
+__all__ = [
+    "CONFIG_NAME",
+    "RESULT_NAME",
+    "TILES_DIR",
+    "export",
+    "open_output",
+    "resume",
+    "run_sweep",
+    "stored_sweep",
+]
 
 
 def _cores() -> int:
@@ -35,23 +43,37 @@ def _cores() -> int:
         return os.cpu_count() or 1
 
 
-def open_output(sweep: Sweep, out: str | os.PathLike, *, command: str | None = None,
-                storage_options: Mapping[str, Any] | None = None) -> TileStore:
+def open_output(
+    sweep: Sweep,
+    out: str | os.PathLike,
+    *,
+    command: str | None = None,
+    storage_options: Mapping[str, Any] | None = None,
+) -> TileStore:
     """The output ``sweep.output`` names, at ``out`` (not opened yet)."""
     if sweep.output == "zarr":
         from .zarr_store import ZarrStore
 
         return ZarrStore(sweep, out, storage_options=storage_options, command=command)
     if storage_options or "://" in str(out):
-        raise ValueError(f"output {out!r}: a netCDF sweep writes into a local directory; "
-                         "URLs and storage_options are for output = \"zarr\"")
+        raise ValueError(
+            f"output {out!r}: a netCDF sweep writes into a local directory; "
+            'URLs and storage_options are for output = "zarr"'
+        )
     return TileDirectory(sweep, out, command=command)
 
 
-def run_sweep(sweep: Sweep, out: str | os.PathLike, *, client: Client | None = None,
-              scheduler: str | None = None, workers: int | None = None,
-              progress: bool = True, command: str | None = None,
-              storage_options: Mapping[str, Any] | None = None) -> xr.Dataset:
+def run_sweep(
+    sweep: Sweep,
+    out: str | os.PathLike,
+    *,
+    client: Client | None = None,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    progress: bool = True,
+    command: str | None = None,
+    storage_options: Mapping[str, Any] | None = None,
+) -> xr.Dataset:
     """Run ``sweep`` into ``out`` and return the result.
 
     Each tile (a block of at most ``sweep.tile_size`` points) is one task running the
@@ -87,41 +109,60 @@ def run_sweep(sweep: Sweep, out: str | os.PathLike, *, client: Client | None = N
     if not isinstance(sweep, Sweep):
         raise ValueError(f"sweep must be a rattlesweep.Sweep, got {type(sweep).__name__}")
     if not str(out).strip():
-        raise ValueError(f"out must name a directory or a store, got {str(out)!r} (give "
-                         "'.' for the current directory)")
+        raise ValueError(
+            f"out must name a directory or a store, got {str(out)!r} (give "
+            "'.' for the current directory)"
+        )
     if not sweep.simulates:
-        raise ValueError("fixed.t_end: the end time (s) is required to simulate a sweep "
-                         "(fixed or as an axis)")
+        raise ValueError(
+            "fixed.t_end: the end time (s) is required to simulate a sweep "
+            "(fixed or as an axis)"
+        )
     if client is not None and scheduler is not None:
         raise ValueError("give either client or scheduler, not both")
     if workers is not None and not (isinstance(workers, int) and workers >= 1):
         raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
     if workers is not None and (client is not None or scheduler is not None):
-        raise ValueError("workers sets the local scheduler's threads; a distributed "
-                         "cluster's size is set where the cluster is started")
+        raise ValueError(
+            "workers sets the local scheduler's threads; a distributed "
+            "cluster's size is set where the cluster is started"
+        )
     check_size(sweep)
     announce(sweep)
     if sweep.refine is not None:
         from .refined_run import run_refined
 
         if storage_options or "://" in str(out):
-            raise ValueError(f"output {out!r}: a refined sweep writes into a local "
-                             "directory")
+            raise ValueError(
+                f"output {out!r}: a refined sweep writes into a local directory"
+            )
         with _connect(scheduler) as own_client:
-            return run_refined(sweep, out, client=client or own_client,
-                               workers=workers or _cores(), progress=progress,
-                               command=command)
+            return run_refined(
+                sweep,
+                out,
+                client=client or own_client,
+                workers=workers or _cores(),
+                progress=progress,
+                command=command,
+            )
     store = open_output(sweep, out, command=command, storage_options=storage_options)
     todo = store.open()
     own_client = None
     try:
         left = set(todo)
         done = [t for t in range(sweep.n_tiles) if t not in left]
-        bar = Progress(sweep.n_tiles, sweep.size, len(done),
-                       sum(_points(sweep, t) for t in done), enabled=progress,
-                       compiling=(client is None and scheduler is None
-                                  and not kernels_compiled(parallel=False,
-                                                           level=sweep.friction_level)))
+        bar = Progress(
+            sweep.n_tiles,
+            sweep.size,
+            len(done),
+            sum(_points(sweep, t) for t in done),
+            enabled=progress,
+            compiling=(
+                client is None
+                and scheduler is None
+                and not kernels_compiled(parallel=False, level=sweep.friction_level)
+            ),
+        )
         for note in getattr(store, "notes", ()):
             bar.note(note)
         if scheduler is not None:
@@ -132,8 +173,14 @@ def run_sweep(sweep: Sweep, out: str | os.PathLike, *, client: Client | None = N
             bar.update(result.summary())
 
         try:
-            run_tiles(sweep, todo, write, client=client, workers=workers or _cores(),
-                      on_wait=bar.tick)
+            run_tiles(
+                sweep,
+                todo,
+                write,
+                client=client,
+                workers=workers or _cores(),
+                on_wait=bar.tick,
+            )
         except KeyboardInterrupt:
             bar.interrupted(store.location)
             raise
@@ -165,17 +212,30 @@ def check_size(sweep: Sweep) -> None:
     if sweep.refine is not None:
         fine_shape = sweep.finest().shape
         points = int(np.prod(fine_shape, dtype=float))
-        check_memory("refine.levels", sweep.refine["levels"], points * REFINED_BYTES,
-                     f"the finest grid {fine_shape} ({points:,} points)",
-                     "refine fewer levels or fewer axes, or start from a coarser grid")
+        check_memory(
+            "refine.levels",
+            sweep.refine["levels"],
+            points * REFINED_BYTES,
+            f"the finest grid {fine_shape} ({points:,} points)",
+            "refine fewer levels or fewer axes, or start from a coarser grid",
+        )
         return
-    check_memory("axes", f"grid {sweep.shape}", sweep.n_tiles * TILE_BYTES,
-                 f"the list of its {sweep.n_tiles:,} tiles", "a larger tile_size")
+    check_memory(
+        "axes",
+        f"grid {sweep.shape}",
+        sweep.n_tiles * TILE_BYTES,
+        f"the list of its {sweep.n_tiles:,} tiles",
+        "a larger tile_size",
+    )
     if sweep.output == "netcdf":
         per_point = sum(d.itemsize for d in result_dtypes(sweep).values())
-        check_memory("axes", f"grid {sweep.shape}", sweep.size * per_point * MERGED_BYTES,
-                     f"merging its {sweep.size:,} points into sweep.nc",
-                     "fewer points, or output = \"zarr\" (written tile by tile)")
+        check_memory(
+            "axes",
+            f"grid {sweep.shape}",
+            sweep.size * per_point * MERGED_BYTES,
+            f"merging its {sweep.size:,} points into sweep.nc",
+            'fewer points, or output = "zarr" (written tile by tile)',
+        )
 
 
 def announce(sweep: Sweep) -> None:
@@ -191,8 +251,10 @@ def announce(sweep: Sweep) -> None:
         warnings.warn(
             f"this sweep takes up to {total:.3g} steps ({sweep.size:,} launches, the "
             f"longest {sweep.max_steps:,} steps): at about 1e6 steps per second on a "
-            f"core, up to {total / 1e6 / 60:.3g} core-minutes", LongRunWarning,
-            stacklevel=3)
+            f"core, up to {total / 1e6 / 60:.3g} core-minutes",
+            LongRunWarning,
+            stacklevel=3,
+        )
 
 
 def _client(scheduler: str) -> Client:
@@ -200,8 +262,9 @@ def _client(scheduler: str) -> Client:
     try:
         from distributed import Client
     except ImportError:
-        raise ValueError("scheduler needs dask.distributed: pip install "
-                         "'rattlesweep[distributed]'") from None
+        raise ValueError(
+            "scheduler needs dask.distributed: pip install 'rattlesweep[distributed]'"
+        ) from None
     return Client(scheduler)
 
 
@@ -221,8 +284,9 @@ def _points(sweep: Sweep, tile: int) -> int:
     return stop - start
 
 
-def stored_sweep(out: str | os.PathLike,
-                 storage_options: Mapping[str, Any] | None = None) -> Sweep:
+def stored_sweep(
+    out: str | os.PathLike, storage_options: Mapping[str, Any] | None = None
+) -> Sweep:
     """The sweep whose results ``out`` (a sweep directory or zarr store) holds."""
     from .zarr_store import is_zarr_store
 
@@ -232,8 +296,9 @@ def stored_sweep(out: str | os.PathLike,
         return from_store(str(out), storage_options)
     config = Path(out) / CONFIG_NAME
     if not config.exists():
-        raise ValueError(f"{out} holds no sweep ({config} not found, and it is no zarr "
-                         "store)")
+        raise ValueError(
+            f"{out} holds no sweep ({config} not found, and it is no zarr store)"
+        )
     return read_config(config)
 
 
@@ -243,8 +308,11 @@ def resume(out: str | os.PathLike, **kwargs: Any) -> xr.Dataset:
     return run_sweep(stored_sweep(out, kwargs.get("storage_options")), out, **kwargs)
 
 
-def export(store: str | os.PathLike, out: str | os.PathLike,
-           storage_options: Mapping[str, Any] | None = None) -> Path:
+def export(
+    store: str | os.PathLike,
+    out: str | os.PathLike,
+    storage_options: Mapping[str, Any] | None = None,
+) -> Path:
     """Write the finished zarr store ``store`` as one netCDF file ``out`` (the file a
     netCDF sweep writes as ``sweep.nc``)."""
     from .zarr_store import export_netcdf

@@ -25,12 +25,36 @@ from .._validation import check_memory, is_real
 from .grid import RandomParam
 from .params import BODY_PARAMS, DEFAULTS, PARAMS, check_values, resolve
 
-__all__ = ["CONFIG_KEYS", "MAX_REFINE_LEVELS", "OUTPUTS", "STOPS", "axis_values",
-           "body_from_table", "check_config_table", "normalise_axis", "normalise_body",
-           "normalise_config", "normalise_fixed", "normalise_random", "normalise_refine"]
+__all__ = [
+    "CONFIG_KEYS",
+    "MAX_REFINE_LEVELS",
+    "OUTPUTS",
+    "STOPS",
+    "axis_values",
+    "body_from_table",
+    "check_config_table",
+    "normalise_axis",
+    "normalise_body",
+    "normalise_config",
+    "normalise_fixed",
+    "normalise_random",
+    "normalise_refine",
+]
 
-CONFIG_KEYS = ("name", "axes", "fixed", "random", "repeats", "seed", "method",
-               "reversal_band", "tile_size", "output", "stop", "refine")
+CONFIG_KEYS = (
+    "name",
+    "axes",
+    "fixed",
+    "random",
+    "repeats",
+    "seed",
+    "method",
+    "reversal_band",
+    "tile_size",
+    "output",
+    "stop",
+    "refine",
+)
 """The keys a configuration table may have."""
 
 OUTPUTS = ("netcdf", "zarr")
@@ -46,7 +70,17 @@ MAX_REFINE_LEVELS = 12
 
 _RANGE_KEYS = {"start", "stop", "num", "units", "scale"}
 _VALUES_KEYS = {"values", "units"}
-_BODY_KEYS = {"a", "b", "c", "mass", "com", "inertia", "full_ellipsoid", "body_name", "name"}
+_BODY_KEYS = {
+    "a",
+    "b",
+    "c",
+    "mass",
+    "com",
+    "inertia",
+    "full_ellipsoid",
+    "body_name",
+    "name",
+}
 _BODY_REQUIRED = {"a", "b", "c", "mass", "com", "inertia"}
 
 
@@ -77,15 +111,19 @@ def normalise_body(value: object, where: str) -> str | dict[str, Any]:
     a preset name, a :class:`~rattlesweep.Body` or a body table."""
     if isinstance(value, str):
         if value not in PRESETS:
-            raise ValueError(f"{where}: preset name {value!r} is unknown; choose one of "
-                             f"{sorted(PRESETS)}")
+            raise ValueError(
+                f"{where}: preset name {value!r} is unknown; choose one of "
+                f"{sorted(PRESETS)}"
+            )
         return value
     if isinstance(value, Body):
         return body_table(value)
     if isinstance(value, Mapping):
         return body_table(body_from_table(value, where))
-    raise ValueError(f"{where}: a body is a preset name, a Body, or a table with a, b, c, "
-                     f"mass, com, inertia; got {value!r}")
+    raise ValueError(
+        f"{where}: a body is a preset name, a Body, or a table with a, b, c, "
+        f"mass, com, inertia; got {value!r}"
+    )
 
 
 def body_table(body: Body) -> dict[str, Any]:
@@ -100,15 +138,24 @@ def body_from_table(d: Mapping[str, Any], where: str) -> Body:
     """The :class:`~rattlesweep.Body` a body table describes (checked by ``Body``)."""
     extra = set(d) - _BODY_KEYS
     if extra:
-        raise ValueError(f"{where}: unknown body keys {sorted(extra)}; a body table has "
-                         f"{sorted(_BODY_KEYS - {'body_name'})}")
+        raise ValueError(
+            f"{where}: unknown body keys {sorted(extra)}; a body table has "
+            f"{sorted(_BODY_KEYS - {'body_name'})}"
+        )
     missing = _BODY_REQUIRED - set(d)
     if missing:
         raise ValueError(f"{where}: body table lacks {sorted(missing)}")
     try:
-        return Body(d["a"], d["b"], d["c"], d["mass"], d["com"], d["inertia"],
-                    d.get("full_ellipsoid", False),
-                    name=str(d.get("name", d.get("body_name", "custom"))))
+        return Body(
+            d["a"],
+            d["b"],
+            d["c"],
+            d["mass"],
+            d["com"],
+            d["inertia"],
+            d.get("full_ellipsoid", False),
+            name=str(d.get("name", d.get("body_name", "custom"))),
+        )
     except ValueError as exc:
         raise ValueError(f"{where}: {exc}") from None
 
@@ -123,8 +170,10 @@ def normalise_axis(key: str, spec: Any) -> dict[str, Any]:
         # as given: _normalise_values refuses what is not a flat list of numbers
         spec = {"values": spec.tolist() if isinstance(spec, np.ndarray) else list(spec)}
     if not isinstance(spec, Mapping):
-        raise ValueError(f"{where}: an axis is a list of values or a table "
-                         f"{{start, stop, num[, units, scale]}}; got {spec!r}")
+        raise ValueError(
+            f"{where}: an axis is a list of values or a table "
+            f"{{start, stop, num[, units, scale]}}; got {spec!r}"
+        )
     param, factor, _ = resolve(key, spec.get("units"), where)
     if "values" in spec:
         out = _normalise_values(spec, where)
@@ -150,8 +199,10 @@ def _normalise_body_axis(spec: Any, where: str) -> dict[str, Any]:
 def _normalise_values(spec: Mapping[str, Any], where: str) -> dict[str, Any]:
     keys = set(spec)
     if keys - _VALUES_KEYS:
-        raise ValueError(f"{where}: unknown keys {sorted(keys - _VALUES_KEYS)} next to "
-                         f"'values' (allowed: values, units)")
+        raise ValueError(
+            f"{where}: unknown keys {sorted(keys - _VALUES_KEYS)} next to "
+            f"'values' (allowed: values, units)"
+        )
     values = spec["values"]
     if isinstance(values, np.ndarray):
         values = values.tolist()
@@ -175,24 +226,35 @@ of 8 bytes at the peak (1e8 values: 1.65 GB), and one more as a margin."""
 def _normalise_range(spec: Mapping[str, Any], where: str) -> dict[str, Any]:
     keys = set(spec)
     if keys - _RANGE_KEYS or not {"start", "stop", "num"} <= keys:
-        raise ValueError(f"{where}: a range needs start, stop, num (and optionally units, "
-                         f"scale); got keys {sorted(keys)}")
+        raise ValueError(
+            f"{where}: a range needs start, stop, num (and optionally units, "
+            f"scale); got keys {sorted(keys)}"
+        )
     start, stop, num = spec["start"], spec["stop"], spec["num"]
-    if not (_is_number(start) and _is_number(stop) and math.isfinite(start)
-            and math.isfinite(stop)):
-        raise ValueError(f"{where}: start and stop must be finite numbers, "
-                         f"got {start!r}, {stop!r}")
+    if not (
+        _is_number(start)
+        and _is_number(stop)
+        and math.isfinite(start)
+        and math.isfinite(stop)
+    ):
+        raise ValueError(
+            f"{where}: start and stop must be finite numbers, got {start!r}, {stop!r}"
+        )
     if not (_is_int(num) and num >= 1):
         raise ValueError(f"{where}: num must be an integer >= 1, got {num!r}")
     if num > 1 and not start < stop:
-        raise ValueError(f"{where}: range is inverted or empty: need start < stop, got "
-                         f"start={start!r}, stop={stop!r}")
+        raise ValueError(
+            f"{where}: range is inverted or empty: need start < stop, got "
+            f"start={start!r}, stop={stop!r}"
+        )
     scale = spec.get("scale", "linear")
     if scale not in ("linear", "log"):
         raise ValueError(f"{where}: scale must be 'linear' or 'log', got {scale!r}")
     if scale == "log" and not (start > 0 and stop > 0):
-        raise ValueError(f"{where}: a log range needs start > 0 and stop > 0, got "
-                         f"start={start!r}, stop={stop!r}")
+        raise ValueError(
+            f"{where}: a log range needs start > 0 and stop > 0, got "
+            f"start={start!r}, stop={stop!r}"
+        )
     check_memory(f"{where}.num", num, AXIS_VALUE_BYTES * num, f"{num:,} axis values")
     out = {"start": float(start), "stop": float(stop), "num": int(num)}
     if scale != "linear":
@@ -218,8 +280,10 @@ def normalise_fixed(key: str, value: Any) -> float | str | dict[str, Any]:
     units = None
     if isinstance(value, Mapping):
         if set(value) - {"value", "units"} or "value" not in value:
-            raise ValueError(f"{where}: a fixed value is a number or {{value, units}}, "
-                             f"got {dict(value)!r}")
+            raise ValueError(
+                f"{where}: a fixed value is a number or {{value, units}}, "
+                f"got {dict(value)!r}"
+            )
         value, units = value["value"], value.get("units")
     param, factor, _ = resolve(key, units, where)
     if not _is_number(value):
@@ -234,21 +298,30 @@ def normalise_random(key: str, spec: Any) -> dict[str, Any]:
     (with ``units`` when not the default); every value it can draw is checked."""
     where = f"random.{key}"
     if key == "body" or not isinstance(spec, Mapping):
-        raise ValueError(f"{where}: a random parameter is a table {{uniform = [low, high]}} "
-                         f"or {{normal = [mean, std]}} (optionally with units); got {spec!r}")
+        raise ValueError(
+            f"{where}: a random parameter is a table {{uniform = [low, high]}} "
+            f"or {{normal = [mean, std]}} (optionally with units); got {spec!r}"
+        )
     kinds = [k for k in ("uniform", "normal") if k in spec]
     if len(kinds) != 1 or set(spec) - {"uniform", "normal", "units"}:
-        raise ValueError(f"{where}: give exactly one of uniform = [low, high] or "
-                         f"normal = [mean, std], optionally with units; got {dict(spec)!r}")
+        raise ValueError(
+            f"{where}: give exactly one of uniform = [low, high] or "
+            f"normal = [mean, std], optionally with units; got {dict(spec)!r}"
+        )
     kind = kinds[0]
     pair = spec[kind]
-    if not (isinstance(pair, (list, tuple)) and len(pair) == 2 and all(map(_is_number, pair))
-            and all(math.isfinite(v) for v in pair)):
+    if not (
+        isinstance(pair, (list, tuple))
+        and len(pair) == 2
+        and all(map(_is_number, pair))
+        and all(math.isfinite(v) for v in pair)
+    ):
         raise ValueError(f"{where}: {kind} needs two finite numbers, got {pair!r}")
     a, b = float(pair[0]), float(pair[1])
     if kind == "uniform" and not a < b:
-        raise ValueError(f"{where}: uniform range is inverted or empty: need low < high, "
-                         f"got {[a, b]}")
+        raise ValueError(
+            f"{where}: uniform range is inverted or empty: need low < high, got {[a, b]}"
+        )
     if kind == "normal" and not b > 0:
         raise ValueError(f"{where}: normal std must be > 0, got {b!r}")
     param, factor, _ = resolve(key, spec.get("units"), where)
@@ -257,8 +330,9 @@ def normalise_random(key: str, spec: Any) -> dict[str, Any]:
     return {kind: [a, b], **_units_entry(key, spec.get("units"))}
 
 
-def _check_each_parameter_once(axes: Mapping[str, Any], fixed: Mapping[str, Any],
-                               random: Mapping[str, Any]) -> set[str]:
+def _check_each_parameter_once(
+    axes: Mapping[str, Any], fixed: Mapping[str, Any], random: Mapping[str, Any]
+) -> set[str]:
     """Raise if a parameter is given twice (``delta`` and ``delta_deg`` are the same);
     return the canonical names given."""
     seen: dict[str, str] = {}
@@ -266,67 +340,98 @@ def _check_each_parameter_once(axes: Mapping[str, Any], fixed: Mapping[str, Any]
         for key in d:
             canon = key[:-4] if key.endswith("_deg") else key
             if canon in seen:
-                raise ValueError(f"{section}.{key}: {canon!r} is already given in "
-                                 f"{seen[canon]}; give each parameter once")
+                raise ValueError(
+                    f"{section}.{key}: {canon!r} is already given in "
+                    f"{seen[canon]}; give each parameter once"
+                )
             seen[canon] = f"{section}.{key}"
     shape_keys = [k for k in seen if k in BODY_PARAMS]
     if shape_keys and "body" in seen:
-        raise ValueError(f"{seen['body']}: give either a body or the semi-ellipsoid "
-                         f"parameters {shape_keys}, not both")
+        raise ValueError(
+            f"{seen['body']}: give either a body or the semi-ellipsoid "
+            f"parameters {shape_keys}, not both"
+        )
     return set(seen)
 
 
-def normalise_refine(refine: Any, axes: Mapping[str, dict[str, Any]], output: str
-                     ) -> dict[str, Any]:
+def normalise_refine(
+    refine: Any, axes: Mapping[str, dict[str, Any]], output: str
+) -> dict[str, Any]:
     """The ``refine`` table in normal form: ``levels`` (int >= 1), ``axes`` (the refined
     range axes, in dimension order; default every range axis of more than one value) and,
     when given, ``reversal_time_jump`` (s, > 0)."""
     if isinstance(refine, bool) or not isinstance(refine, (Mapping, int, np.integer)):
-        raise ValueError(f"refine must be a table {{levels, axes, reversal_time_jump}} or "
-                         f"a number of levels, got {refine!r}")
+        raise ValueError(
+            f"refine must be a table {{levels, axes, reversal_time_jump}} or "
+            f"a number of levels, got {refine!r}"
+        )
     spec = dict(refine) if isinstance(refine, Mapping) else {"levels": refine}
     unknown = set(spec) - set(_REFINE_KEYS)
     if unknown:
-        raise ValueError(f"refine: unknown keys {sorted(unknown)}; allowed: "
-                         f"{', '.join(_REFINE_KEYS)}")
+        raise ValueError(
+            f"refine: unknown keys {sorted(unknown)}; allowed: {', '.join(_REFINE_KEYS)}"
+        )
     levels = spec.get("levels")
     if not (_is_int(levels) and 1 <= levels <= MAX_REFINE_LEVELS):
-        raise ValueError(f"refine.levels must be an integer from 1 to {MAX_REFINE_LEVELS} "
-                         f"(each level halves the spacing of the refined axes), got "
-                         f"{levels!r}")
+        raise ValueError(
+            f"refine.levels must be an integer from 1 to {MAX_REFINE_LEVELS} "
+            f"(each level halves the spacing of the refined axes), got "
+            f"{levels!r}"
+        )
     ranges = [k for k, a in axes.items() if "num" in a and a["num"] > 1]
     chosen = spec.get("axes", ranges)
-    if isinstance(chosen, str) or not isinstance(chosen, (list, tuple)) or not all(
-            isinstance(k, str) for k in chosen):
+    if (
+        isinstance(chosen, str)
+        or not isinstance(chosen, (list, tuple))
+        or not all(isinstance(k, str) for k in chosen)
+    ):
         raise ValueError(f"refine.axes must be a list of axis names, got {chosen!r}")
     for key in chosen:
         if key not in axes:
-            raise ValueError(f"refine.axes: {key!r} is not an axis of the sweep "
-                             f"({', '.join(axes)})")
+            raise ValueError(
+                f"refine.axes: {key!r} is not an axis of the sweep ({', '.join(axes)})"
+            )
         if key not in ranges:
-            raise ValueError(f"refine.axes: {key!r} is not a range of more than one value "
-                             "({start, stop, num}); only ranges can be refined")
+            raise ValueError(
+                f"refine.axes: {key!r} is not a range of more than one value "
+                "({start, stop, num}); only ranges can be refined"
+            )
     if not chosen or len(set(chosen)) != len(chosen):
-        raise ValueError(f"refine.axes must name at least one range axis, each once; got "
-                         f"{list(chosen)!r} (the sweep's ranges: {ranges})")
+        raise ValueError(
+            f"refine.axes must name at least one range axis, each once; got "
+            f"{list(chosen)!r} (the sweep's ranges: {ranges})"
+        )
     if output != "netcdf":
-        raise ValueError(f"refine: a refined sweep is written as netCDF (output = "
-                         f"\"netcdf\"), got output = {output!r}")
-    out: dict[str, Any] = {"levels": int(levels),
-                           "axes": [k for k in axes if k in chosen]}
+        raise ValueError(
+            f"refine: a refined sweep is written as netCDF (output = "
+            f'"netcdf"), got output = {output!r}'
+        )
+    out: dict[str, Any] = {"levels": int(levels), "axes": [k for k in axes if k in chosen]}
     if "reversal_time_jump" in spec:
         jump = spec["reversal_time_jump"]
         if not (_is_number(jump) and math.isfinite(jump) and jump > 0):
-            raise ValueError(f"refine.reversal_time_jump must be a finite number > 0 (s), "
-                             f"got {jump!r}")
+            raise ValueError(
+                f"refine.reversal_time_jump must be a finite number > 0 (s), got {jump!r}"
+            )
         out["reversal_time_jump"] = float(jump)
     return out
 
 
-def normalise_config(*, axes: Mapping[Any, Any], fixed: Mapping[Any, Any],
-                     random: Mapping[Any, Any], repeats: Any, seed: Any, method: Any,
-                     reversal_band: Any, tile_size: Any, name: Any, output: Any = "netcdf",
-                     stop: Any = None, refine: Any = None) -> dict[str, Any]:
+def normalise_config(
+    *,
+    axes: Mapping[Any, Any],
+    fixed: Mapping[Any, Any],
+    random: Mapping[Any, Any],
+    repeats: Any,
+    seed: Any,
+    method: Any,
+    reversal_band: Any,
+    tile_size: Any,
+    name: Any,
+    output: Any = "netcdf",
+    stop: Any = None,
+    refine: Any = None,
+) -> dict[str, Any]:
     """The normal form of a configuration: a dict with the keys of :data:`CONFIG_KEYS`,
     scalars first (the order of the TOML file). ``tile_size`` stays None when not given
     (:func:`rattlesweep.sweep.corners.choose_tile_size` chooses it); ``stop`` and
@@ -355,23 +460,39 @@ def normalise_config(*, axes: Mapping[Any, Any], fixed: Mapping[Any, Any],
     for label, v, ok, rule in (
         ("repeats", repeats, _is_int(repeats) and repeats >= 1, "an integer >= 1"),
         ("seed", seed, _is_int(seed) and 0 <= seed < 2**63, "an integer >= 0"),
-        ("tile_size", tile_size, tile_size is None or (_is_int(tile_size) and tile_size >= 1),
-         "an integer >= 1 (or None: automatic)"),
+        (
+            "tile_size",
+            tile_size,
+            tile_size is None or (_is_int(tile_size) and tile_size >= 1),
+            "an integer >= 1 (or None: automatic)",
+        ),
         ("method", method, method in METHODS, f"one of {sorted(METHODS)}"),
         ("output", output, output in OUTPUTS, f"one of {', '.join(map(repr, OUTPUTS))}"),
         ("name", name, isinstance(name, str), "a string"),
-        ("stop", stop, stop is None or stop in STOPS,
-         f"one of {', '.join(map(repr, STOPS))} (or left out: run to t_end)"),
+        (
+            "stop",
+            stop,
+            stop is None or stop in STOPS,
+            f"one of {', '.join(map(repr, STOPS))} (or left out: run to t_end)",
+        ),
     ):
         if not ok:
             raise ValueError(f"{label} must be {rule}, got {v!r}")
     band = check_band(reversal_band)
     if repeats > 1 and not random_n:
-        raise ValueError(f"repeats = {repeats} needs at least one [random] parameter; "
-                         f"repeats of identical launches give identical results")
-    config = {"name": name, "method": method, "reversal_band": band,
-              "tile_size": None if tile_size is None else int(tile_size), "output": output,
-              "repeats": int(repeats), "seed": int(seed)}
+        raise ValueError(
+            f"repeats = {repeats} needs at least one [random] parameter; "
+            f"repeats of identical launches give identical results"
+        )
+    config = {
+        "name": name,
+        "method": method,
+        "reversal_band": band,
+        "tile_size": None if tile_size is None else int(tile_size),
+        "output": output,
+        "repeats": int(repeats),
+        "seed": int(seed),
+    }
     if stop is not None:
         config["stop"] = stop
     config.update({"axes": axes_n, "fixed": fixed_n, "random": random_n})
@@ -387,7 +508,9 @@ def check_config_table(d: object) -> None:
         raise ValueError(f"a sweep configuration is a table, got {d!r}")
     unknown = set(d) - set(CONFIG_KEYS)
     if unknown:
-        raise ValueError(f"unknown configuration keys {sorted(unknown)}; allowed: "
-                         f"{', '.join(CONFIG_KEYS)}")
+        raise ValueError(
+            f"unknown configuration keys {sorted(unknown)}; allowed: "
+            f"{', '.join(CONFIG_KEYS)}"
+        )
     if "axes" not in d:
         raise ValueError("axes: a sweep needs an [axes] table with at least one axis")

@@ -57,8 +57,20 @@ from .toml_io import format_toml, read_toml
 __all__ = ["Sweep"]
 
 _NONE: Mapping[str, Any] = MappingProxyType({})
-_ARGUMENTS = ("axes", "fixed", "random", "repeats", "seed", "method", "reversal_band",
-              "tile_size", "output", "name", "stop", "refine")
+_ARGUMENTS = (
+    "axes",
+    "fixed",
+    "random",
+    "repeats",
+    "seed",
+    "method",
+    "reversal_band",
+    "tile_size",
+    "output",
+    "name",
+    "stop",
+    "refine",
+)
 
 
 class Sweep:
@@ -119,8 +131,15 @@ class Sweep:
     configuration (``==``) and are not hashable; :meth:`config_hash` is the stable digest.
     """
 
-    __slots__ = ("_config", "_grid_axes", "_random_params", "_shape", "_tile_shape",
-                 "_finest", "_max_steps")
+    __slots__ = (
+        "_config",
+        "_grid_axes",
+        "_random_params",
+        "_shape",
+        "_tile_shape",
+        "_finest",
+        "_max_steps",
+    )
     _config: dict[str, Any]
     _grid_axes: tuple[Axis, ...]
     _random_params: tuple[RandomParam, ...]
@@ -129,27 +148,55 @@ class Sweep:
     _finest: Sweep | None
     _max_steps: int
 
-    def __init__(self, axes: Mapping[str, Any], fixed: Mapping[str, Any] = _NONE,
-                 random: Mapping[str, Any] = _NONE, repeats: int = 1, seed: int = 0,
-                 method: str = "rk4", reversal_band: float = 0.05,
-                 tile_size: int | None = None, name: str = "sweep",
-                 output: str = "netcdf", stop: str | None = None,
-                 refine: Mapping[str, Any] | int | None = None) -> None:
-        config = normalise_config(axes=axes, fixed=fixed, random=random, repeats=repeats,
-                                  seed=seed, method=method, reversal_band=reversal_band,
-                                  tile_size=tile_size, name=name, output=output, stop=stop,
-                                  refine=refine)
+    def __init__(
+        self,
+        axes: Mapping[str, Any],
+        fixed: Mapping[str, Any] = _NONE,
+        random: Mapping[str, Any] = _NONE,
+        repeats: int = 1,
+        seed: int = 0,
+        method: str = "rk4",
+        reversal_band: float = 0.05,
+        tile_size: int | None = None,
+        name: str = "sweep",
+        output: str = "netcdf",
+        stop: str | None = None,
+        refine: Mapping[str, Any] | int | None = None,
+    ) -> None:
+        config = normalise_config(
+            axes=axes,
+            fixed=fixed,
+            random=random,
+            repeats=repeats,
+            seed=seed,
+            method=method,
+            reversal_band=reversal_band,
+            tile_size=tile_size,
+            name=name,
+            output=output,
+            stop=stop,
+            refine=refine,
+        )
         grid_axes = _grid_axes(config["axes"])
         random_params = _random_params(config["random"])
         shape = tuple(len(a.values) for a in grid_axes) + (
-            (config["repeats"],) if random_params else ())
-        max_steps = check_corners(grid_axes, random_params, _fixed_si(config["fixed"]),
-                                  _fixed_body(config["fixed"]),
-                                  _fixed_shown({k: v for k, v in config["fixed"].items()
-                                                if k in fixed}))
+            (config["repeats"],) if random_params else ()
+        )
+        max_steps = check_corners(
+            grid_axes,
+            random_params,
+            _fixed_si(config["fixed"]),
+            _fixed_body(config["fixed"]),
+            _fixed_shown({k: v for k, v in config["fixed"].items() if k in fixed}),
+        )
         if config["tile_size"] is None:
-            config = {**config, "tile_size": choose_tile_size(max_steps, _tiled_size(
-                shape, list(config["axes"]), config.get("refine")))}
+            config = {
+                **config,
+                "tile_size": choose_tile_size(
+                    max_steps,
+                    _tiled_size(shape, list(config["axes"]), config.get("refine")),
+                ),
+            }
         self._config = config
         self._grid_axes = grid_axes
         self._random_params = random_params
@@ -225,8 +272,10 @@ class Sweep:
             return self
         if self._finest is None:  # made once: its corner check costs milliseconds
             scale = 2 ** refine["levels"]
-            axes = {k: ({**a, "num": (a["num"] - 1) * scale + 1}
-                        if k in refine["axes"] else a) for k, a in self.axes.items()}
+            axes = {
+                k: ({**a, "num": (a["num"] - 1) * scale + 1} if k in refine["axes"] else a)
+                for k, a in self.axes.items()
+            }
             config = {k: v for k, v in self.to_dict().items() if k != "refine"}
             self._finest = Sweep(**{**config, "axes": axes})
         return self._finest
@@ -253,8 +302,9 @@ class Sweep:
         """The kernel's friction level (:func:`rattlesweep.core.workspace.friction_level`)
         that the sweep's launches can need, from every value its friction coefficients
         take (a random one: any value)."""
-        values: dict[str, list[float]] = {k: [] for k in
-                                          ("mu", "mu_static", "mu_spin", "mu_roll")}
+        values: dict[str, list[float]] = {
+            k: [] for k in ("mu", "mu_static", "mu_spin", "mu_roll")
+        }
         for axis in self.grid_axes:
             if axis.param in values:
                 values[axis.param].extend(np.asarray(axis.si, dtype=float).ravel())
@@ -265,8 +315,11 @@ class Sweep:
             if key in values:
                 values[key].append(float(value))
         static = values["mu_static"] or values["mu"] or [math.inf]
-        return friction_level(np.array(static), np.array(values["mu_spin"] or [0.0]),
-                              np.array(values["mu_roll"] or [0.0]))
+        return friction_level(
+            np.array(static),
+            np.array(values["mu_spin"] or [0.0]),
+            np.array(values["mu_roll"] or [0.0]),
+        )
 
     def fixed_si(self) -> dict[str, float]:
         """Fixed numeric parameters in SI, by canonical name (``body`` excluded)."""
@@ -287,7 +340,9 @@ class Sweep:
         """The result's dimensions: the axes as results name them (``launch_spin``,
         ``roll_deg``: :func:`~rattlesweep.sweep.params.result_name`), then ``repeat``
         when there are random draws."""
-        return tuple(ax.name for ax in self.grid_axes) + (("repeat",) if self.random else ())
+        return tuple(ax.name for ax in self.grid_axes) + (
+            ("repeat",) if self.random else ()
+        )
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -314,8 +369,10 @@ class Sweep:
     def tile_region(self, tile: int) -> tuple[slice, ...]:
         """The block of the grid a tile covers, one slice per dimension."""
         corner = np.unravel_index(tile, self._tile_grid)
-        return tuple(slice(int(i) * b, min((int(i) + 1) * b, n))
-                     for i, b, n in zip(corner, self._tile_shape, self._shape))
+        return tuple(
+            slice(int(i) * b, min((int(i) + 1) * b, n))
+            for i, b, n in zip(corner, self._tile_shape, self._shape)
+        )
 
     def tile_range(self, tile: int) -> tuple[int, int]:
         """Flat point indices [start, stop) of a tile (its points are consecutive)."""
@@ -368,8 +425,9 @@ class Sweep:
     def config_hash(self) -> str:
         """SHA-256 of the normalised configuration, the order of the axes (the order of
         the result's dimensions) included."""
-        text = json.dumps({"config": self.to_dict(), "axis_order": list(self.axes)},
-                          sort_keys=True)
+        text = json.dumps(
+            {"config": self.to_dict(), "axis_order": list(self.axes)}, sort_keys=True
+        )
         return hashlib.sha256(text.encode()).hexdigest()
 
     def differences(self, other: "Sweep") -> list[str]:
@@ -381,15 +439,20 @@ class Sweep:
 
     def __eq__(self, other: object) -> bool:
         # dicts compare without order, but the order of the axes is that of the dimensions
-        return (isinstance(other, Sweep) and self.to_dict() == other.to_dict()
-                and list(self.axes) == list(other.axes))
+        return (
+            isinstance(other, Sweep)
+            and self.to_dict() == other.to_dict()
+            and list(self.axes) == list(other.axes)
+        )
 
     # the stored tables are mutable dicts; compare with ==. The ignore: mypy refuses the
     # None with which the data model marks a class unhashable.
     __hash__ = None  # type: ignore[assignment]
 
     def __repr__(self) -> str:
-        args = ", ".join(f"{k}={self._config[k]!r}" for k in _ARGUMENTS if k in self._config)
+        args = ", ".join(
+            f"{k}={self._config[k]!r}" for k in _ARGUMENTS if k in self._config
+        )
         return f"Sweep({args})"
 
 
@@ -440,8 +503,10 @@ def _fixed_si(fixed: Mapping[str, Any]) -> dict[str, float]:
 def _fixed_shown(fixed: Mapping[str, Any]) -> str:
     """The fixed numeric values as the configuration spells them, for error messages:
     ``fixed.roll_deg = 1e+300, fixed.t_end = 3`` (the user's, not the defaults)."""
-    return ", ".join(f"fixed.{key} = {value!r}" + (f" {units}" if units else "")
-                     for key, value, units in _fixed_numbers(fixed))
+    return ", ".join(
+        f"fixed.{key} = {value!r}" + (f" {units}" if units else "")
+        for key, value, units in _fixed_numbers(fixed)
+    )
 
 
 def _fixed_body(fixed: Mapping[str, Any]) -> str | Body | None:
@@ -449,16 +514,21 @@ def _fixed_body(fixed: Mapping[str, Any]) -> str | Body | None:
     return body_from_table(v, "fixed.body") if isinstance(v, Mapping) else v
 
 
-def _tiled_size(shape: tuple[int, ...], keys: list[str], refine: Mapping[str, Any] | None
-                ) -> int:
+def _tiled_size(
+    shape: tuple[int, ...], keys: list[str], refine: Mapping[str, Any] | None
+) -> int:
     """The number of points the automatic tile size is chosen for: the grid's, or for a
     refined sweep that of its grid one level finer, about as many points as its levels
     simulate each (tiles sized for the declared grid alone would be so small that their
     overhead shows)."""
     if refine is None:
         return _size(shape)
-    return _size(tuple(2 * n - 1 if k in refine["axes"] else n
-                       for k, n in zip(keys + ["repeat"], shape)))
+    return _size(
+        tuple(
+            2 * n - 1 if k in refine["axes"] else n
+            for k, n in zip(keys + ["repeat"], shape)
+        )
+    )
 
 
 def _size(shape: tuple[int, ...]) -> int:

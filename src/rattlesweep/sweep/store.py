@@ -61,8 +61,9 @@ def _diagnose(directory: Path) -> tuple[int | None, str]:
     return None, ""
 
 
-def write_failure(what: str | Path, exc: BaseException, written: int, resume: str
-                  ) -> SweepWriteError:
+def write_failure(
+    what: str | Path, exc: BaseException, written: int, resume: str
+) -> SweepWriteError:
     """The error for a failed write of ``what`` (a local file, or a description), naming
     the cause and what to do."""
     code = getattr(exc, "errno", None)
@@ -71,11 +72,16 @@ def write_failure(what: str | Path, exc: BaseException, written: int, resume: st
         code, diagnosis = _diagnose(what.parent)
         cause = f"{cause} ({diagnosis})" if diagnosis else cause
     hints: dict[int | None, str] = {
-        errno.ENOSPC: "free some space", errno.EDQUOT: "free some space",
-        errno.EFBIG: "allow larger files", errno.EACCES: "fix the permissions",
-        errno.EPERM: "fix the permissions", errno.EROFS: "make it writable"}
+        errno.ENOSPC: "free some space",
+        errno.EDQUOT: "free some space",
+        errno.EFBIG: "allow larger files",
+        errno.EACCES: "fix the permissions",
+        errno.EPERM: "fix the permissions",
+        errno.EROFS: "make it writable",
+    }
     hint = hints.get(code, "fix the cause")
     return SweepWriteError(
         code or errno.EIO,
         f"cannot write {what}: {cause or type(exc).__name__}. The {written} tiles written "
-        f"before are intact; {hint}, then `{resume}` completes the sweep")
+        f"before are intact; {hint}, then `{resume}` completes the sweep",
+    )

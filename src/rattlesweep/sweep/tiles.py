@@ -19,8 +19,17 @@ from ..inputs import RATTLEBACK
 from .outcomes import OUTCOME_ATTRS, classify
 from .spec import Sweep
 
-__all__ = ["NOT_COMPUTED", "RESULT_VARS", "TileResult", "compute_points", "compute_tile",
-           "extra_vars", "result_dtypes", "result_names", "variable_attrs"]
+__all__ = [
+    "NOT_COMPUTED",
+    "RESULT_VARS",
+    "TileResult",
+    "compute_points",
+    "compute_tile",
+    "extra_vars",
+    "result_dtypes",
+    "result_names",
+    "variable_attrs",
+]
 
 RESULT_VARS = MODEL.observables
 """Kernel observables kept for every point, besides ``outcome``."""
@@ -45,15 +54,21 @@ class TileResult:
 
     def summary(self) -> dict[str, Any]:
         """What the progress report needs."""
-        return {"tile": self.tile, "n": self.stop - self.start, "steps": self.steps,
-                "seconds": self.seconds}
+        return {
+            "tile": self.tile,
+            "n": self.stop - self.start,
+            "steps": self.steps,
+            "seconds": self.seconds,
+        }
 
 
 def extra_vars(sweep: Sweep) -> tuple[str, ...]:
     """Per-point variables besides the observables: the default time step when dt is not
     given, and the random draws."""
     given = {k[:-4] if k.endswith("_deg") else k for k in (*sweep.axes, *sweep.fixed)}
-    return (("dt",) if "dt" not in given else ()) + tuple(r.name for r in sweep.random_params)
+    return (("dt",) if "dt" not in given else ()) + tuple(
+        r.name for r in sweep.random_params
+    )
 
 
 def result_names(sweep: Sweep) -> tuple[str, ...]:
@@ -71,11 +86,15 @@ def result_dtypes(sweep: Sweep) -> dict[str, np.dtype]:
     return dtypes
 
 
-_STATUS_COMMENT = "not_computed: the point has not been computed yet (a store being written)."
-_STOP_COMMENT = ("stop = first_reversal: each launch ended at its first reversal, so "
-                 "several_reversals does not occur and capsized, lifted_off and "
-                 "numerical_failure happened before any reversal; t_final says when the "
-                 "launch ended.")
+_STATUS_COMMENT = (
+    "not_computed: the point has not been computed yet (a store being written)."
+)
+_STOP_COMMENT = (
+    "stop = first_reversal: each launch ended at its first reversal, so "
+    "several_reversals does not occur and capsized, lifted_off and "
+    "numerical_failure happened before any reversal; t_final says when the "
+    "launch ended."
+)
 
 
 def variable_attrs(sweep: Sweep, name: str) -> dict[str, Any]:
@@ -91,13 +110,18 @@ def variable_attrs(sweep: Sweep, name: str) -> dict[str, Any]:
             attrs["comment"] += " " + _STOP_COMMENT
         return attrs
     if name == "dt":
-        return {**RATTLEBACK["dt"].attrs, "comment": f"the default step: "
-                f"{RATTLEBACK['dt'].default_doc.replace('`', '')}"}
+        return {
+            **RATTLEBACK["dt"].attrs,
+            "comment": f"the default step: {RATTLEBACK['dt'].default_doc.replace('`', '')}",
+        }
     for rp in sweep.random_params:
         if rp.name == name:
             # the long name is the input's, as in every other result; the draw is a comment
-            return {"units": rp.result_units, "long_name": rp.long_name,
-                    "comment": f"random draw, {rp.kind} {rp.a:g}, {rp.b:g}"}
+            return {
+                "units": rp.result_units,
+                "long_name": rp.long_name,
+                "comment": f"random draw, {rp.kind} {rp.a:g}, {rp.b:g}",
+            }
     return MODEL.attrs(name)
 
 
@@ -109,12 +133,22 @@ def compute_points(sweep: Sweep, index: np.ndarray) -> tuple[dict[str, np.ndarra
     bodies, kwargs = sweep.points_at(index)
     # a sweep announces its size as a whole, not each tile
     prep = prepare(bodies, stop=sweep.stop, announce=False, **kwargs)
-    raw = engine.execute(prep, method=check_method(sweep.method), record_every=None,
-                         band=sweep.reversal_band, parallel=False)
+    raw = engine.execute(
+        prep,
+        method=check_method(sweep.method),
+        record_every=None,
+        band=sweep.reversal_band,
+        parallel=False,
+    )
     obs = results.observables_dataset(MODEL, raw.observables, "point")
     data = {k: obs[k].values for k in RESULT_VARS}
-    data["outcome"] = classify(data["status"], data["n_reversals"], data["mean_final_spin"],
-                               data["initial_spin"], sweep.reversal_band)
+    data["outcome"] = classify(
+        data["status"],
+        data["n_reversals"],
+        data["mean_final_spin"],
+        data["initial_spin"],
+        sweep.reversal_band,
+    )
     if "dt" in extra_vars(sweep):
         data["dt"] = np.asarray(prep.coords["dt"][1], dtype=float)
     for rp in sweep.random_params:
@@ -129,4 +163,3 @@ def compute_tile(sweep: Sweep, tile: int) -> TileResult:
     start, stop = sweep.tile_range(tile)
     data, steps = compute_points(sweep, np.arange(start, stop, dtype=np.int64))
     return TileResult(tile, start, stop, data, steps, time.perf_counter() - t0)
-

@@ -25,8 +25,15 @@ from typing import Any, Mapping
 __all__ = ["format_toml", "read_toml"]
 
 _BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
-_SHORT_ESCAPES = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n",
-                  "\f": "\\f", "\r": "\\r"}
+_SHORT_ESCAPES = {
+    '"': '\\"',
+    "\\": "\\\\",
+    "\b": "\\b",
+    "\t": "\\t",
+    "\n": "\\n",
+    "\f": "\\f",
+    "\r": "\\r",
+}
 
 
 def read_toml(path_or_text: str | Path) -> dict[str, Any]:
@@ -42,8 +49,10 @@ def read_toml(path_or_text: str | Path) -> dict[str, Any]:
         except OSError as exc:
             raise ValueError(f"cannot read {label}: {exc.strerror}") from None
         except UnicodeDecodeError as exc:
-            raise ValueError(f"cannot parse {label} as TOML: it is not UTF-8 "
-                             f"({exc.reason} at byte {exc.start})") from None
+            raise ValueError(
+                f"cannot parse {label} as TOML: it is not UTF-8 "
+                f"({exc.reason} at byte {exc.start})"
+            ) from None
     text = text.removeprefix("\ufeff")
     try:
         return tomllib.loads(text)

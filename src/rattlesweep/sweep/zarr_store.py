@@ -46,8 +46,18 @@ if TYPE_CHECKING:
     from zarr import Group
     from zarr.abc.store import Store
 
-__all__ = ["DONE_ARRAY", "ZarrStore", "check_coords", "check_tiles", "export_netcdf", "is_zarr_store",
-           "damage_report", "open_result", "stored_sweep", "tiles_done"]
+__all__ = [
+    "DONE_ARRAY",
+    "ZarrStore",
+    "check_coords",
+    "check_tiles",
+    "export_netcdf",
+    "is_zarr_store",
+    "damage_report",
+    "open_result",
+    "stored_sweep",
+    "tiles_done",
+]
 
 DONE_ARRAY = "rattlesweep/tile_done"
 _DONE_CHUNK = 4096
@@ -57,8 +67,9 @@ def _zarr() -> ModuleType:
     try:
         import zarr
     except ImportError:
-        raise ValueError("a zarr output needs the zarr package: pip install "
-                         "'rattlesweep[zarr]'") from None
+        raise ValueError(
+            "a zarr output needs the zarr package: pip install 'rattlesweep[zarr]'"
+        ) from None
     return zarr
 
 
@@ -70,8 +81,9 @@ def _quiet() -> Iterator[None]:
     nothing they could act on. The filter list is process-wide, so it also covers that
     thread while this one waits for it."""
     with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", message=r"The data type \(FixedLengthUTF32",
-                                category=FutureWarning)
+        warnings.filterwarnings(
+            "ignore", message=r"The data type \(FixedLengthUTF32", category=FutureWarning
+        )
         yield
 
 
@@ -143,8 +155,12 @@ def _first_line(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {text[0]}" if text else type(exc).__name__
 
 
-def check_tiles(location: str, sweep: Sweep, tiles: Any = None,
-                storage_options: Mapping[str, Any] | None = None) -> dict[int, str]:
+def check_tiles(
+    location: str,
+    sweep: Sweep,
+    tiles: Any = None,
+    storage_options: Mapping[str, Any] | None = None,
+) -> dict[int, str]:
     """What is wrong with each of the ``tiles`` (default: all) of the store, by tile:
     a chunk missing, a chunk that fails its checksum or cannot be decoded, or points
     whose ``status`` still says not computed. Tiles not named are sound. Reads every
@@ -158,10 +174,11 @@ def check_tiles(location: str, sweep: Sweep, tiles: Any = None,
         except KeyError:
             return {t: f"array {name} missing" for t in tiles}
         except Exception as exc:
-            raise ValueError(f"{location}: the metadata of array {name} cannot be read "
-                             f"({_first_line(exc)}); the store cannot be checked or "
-                             "resumed: restore it, or run the sweep into a new store"
-                             ) from None
+            raise ValueError(
+                f"{location}: the metadata of array {name} cannot be read "
+                f"({_first_line(exc)}); the store cannot be checked or "
+                "resumed: restore it, or run the sweep into a new store"
+            ) from None
         # a store written before checksums left out the chunks holding only fill
         # values; status is never all fill in a computed tile, so its chunks are there
         complete = _checksummed(array) or name == "status"
@@ -186,8 +203,9 @@ def check_tiles(location: str, sweep: Sweep, tiles: Any = None,
     return problems
 
 
-def check_coords(location: str, sweep: Sweep,
-                 storage_options: Mapping[str, Any] | None = None) -> list[str]:
+def check_coords(
+    location: str, sweep: Sweep, storage_options: Mapping[str, Any] | None = None
+) -> list[str]:
     """What is wrong with the store's coordinates (the axes' values, the fixed values):
     each is read in full and compared with what the sweep's configuration gives, so that
     a damaged coordinate chunk, checksummed or not, is found rather than exported."""
@@ -206,16 +224,19 @@ def check_coords(location: str, sweep: Sweep,
             problems.append(f"coordinate {name} damaged ({_first_line(exc)})")
             continue
         want = np.asarray(want)
-        same = (have.shape == want.shape and (
-            np.array_equal(have, want) if want.dtype.kind in "OUS"
-            else np.array_equal(have.astype(float), want.astype(float), equal_nan=True)))
+        same = have.shape == want.shape and (
+            np.array_equal(have, want)
+            if want.dtype.kind in "OUS"
+            else np.array_equal(have.astype(float), want.astype(float), equal_nan=True)
+        )
         if not same:
             problems.append(f"coordinate {name} differs from the sweep's configuration")
     return problems
 
 
-def write_coords(location: str, sweep: Sweep,
-                 storage_options: Mapping[str, Any] | None = None) -> None:
+def write_coords(
+    location: str, sweep: Sweep, storage_options: Mapping[str, Any] | None = None
+) -> None:
     """Write the store's coordinates again from the sweep's configuration."""
     from .merge import grid_coords
 
@@ -229,13 +250,13 @@ def _consolidate(location: str, options: Mapping[str, Any] | None) -> None:
     # consolidated metadata lets open_zarr read the layout in one request; zarr warns
     # that format 3 does not standardise it yet, which does not matter to xarray
     with _quiet(), warnings.catch_warnings():
-        warnings.filterwarnings("ignore", message="Consolidated metadata",
-                                category=UserWarning)
+        warnings.filterwarnings(
+            "ignore", message="Consolidated metadata", category=UserWarning
+        )
         _zarr().consolidate_metadata(_store(location, options))
 
 
-def stored_sweep(location: str, storage_options: Mapping[str, Any] | None = None
-                 ) -> Sweep:
+def stored_sweep(location: str, storage_options: Mapping[str, Any] | None = None) -> Sweep:
     """The sweep whose results the store at ``location`` holds; ValueError when it is no
     rattlesweep store or its configuration cannot be read."""
     try:
@@ -246,17 +267,22 @@ def stored_sweep(location: str, storage_options: Mapping[str, Any] | None = None
         raise ValueError(f"cannot open {location}: {_first_line(exc)}") from None
     text = group.attrs.get("sweep_config")
     if not isinstance(text, str):
-        raise ValueError(f"{location} is a zarr store without a sweep configuration "
-                         "(attribute sweep_config): not written by rattlesweep")
+        raise ValueError(
+            f"{location} is a zarr store without a sweep configuration "
+            "(attribute sweep_config): not written by rattlesweep"
+        )
     try:
         return Sweep.from_toml(text)
     except ValueError as exc:
-        raise ValueError(f"{location}: its sweep_config attribute is not a valid sweep "
-                         f"configuration ({exc})") from None
+        raise ValueError(
+            f"{location}: its sweep_config attribute is not a valid sweep "
+            f"configuration ({exc})"
+        ) from None
 
 
-def tiles_done(location: str, n_tiles: int,
-               storage_options: Mapping[str, Any] | None = None) -> np.ndarray | None:
+def tiles_done(
+    location: str, n_tiles: int, storage_options: Mapping[str, Any] | None = None
+) -> np.ndarray | None:
     """Which tiles of the store are complete (bool per tile), None when the store's
     layout was never finished."""
     try:
@@ -275,9 +301,14 @@ def tiles_done(location: str, n_tiles: int,
 class ZarrStore:
     """The zarr output of ``sweep`` at ``location`` (see the module's description)."""
 
-    def __init__(self, sweep: Sweep, location: str | os.PathLike, *,
-                 storage_options: Mapping[str, Any] | None = None,
-                 command: str | None = None) -> None:
+    def __init__(
+        self,
+        sweep: Sweep,
+        location: str | os.PathLike,
+        *,
+        storage_options: Mapping[str, Any] | None = None,
+        command: str | None = None,
+    ) -> None:
         _zarr()
         self.sweep = sweep
         self.command = command
@@ -315,28 +346,38 @@ class ZarrStore:
             stored = stored_sweep(self.location, self.options)
             if stored != sweep:
                 changes = "; ".join(stored.differences(sweep))
-                raise ValueError(f"{self.location} holds a different sweep (stored -> new: "
-                                 f"{changes}); resume it unchanged with `rattlesweep resume "
-                                 f"{self.location}`, or use a new store")
+                raise ValueError(
+                    f"{self.location} holds a different sweep (stored -> new: "
+                    f"{changes}); resume it unchanged with `rattlesweep resume "
+                    f"{self.location}`, or use a new store"
+                )
             done = tiles_done(self.location, sweep.n_tiles, self.options)
         if done is None:
             try:
                 self._layout()
             except OSError as exc:
-                raise write_failure(f"the layout of {self.location}", exc, 0,
-                                    f"rattlesweep resume {self.location}") from exc
+                raise write_failure(
+                    f"the layout of {self.location}",
+                    exc,
+                    0,
+                    f"rattlesweep resume {self.location}",
+                ) from exc
             done = np.zeros(sweep.n_tiles, dtype=bool)
         else:
             done = self._verify(done)
             coords = check_coords(self.location, sweep, self.options)
             if coords:
                 write_coords(self.location, sweep, self.options)
-                self.notes.append(f"{self.location}: {'; '.join(coords)}; written again "
-                                  "from the configuration")
+                self.notes.append(
+                    f"{self.location}: {'; '.join(coords)}; written again "
+                    "from the configuration"
+                )
         self.group = _group(self.location, self.options, "r+")
         # every chunk is stored, even all fill values: a missing chunk is then a loss
-        self.arrays = {name: self.group[name].with_config({"write_empty_chunks": True})
-                       for name in result_dtypes(sweep)}
+        self.arrays = {
+            name: self.group[name].with_config({"write_empty_chunks": True})
+            for name in result_dtypes(sweep)
+        }
         self.written = int(done.sum())
         return [int(t) for t in np.flatnonzero(~done)]
 
@@ -352,8 +393,10 @@ class ZarrStore:
                 flags[tile] = 0
                 done[tile] = False
             first = min(bad)
-            self.notes.append(f"{len(bad)} tiles of {self.location} are damaged or missing "
-                              f"(tile {first}: {bad[first]}); recomputing them")
+            self.notes.append(
+                f"{len(bad)} tiles of {self.location} are damaged or missing "
+                f"(tile {first}: {bad[first]}); recomputing them"
+            )
         return done
 
     def _exists(self) -> bool:
@@ -364,20 +407,26 @@ class ZarrStore:
             root = _local_path(self.location)
             if not is_zarr_store(root):
                 if root.exists() and (not root.is_dir() or any(root.iterdir())):
-                    raise ValueError(f"{root} exists and is not a zarr store; a zarr "
-                                     "output needs a new path (or a store it wrote)")
+                    raise ValueError(
+                        f"{root} exists and is not a zarr store; a zarr "
+                        "output needs a new path (or a store it wrote)"
+                    )
                 return False
         try:
             _group(self.location, self.options)
         except FileNotFoundError:
             if _is_local(self.location) or not self._holds_objects():
                 return False
-            raise ValueError(f"{self.location} holds objects but no zarr store; a zarr "
-                             "output needs a new location (or a store it wrote)") from None
+            raise ValueError(
+                f"{self.location} holds objects but no zarr store; a zarr "
+                "output needs a new location (or a store it wrote)"
+            ) from None
         except Exception as exc:
-            raise ValueError(f"{self.location} holds a zarr store whose root metadata "
-                             f"cannot be read ({_first_line(exc)}): not overwriting it. "
-                             "Restore it, or use a new location") from None
+            raise ValueError(
+                f"{self.location} holds a zarr store whose root metadata "
+                f"cannot be read ({_first_line(exc)}): not overwriting it. "
+                "Restore it, or use a new location"
+            ) from None
         return True
 
     def _holds_objects(self) -> bool:
@@ -400,17 +449,36 @@ class ZarrStore:
         chunks = sweep.tile_shape
         data, encoding = {}, {}
         for name, dtype in result_dtypes(sweep).items():
-            data[name] = (sweep.dims, dask.array.empty(sweep.shape, dtype=dtype, chunks=chunks),
-                          variable_attrs(sweep, name))
-            encoding[name] = {"chunks": chunks, "fill_value": _fill(dtype, name), **_codecs()}
-        template = xr.Dataset(data, coords=grid_coords(sweep),
-                              attrs=result_attrs(sweep, self.command))
+            data[name] = (
+                sweep.dims,
+                dask.array.empty(sweep.shape, dtype=dtype, chunks=chunks),
+                variable_attrs(sweep, name),
+            )
+            encoding[name] = {
+                "chunks": chunks,
+                "fill_value": _fill(dtype, name),
+                **_codecs(),
+            }
+        template = xr.Dataset(
+            data, coords=grid_coords(sweep), attrs=result_attrs(sweep, self.command)
+        )
         with _quiet():
-            template.to_zarr(_store(self.location, self.options), mode="w", compute=False,
-                             encoding=encoding, consolidated=False, zarr_format=3)
+            template.to_zarr(
+                _store(self.location, self.options),
+                mode="w",
+                compute=False,
+                encoding=encoding,
+                consolidated=False,
+                zarr_format=3,
+            )
         _group(self.location, self.options, "r+").create_array(
-            DONE_ARRAY, shape=(sweep.n_tiles,), dtype="uint8",
-            chunks=(min(sweep.n_tiles, _DONE_CHUNK),), fill_value=0, **_codecs())
+            DONE_ARRAY,
+            shape=(sweep.n_tiles,),
+            dtype="uint8",
+            chunks=(min(sweep.n_tiles, _DONE_CHUNK),),
+            fill_value=0,
+            **_codecs(),
+        )
         _consolidate(self.location, self.options)
 
     def write(self, result: TileResult) -> None:
@@ -423,8 +491,12 @@ class ZarrStore:
                 self.arrays[name][region] = result.data[name].reshape(block)
             self.group[DONE_ARRAY][result.tile] = 1
         except OSError as exc:
-            raise write_failure(f"tile {result.tile} to {self.location}", exc, self.written,
-                                f"rattlesweep resume {self.location}") from exc
+            raise write_failure(
+                f"tile {result.tile} to {self.location}",
+                exc,
+                self.written,
+                f"rattlesweep resume {self.location}",
+            ) from exc
         self.written += 1
 
     def finish(self) -> xr.Dataset:
@@ -437,15 +509,17 @@ class ZarrStore:
             self.lock.release()
 
 
-def open_result(location: str, storage_options: Mapping[str, Any] | None = None
-                ) -> xr.Dataset:
+def open_result(
+    location: str, storage_options: Mapping[str, Any] | None = None
+) -> xr.Dataset:
     """A sweep's zarr store as a lazy dataset (``xarray.open_zarr``)."""
     with _quiet():
         return xr.open_zarr(_store(location, storage_options))
 
 
-def export_netcdf(location: str, out: str | os.PathLike,
-                  storage_options: Mapping[str, Any] | None = None) -> Path:
+def export_netcdf(
+    location: str, out: str | os.PathLike, storage_options: Mapping[str, Any] | None = None
+) -> Path:
     """Write a finished store as one netCDF file (what a netCDF sweep writes as
     ``sweep.nc``), atomically, reading one tile at a time. An unfinished store is
     refused, and so is one with a tile missing or damaged (naming it), as every chunk is
@@ -458,22 +532,27 @@ def export_netcdf(location: str, out: str | os.PathLike,
     done = tiles_done(location, sweep.n_tiles, storage_options)
     if done is None or not done.all():
         missing = sweep.n_tiles if done is None else int((~done).sum())
-        raise ValueError(f"{location} is unfinished ({missing} of {sweep.n_tiles} tiles "
-                         f"not computed); complete it with `rattlesweep resume {location}`")
+        raise ValueError(
+            f"{location} is unfinished ({missing} of {sweep.n_tiles} tiles "
+            f"not computed); complete it with `rattlesweep resume {location}`"
+        )
     bad = check_tiles(location, sweep, None, storage_options)
     if bad:
-        raise ValueError(f"{location}: {damage_report(bad, sweep.n_tiles)}; nothing was "
-                         f"exported. `rattlesweep resume {location}` recomputes them")
+        raise ValueError(
+            f"{location}: {damage_report(bad, sweep.n_tiles)}; nothing was "
+            f"exported. `rattlesweep resume {location}` recomputes them"
+        )
     coords = check_coords(location, sweep, storage_options)
     if coords:
-        raise ValueError(f"{location}: {'; '.join(coords)}; nothing was exported. "
-                         f"`rattlesweep resume {location}` writes them again")
+        raise ValueError(
+            f"{location}: {'; '.join(coords)}; nothing was exported. "
+            f"`rattlesweep resume {location}` writes them again"
+        )
     ds = open_result(location, storage_options)
     for var in ds.variables.values():
         var.encoding = {}
     with dask.config.set(scheduler="synchronous"):
         return write_netcdf(ds, out)
-
 
 
 def damage_report(bad: Mapping[int, str], n_tiles: int, most: int = 5) -> str:

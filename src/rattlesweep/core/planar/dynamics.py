@@ -49,12 +49,48 @@ from ..jit import kernel
 from ..stages import first_stage, put_derivative
 from ..switching import stop_time
 from ..workspace import (
-    BLOCK, COUPLES, DT, EPS_U, GRAV, MU_K, MU_ROLL, OFF_P, OFF_S, OFF_X, S_MODE, S_ROLL,
-    S_ROLL_SENSE, S_UHX, X_FX, X_FY, X_N, X_ROLL_COUPLE, X_ROLL_EVENT, X_SPIN_COUPLE,
-    X_SPIN_EVENT, X_TSTOP, X_UX, X_UY, at, lane_range,
+    BLOCK,
+    COUPLES,
+    DT,
+    EPS_U,
+    GRAV,
+    MU_K,
+    MU_ROLL,
+    OFF_P,
+    OFF_S,
+    OFF_X,
+    S_MODE,
+    S_ROLL,
+    S_ROLL_SENSE,
+    S_UHX,
+    X_FX,
+    X_FY,
+    X_N,
+    X_ROLL_COUPLE,
+    X_ROLL_EVENT,
+    X_SPIN_COUPLE,
+    X_SPIN_EVENT,
+    X_TSTOP,
+    X_UX,
+    X_UY,
+    at,
+    lane_range,
 )
 from .layout import (
-    A2, AB2, B2, DEPTH, INERTIA, MASS, OFF_A, OFF_B, OFF_T, OFF_Y, RATE, THETA, VXG, XG,
+    A2,
+    AB2,
+    B2,
+    DEPTH,
+    INERTIA,
+    MASS,
+    OFF_A,
+    OFF_B,
+    OFF_T,
+    OFF_Y,
+    RATE,
+    THETA,
+    VXG,
+    XG,
 )
 
 __all__ = ["contact_impulse", "energy", "eval_block", "euler_step", "shape"]
@@ -122,8 +158,13 @@ def eval_block(W, slip_possible, stage, one_lane, lane):
         m = W[at(OFF_P, MASS, j)]
         inertia = W[at(OFF_P, INERTIA, j)]
         g = W[at(OFF_P, GRAV, j)]
-        h, hp, rho = shape(W[at(OFF_P, A2, j)], W[at(OFF_P, B2, j)], W[at(OFF_P, AB2, j)],
-                           W[at(OFF_P, DEPTH, j)], theta)
+        h, hp, rho = shape(
+            W[at(OFF_P, A2, j)],
+            W[at(OFF_P, B2, j)],
+            W[at(OFF_P, AB2, j)],
+            W[at(OFF_P, DEPTH, j)],
+            theta,
+        )
         w2 = rate * rate
         slip = W[at(OFF_S, S_MODE, j)] > 0.5
         sgn = W[at(OFF_S, S_UHX, j)]  # slip direction, held through the step
@@ -142,7 +183,8 @@ def eval_block(W, slip_possible, stage, one_lane, lane):
         else:
             alpha = -m * hp * (g + rho * w2) / (inertia + m * (h * h + hp * hp))
             with_couple = -(m * hp * (g + rho * w2) + c * n_free) / (
-                inertia + m * (h * h + hp * hp) + m * hp * c)
+                inertia + m * (h * h + hp * hp) + m * hp * c
+            )
         alpha = alpha if c == 0.0 else with_couple
         alpha = alpha if roll_slips else 0.0
         normal = n_free + m * hp * alpha
@@ -161,18 +203,29 @@ def eval_block(W, slip_possible, stage, one_lane, lane):
             W[at(OFF_X, X_UY, j)] = 0.0
             # u̇ = ẍ_G + θ̈ h + θ̇² h′ (zero while sticking)
             du = force / m + alpha * h + w2 * hp if slip else 0.0
-            W[at(OFF_X, X_TSTOP, j)] = stop_time(u, 0.0, du, 0.0, sgn, 0.0, W[at(OFF_P, EPS_U, j)])
+            W[at(OFF_X, X_TSTOP, j)] = stop_time(
+                u, 0.0, du, 0.0, sgn, 0.0, W[at(OFF_P, EPS_U, j)]
+            )
             if slip_possible == COUPLES:
-                event = (W[at(OFF_S, S_ROLL_SENSE, j)] * rate if roll_slips
-                         else mu_roll * normal - abs(couple))
+                event = (
+                    W[at(OFF_S, S_ROLL_SENSE, j)] * rate
+                    if roll_slips
+                    else mu_roll * normal - abs(couple)
+                )
                 W[at(OFF_X, X_ROLL_EVENT, j)] = event if mu_roll > 0.0 else math.inf
                 W[at(OFF_X, X_ROLL_COUPLE, j)] = couple
                 W[at(OFF_X, X_SPIN_EVENT, j)] = math.inf
                 W[at(OFF_X, X_SPIN_COUPLE, j)] = 0.0
-        put_derivative(W, j, THETA * BLOCK + j, stage, rate, True, OFF_Y, OFF_T, OFF_A, OFF_B)
-        put_derivative(W, j, RATE * BLOCK + j, stage, alpha, True, OFF_Y, OFF_T, OFF_A, OFF_B)
+        put_derivative(
+            W, j, THETA * BLOCK + j, stage, rate, True, OFF_Y, OFF_T, OFF_A, OFF_B
+        )
+        put_derivative(
+            W, j, RATE * BLOCK + j, stage, alpha, True, OFF_Y, OFF_T, OFF_A, OFF_B
+        )
         put_derivative(W, j, XG * BLOCK + j, stage, vx, False, OFF_Y, OFF_T, OFF_A, OFF_B)
-        put_derivative(W, j, VXG * BLOCK + j, stage, force / m, True, OFF_Y, OFF_T, OFF_A, OFF_B)
+        put_derivative(
+            W, j, VXG * BLOCK + j, stage, force / m, True, OFF_Y, OFF_T, OFF_A, OFF_B
+        )
 
 
 @kernel

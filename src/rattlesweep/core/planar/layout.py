@@ -16,13 +16,23 @@ PARAMS = Rows(
     "planar parameters",
     *COMMON_PARAMS,
     Row("a2", "m2", "squared semi-axis along the flat edge", pack=lambda f: f["a"] ** 2),
-    Row("b2", "m2", "squared semi-axis normal to the flat edge", pack=lambda f: f["b"] ** 2),
+    Row(
+        "b2", "m2", "squared semi-axis normal to the flat edge", pack=lambda f: f["b"] ** 2
+    ),
     Row("ab2", "m4", "a² b²", pack=lambda f: f["a"] * f["a"] * f["b"] * f["b"]),
-    Row("com_depth", "m", "depth of the centre of mass below the flat edge",
-        pack=lambda f: f["com_depth"]),
+    Row(
+        "com_depth",
+        "m",
+        "depth of the centre of mass below the flat edge",
+        pack=lambda f: f["com_depth"],
+    ),
     Row("mass", "kg", "mass", pack=lambda f: f["mass"]),
-    Row("inertia", "kg m2", "moment of inertia about the centre of mass",
-        pack=lambda f: f["inertia"]),
+    Row(
+        "inertia",
+        "kg m2",
+        "moment of inertia about the centre of mass",
+        pack=lambda f: f["inertia"],
+    ),
 )
 A2 = PARAMS.start("a2")
 B2 = PARAMS.start("b2")
@@ -52,10 +62,18 @@ OFF_T = OFF_Y + N_STATE  # stage state of the inner RK4 stages
 OFF_A = OFF_T + N_STATE  # RK4 accumulator; the first-stage derivative between steps
 OFF_B = OFF_A + N_STATE  # the state at the start of the last step
 N_WORK = OFF_B + N_STATE
-check_regions("planar workspace", {
-    "shared": (0, N_SHARED), "model parameters": (N_SHARED, N_PARAM - COMMON_PARAMS.size),
-    "Y": (OFF_Y, N_STATE), "T": (OFF_T, N_STATE), "A": (OFF_A, N_STATE),
-    "B": (OFF_B, N_STATE)}, N_WORK)
+check_regions(
+    "planar workspace",
+    {
+        "shared": (0, N_SHARED),
+        "model parameters": (N_SHARED, N_PARAM - COMMON_PARAMS.size),
+        "Y": (OFF_Y, N_STATE),
+        "T": (OFF_T, N_STATE),
+        "A": (OFF_A, N_STATE),
+        "B": (OFF_B, N_STATE),
+    },
+    N_WORK,
+)
 
 # --- recorded time series, rows of the record array ------------------------------------
 RECORD = Rows(
@@ -65,7 +83,11 @@ RECORD = Rows(
     Row("x_G", "m", "horizontal position of the centre of mass"),
     Row("y_G", "m", "height of the centre of mass above the floor, h(theta)"),
     Row("velocity_x", "m s-1", "horizontal velocity of the centre of mass"),
-    Row("velocity_y", "m s-1", "vertical velocity of the centre of mass, h'(theta) d(theta)/dt"),
+    Row(
+        "velocity_y",
+        "m s-1",
+        "vertical velocity of the centre of mass, h'(theta) d(theta)/dt",
+    ),
     Row("slip_velocity", "m s-1", "horizontal velocity of the material contact point"),
     Row("normal_force", "N", "normal contact force"),
     Row("friction_force", "N", "horizontal friction force on the body"),

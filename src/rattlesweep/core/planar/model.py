@@ -8,18 +8,63 @@ import math
 
 from ..jit import inline_kernel, kernel
 from ..workspace import (
-    GRAV, K_WATCH_LOW, OFF_K, OFF_P, OFF_S, OFF_X, S_MODE, X_FX, X_N, X_UX, at,
+    GRAV,
+    K_WATCH_LOW,
+    OFF_K,
+    OFF_P,
+    OFF_S,
+    OFF_X,
+    S_MODE,
+    X_FX,
+    X_N,
+    X_UX,
+    at,
 )
 from .dynamics import contact_impulse, energy as planar_energy, shape
 from .layout import (
-    A2, AB2, B2, DEPTH, INERTIA, MASS, N_STATE, OFF_T, OFF_Y, O_FINAL_ANGLE, O_FINAL_RATE,
-    O_MAX_ANGLE, RATE, R_ANGLE, R_ENERGY, R_F, R_N, R_RATE, R_SLIP, R_U, R_VX, R_VY, R_XG,
-    R_YG, THETA, VXG, XG,
+    A2,
+    AB2,
+    B2,
+    DEPTH,
+    INERTIA,
+    MASS,
+    N_STATE,
+    OFF_T,
+    OFF_Y,
+    O_FINAL_ANGLE,
+    O_FINAL_RATE,
+    O_MAX_ANGLE,
+    RATE,
+    R_ANGLE,
+    R_ENERGY,
+    R_F,
+    R_N,
+    R_RATE,
+    R_SLIP,
+    R_U,
+    R_VX,
+    R_VY,
+    R_XG,
+    R_YG,
+    THETA,
+    VXG,
+    XG,
 )
 
 __all__ = [
-    "LOCATES_SWITCHES", "check_step", "couple_rates", "derive", "energy", "finish", "park", "record",
-    "roll_start", "spin_and_watch", "start_lane", "stick_couples", "stick_impulse",
+    "LOCATES_SWITCHES",
+    "check_step",
+    "couple_rates",
+    "derive",
+    "energy",
+    "finish",
+    "park",
+    "record",
+    "roll_start",
+    "spin_and_watch",
+    "start_lane",
+    "stick_couples",
+    "stick_impulse",
 ]
 
 HALF_PI = 0.5 * math.pi
@@ -36,17 +81,28 @@ def derive(W, j):
 @kernel
 def lane_shape(W, j):
     """(h, h′, h + h″) of lane j at its state Y."""
-    return shape(W[at(OFF_P, A2, j)], W[at(OFF_P, B2, j)], W[at(OFF_P, AB2, j)],
-                 W[at(OFF_P, DEPTH, j)], W[at(OFF_Y, THETA, j)])
+    return shape(
+        W[at(OFF_P, A2, j)],
+        W[at(OFF_P, B2, j)],
+        W[at(OFF_P, AB2, j)],
+        W[at(OFF_P, DEPTH, j)],
+        W[at(OFF_Y, THETA, j)],
+    )
 
 
 @kernel
 def energy(W, j):
     """Mechanical energy of lane j's state Y, J."""
     h, hp, _ = lane_shape(W, j)
-    return planar_energy(W[at(OFF_P, MASS, j)], W[at(OFF_P, INERTIA, j)],
-                         W[at(OFF_P, GRAV, j)], h, hp, W[at(OFF_Y, RATE, j)],
-                         W[at(OFF_Y, VXG, j)])
+    return planar_energy(
+        W[at(OFF_P, MASS, j)],
+        W[at(OFF_P, INERTIA, j)],
+        W[at(OFF_P, GRAV, j)],
+        h,
+        hp,
+        W[at(OFF_Y, RATE, j)],
+        W[at(OFF_Y, VXG, j)],
+    )
 
 
 @kernel

@@ -11,19 +11,65 @@ import numba
 
 from ..jit import kernel
 from ..workspace import (
-    COUPLES, DT, GRAV, MU_K, MU_ROLL, MU_SPIN, OFF_P, OFF_S, S_MODE, S_ROLL, S_SPIN,
-    S_SPIN_SENSE, at, lane_range,
+    COUPLES,
+    DT,
+    GRAV,
+    MU_K,
+    MU_ROLL,
+    MU_SPIN,
+    OFF_P,
+    OFF_S,
+    S_MODE,
+    S_ROLL,
+    S_SPIN,
+    S_SPIN_SENSE,
+    at,
+    lane_range,
 )
 from .contact import horizontal_rows
 from .geometry import adjugate_solve, cross
 from .slip import RELAX_STEPS
 from .layout import (
-    ALPHA_X, ALPHA_Y, ALPHA_Z, DAMPING_PM, DET,
-    INV_QQ, J_XX, J_XY, J_XZ, J_YY, J_YZ,
-    J_ZZ, JI_XX, JI_YY, JI_ZZ, NORMAL_PM, OFF_E,
-    OFF_G, OMEGA_X, OMEGA_Y, OMEGA_Z, Q0, Q1, Q2, Q3, RHO_X,
-    RHO_Y, RHO_Z, ROLL_FRACTION, ROLL_MARGIN, SPIN_LAMBDA,
-    SPIN_RATE, UHAT_X, UHAT_Y, UP_X, UP_Y, UP_Z, WW_X, WW_Y, WW_Z,
+    ALPHA_X,
+    ALPHA_Y,
+    ALPHA_Z,
+    DAMPING_PM,
+    DET,
+    INV_QQ,
+    J_XX,
+    J_XY,
+    J_XZ,
+    J_YY,
+    J_YZ,
+    J_ZZ,
+    JI_XX,
+    JI_YY,
+    JI_ZZ,
+    NORMAL_PM,
+    OFF_E,
+    OFF_G,
+    OMEGA_X,
+    OMEGA_Y,
+    OMEGA_Z,
+    Q0,
+    Q1,
+    Q2,
+    Q3,
+    RHO_X,
+    RHO_Y,
+    RHO_Z,
+    ROLL_FRACTION,
+    ROLL_MARGIN,
+    SPIN_LAMBDA,
+    SPIN_RATE,
+    UHAT_X,
+    UHAT_Y,
+    UP_X,
+    UP_Y,
+    UP_Z,
+    WW_X,
+    WW_Y,
+    WW_Z,
 )
 
 __all__ = ["accelerations", "divide_out"]
@@ -133,9 +179,13 @@ def accelerations(W, slip_possible, state, one_lane, lane):
             cs = mu_spin * W[at(OFF_S, S_SPIN_SENSE, j)] if spin_slips else 0.0
             # the rolling couple's direction ω_h/|ω_h| turns faster than the step can follow
             # below |ω_h| ~ μ_roll g tr(J⁻¹) dt: there it is proportional to ω_h
-            floor = (mu_roll * g * (W[at(OFF_E, JI_XX, j)] + W[at(OFF_E, JI_YY, j)]
-                                    + W[at(OFF_E, JI_ZZ, j)]) * W[at(OFF_P, DT, j)]
-                     / RELAX_STEPS)
+            floor = (
+                mu_roll
+                * g
+                * (W[at(OFF_E, JI_XX, j)] + W[at(OFF_E, JI_YY, j)] + W[at(OFF_E, JI_ZZ, j)])
+                * W[at(OFF_P, DT, j)]
+                / RELAX_STEPS
+            )
             cr = mu_roll / max(wh, floor) if roll_slips else 0.0
             c0 = cs * n0 + cr * wh0
             c1 = cs * n1 + cr * wh1
@@ -156,14 +206,26 @@ def accelerations(W, slip_possible, state, one_lane, lane):
             W[at(OFF_G, ROLL_FRACTION, j)] = wh / max(wh, floor) if roll_slips else 0.0
         # Cramer's rule, without the division: that is left to store_derivative, so that
         # its latency does not lengthen this loop's chain
-        x0, x1, x2, det = adjugate_solve(m00, m01, m02, m10, m11, m12, m20, m21, m22,
-                                         t0 - gy0 - cvm * w0, t1 - gy1 - cvm * w1,
-                                         t2 - gy2 - cvm * w2)
+        x0, x1, x2, det = adjugate_solve(
+            m00,
+            m01,
+            m02,
+            m10,
+            m11,
+            m12,
+            m20,
+            m21,
+            m22,
+            t0 - gy0 - cvm * w0,
+            t1 - gy1 - cvm * w1,
+            t2 - gy2 - cvm * w2,
+        )
         if slip_possible == COUPLES:
             # a stuck spin: the couple λ n̂ (per unit mass) that keeps ω̇ · n̂ = 0, with
             # ω̇ = M⁻¹(b + λ n̂)
-            y0, y1, y2, _ = adjugate_solve(m00, m01, m02, m10, m11, m12, m20, m21, m22,
-                                           n0, n1, n2)
+            y0, y1, y2, _ = adjugate_solve(
+                m00, m01, m02, m10, m11, m12, m20, m21, m22, n0, n1, n2
+            )
             spin_stuck = (not spin_slips) & (mu_spin > 0.0)
             lam = -(n0 * x0 + n1 * x1 + n2 * x2) / (n0 * y0 + n1 * y1 + n2 * y2)
             lam = lam if spin_stuck else 0.0
@@ -195,7 +257,8 @@ def accelerations(W, slip_possible, state, one_lane, lane):
             bound = mu_roll * n_free
             roll_stuck = (not roll_slips) & (mu_roll > 0.0)
             W[at(OFF_G, ROLL_MARGIN, j)] = (
-                bound - demand if roll_stuck else max(wh - floor, demand - bound))
+                bound - demand if roll_stuck else max(wh - floor, demand - bound)
+            )
             x0 = a * n0 if roll_stuck else x0
             x1 = a * n1 if roll_stuck else x1
             x2 = a * n2 if roll_stuck else x2
@@ -236,10 +299,19 @@ def divide_out(W, normal, one_lane, lane):
             n0 = W[at(OFF_G, UP_X, j)] * inv_q
             n1 = W[at(OFF_G, UP_Y, j)] * inv_q
             n2 = W[at(OFF_G, UP_Z, j)] * inv_q
-            l0, l1, l2 = cross(W[at(OFF_G, RHO_X, j)], W[at(OFF_G, RHO_Y, j)],
-                               W[at(OFF_G, RHO_Z, j)], n0, n1, n2)
+            l0, l1, l2 = cross(
+                W[at(OFF_G, RHO_X, j)],
+                W[at(OFF_G, RHO_Y, j)],
+                W[at(OFF_G, RHO_Z, j)],
+                n0,
+                n1,
+                n2,
+            )
             W[at(OFF_G, NORMAL_PM, j)] = (
-                (W[at(OFF_P, GRAV, j)]
-                 - (n0 * W[at(OFF_G, WW_X, j)] + n1 * W[at(OFF_G, WW_Y, j)]
-                    + n2 * W[at(OFF_G, WW_Z, j)]))
-                - (l0 * x0 + l1 * x1 + l2 * x2))
+                W[at(OFF_P, GRAV, j)]
+                - (
+                    n0 * W[at(OFF_G, WW_X, j)]
+                    + n1 * W[at(OFF_G, WW_Y, j)]
+                    + n2 * W[at(OFF_G, WW_Z, j)]
+                )
+            ) - (l0 * x0 + l1 * x1 + l2 * x2)

@@ -13,8 +13,35 @@ from ..jit import kernel
 from ..workspace import OFF_P, at, lane_range
 from .geometry import cross
 from .layout import (
-    A2, B2, C2, COM_X, COM_Y, COM_Z, INV_QQ, INV_SIGMA, OFF_G, OMEGA_X, OMEGA_Y, OMEGA_Z, Q0, Q1, Q2, Q3, RHO_X,
-    RHO_Y, RHO_Z, SLIP_X, SLIP_Y, UP_X, UP_Y, UP_Z, VEL_X, VEL_Y, WW_X, WW_Y, WW_Z,
+    A2,
+    B2,
+    C2,
+    COM_X,
+    COM_Y,
+    COM_Z,
+    INV_QQ,
+    INV_SIGMA,
+    OFF_G,
+    OMEGA_X,
+    OMEGA_Y,
+    OMEGA_Z,
+    Q0,
+    Q1,
+    Q2,
+    Q3,
+    RHO_X,
+    RHO_Y,
+    RHO_Z,
+    SLIP_X,
+    SLIP_Y,
+    UP_X,
+    UP_Y,
+    UP_Z,
+    VEL_X,
+    VEL_Y,
+    WW_X,
+    WW_Y,
+    WW_Z,
 )
 
 __all__ = ["contact_kinematics", "horizontal_rows"]
@@ -30,8 +57,12 @@ def horizontal_rows(q0, q1, q2, q3):
     q12 = q1 * q2
     q03 = q0 * q3
     return (
-        (q00 + q11) - (q22 + q33), 2.0 * (q12 - q03), 2.0 * (q1 * q3 + q0 * q2),
-        2.0 * (q12 + q03), (q00 + q22) - (q11 + q33), 2.0 * (q2 * q3 - q0 * q1),
+        (q00 + q11) - (q22 + q33),
+        2.0 * (q12 - q03),
+        2.0 * (q1 * q3 + q0 * q2),
+        2.0 * (q12 + q03),
+        (q00 + q22) - (q11 + q33),
+        2.0 * (q2 * q3 - q0 * q1),
     )
 
 
@@ -64,8 +95,11 @@ def contact_kinematics(W, slip_velocity, state, one_lane, lane):
         u0 = 2.0 * (q1 * q3 - q0 * q2)
         u1 = 2.0 * (q2 * q3 + q0 * q1)
         u2 = (q00 + q33) - (q11 + q22)
-        sig = math.sqrt(u0 * u0 * W[at(OFF_P, A2, j)] + u1 * u1 * W[at(OFF_P, B2, j)]
-                        + u2 * u2 * W[at(OFF_P, C2, j)])
+        sig = math.sqrt(
+            u0 * u0 * W[at(OFF_P, A2, j)]
+            + u1 * u1 * W[at(OFF_P, B2, j)]
+            + u2 * u2 * W[at(OFF_P, C2, j)]
+        )
         inv = 1.0 / (qq * sig)
         W[at(OFF_G, UP_X, j)] = u0
         W[at(OFF_G, UP_Y, j)] = u1
@@ -114,7 +148,9 @@ def contact_kinematics(W, slip_velocity, state, one_lane, lane):
             q3 = W[at(state, Q3, j)]
             inv_q = W[at(OFF_G, INV_QQ, j)]
             e00, e01, e02, e10, e11, e12 = horizontal_rows(q0, q1, q2, q3)
-            W[at(OFF_G, SLIP_X, j)] = (W[at(state, VEL_X, j)]
-                                       + (e00 * wr0 + e01 * wr1 + e02 * wr2) * inv_q)
-            W[at(OFF_G, SLIP_Y, j)] = (W[at(state, VEL_Y, j)]
-                                       + (e10 * wr0 + e11 * wr1 + e12 * wr2) * inv_q)
+            W[at(OFF_G, SLIP_X, j)] = (
+                W[at(state, VEL_X, j)] + (e00 * wr0 + e01 * wr1 + e02 * wr2) * inv_q
+            )
+            W[at(OFF_G, SLIP_Y, j)] = (
+                W[at(state, VEL_Y, j)] + (e10 * wr0 + e11 * wr1 + e12 * wr2) * inv_q
+            )

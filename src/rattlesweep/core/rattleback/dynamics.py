@@ -24,9 +24,30 @@ from .contact import contact_kinematics
 from .derivative import store_derivative
 from .slip import steer
 from .layout import (
-    DAMPING, DAMPING_PM, I_XX, I_XY, I_XZ, I_YY, I_YZ, I_ZZ, J_XX, J_XY, J_XZ, J_YY, J_YZ,
-    J_ZZ, JI_XX, JI_XY, JI_XZ, JI_YY, JI_YZ, JI_ZZ, MASS, OFF_E,
-    OFF_T, OFF_Y,
+    DAMPING,
+    DAMPING_PM,
+    I_XX,
+    I_XY,
+    I_XZ,
+    I_YY,
+    I_YZ,
+    I_ZZ,
+    J_XX,
+    J_XY,
+    J_XZ,
+    J_YY,
+    J_YZ,
+    J_ZZ,
+    JI_XX,
+    JI_XY,
+    JI_XZ,
+    JI_YY,
+    JI_YZ,
+    JI_ZZ,
+    MASS,
+    OFF_E,
+    OFF_T,
+    OFF_Y,
 )
 
 __all__ = ["derive_parameters", "eval_block"]
@@ -36,8 +57,15 @@ __all__ = ["derive_parameters", "eval_block"]
 def derive_parameters(W, j):
     """Fill lane j's derived parameters (region E) from its parameters (region P)."""
     m = W[at(OFF_P, MASS, j)]
-    for src, dst in ((I_XX, J_XX), (I_YY, J_YY), (I_ZZ, J_ZZ), (I_XY, J_XY), (I_XZ, J_XZ),
-                     (I_YZ, J_YZ), (DAMPING, DAMPING_PM)):
+    for src, dst in (
+        (I_XX, J_XX),
+        (I_YY, J_YY),
+        (I_ZZ, J_ZZ),
+        (I_XY, J_XY),
+        (I_XZ, J_XZ),
+        (I_YZ, J_YZ),
+        (DAMPING, DAMPING_PM),
+    ):
         W[at(OFF_E, dst, j)] = W[at(OFF_P, src, j)] / m
     a = W[at(OFF_E, J_XX, j)]
     b = W[at(OFF_E, J_YY, j)]

@@ -12,12 +12,40 @@ import math
 from ..jit import inline_kernel, kernel
 from ..workspace import GRAV, OFF_P, at
 from .layout import (
-    A2, B2, C2, COM_X, COM_Y, COM_Z, I_XX, I_XY, I_XZ, I_YY, I_YZ, I_ZZ, MASS, OMEGA_X,
-    OMEGA_Y, OMEGA_Z, Q0, Q1, Q2, Q3, VEL_X, VEL_Y,
+    A2,
+    B2,
+    C2,
+    COM_X,
+    COM_Y,
+    COM_Z,
+    I_XX,
+    I_XY,
+    I_XZ,
+    I_YY,
+    I_YZ,
+    I_ZZ,
+    MASS,
+    OMEGA_X,
+    OMEGA_Y,
+    OMEGA_Z,
+    Q0,
+    Q1,
+    Q2,
+    Q3,
+    VEL_X,
+    VEL_Y,
 )
 
-__all__ = ["adjugate_solve", "contact_point", "cross", "energy_terms",
-           "plastic_contact_impulse", "plastic_roll_impulse", "rotation", "solve3"]
+__all__ = [
+    "adjugate_solve",
+    "contact_point",
+    "cross",
+    "energy_terms",
+    "plastic_contact_impulse",
+    "plastic_roll_impulse",
+    "rotation",
+    "solve3",
+]
 
 
 @kernel
@@ -129,7 +157,9 @@ def adjugate_solve(m00, m01, m02, m10, m11, m12, m20, m21, m22, b0, b1, b2):
 @inline_kernel  # must inline into the lane loops: a call there stops vectorisation
 def solve3(m00, m01, m02, m10, m11, m12, m20, m21, m22, b0, b1, b2):
     """Solve the 3×3 system M x = b by Cramer's rule (adjugate over determinant)."""
-    x0, x1, x2, det = adjugate_solve(m00, m01, m02, m10, m11, m12, m20, m21, m22, b0, b1, b2)
+    x0, x1, x2, det = adjugate_solve(
+        m00, m01, m02, m10, m11, m12, m20, m21, m22, b0, b1, b2
+    )
     inv_det = 1.0 / det
     return x0 * inv_det, x1 * inv_det, x2 * inv_det
 
@@ -160,9 +190,11 @@ def plastic_contact_impulse(W, off, j, ux, uy):
     Returns the world-horizontal components of R J (N s).
     """
     r00, r01, r02, r10, r11, r12, n0, n1, n2 = rotation(
-        W[at(off, Q0, j)], W[at(off, Q1, j)], W[at(off, Q2, j)], W[at(off, Q3, j)])
+        W[at(off, Q0, j)], W[at(off, Q1, j)], W[at(off, Q2, j)], W[at(off, Q3, j)]
+    )
     sp0, sp1, sp2, _ = contact_point(
-        W[at(OFF_P, A2, j)], W[at(OFF_P, B2, j)], W[at(OFF_P, C2, j)], n0, n1, n2)
+        W[at(OFF_P, A2, j)], W[at(OFF_P, B2, j)], W[at(OFF_P, C2, j)], n0, n1, n2
+    )
     r0 = sp0 - W[at(OFF_P, COM_X, j)]
     r1 = sp1 - W[at(OFF_P, COM_Y, j)]
     r2 = sp2 - W[at(OFF_P, COM_Z, j)]
@@ -214,7 +246,8 @@ def plastic_roll_impulse(W, off, j, sticking):
     q3 = W[at(off, Q3, j)]
     r00, r01, r02, r10, r11, r12, n0, n1, n2 = rotation(q0, q1, q2, q3)
     sp0, sp1, sp2, _ = contact_point(
-        W[at(OFF_P, A2, j)], W[at(OFF_P, B2, j)], W[at(OFF_P, C2, j)], n0, n1, n2)
+        W[at(OFF_P, A2, j)], W[at(OFF_P, B2, j)], W[at(OFF_P, C2, j)], n0, n1, n2
+    )
     r0 = sp0 - W[at(OFF_P, COM_X, j)]
     r1 = sp1 - W[at(OFF_P, COM_Y, j)]
     r2 = sp2 - W[at(OFF_P, COM_Z, j)]

@@ -21,8 +21,14 @@ PARAMS = Rows(
     Row("b2", "m2", "squared semi-axis along body y", pack=lambda f: f["b"] ** 2),
     Row("c2", "m2", "squared semi-axis along body z", pack=lambda f: f["c"] ** 2),
     Row("mass", "kg", "mass", pack=lambda f: f["mass"]),
-    Row("com", "m", "centre of mass G from the centre of the flat face, body frame", 3,
-        "body_axis", pack=lambda f: f["com"]),
+    Row(
+        "com",
+        "m",
+        "centre of mass G from the centre of the flat face, body frame",
+        3,
+        "body_axis",
+        pack=lambda f: f["com"],
+    ),
     Row("inertia_xx", "kg m2", "I_xx about G", pack=lambda f: f["inertia_xx"]),
     Row("inertia_yy", "kg m2", "I_yy about G", pack=lambda f: f["inertia_yy"]),
     Row("inertia_zz", "kg m2", "I_zz about G", pack=lambda f: f["inertia_zz"]),
@@ -30,8 +36,12 @@ PARAMS = Rows(
     Row("inertia_xz", "kg m2", "I_xz about G", pack=lambda f: f["inertia_xz"]),
     Row("inertia_yz", "kg m2", "I_yz about G", pack=lambda f: f["inertia_yz"]),
     Row("damping", "N m s", "viscous torque coefficient", pack=lambda f: f["damping"]),
-    Row("full_ellipsoid", "1", "1 for a full ellipsoid (no rim, never capsizes)",
-        pack=lambda f: f["full_ellipsoid"]),
+    Row(
+        "full_ellipsoid",
+        "1",
+        "1 for a full ellipsoid (no rim, never capsizes)",
+        pack=lambda f: f["full_ellipsoid"],
+    ),
 )
 A2 = PARAMS.start("a2")
 B2 = PARAMS.start("b2")
@@ -61,8 +71,13 @@ N_DERIVED = 13
 # --- integrated state, rows of Y -------------------------------------------------------
 STATE = Rows(
     "rattleback state",
-    Row("quaternion", "1", "orientation quaternion (w, x, y, z), body to world", 4,
-        "quaternion_component"),
+    Row(
+        "quaternion",
+        "1",
+        "orientation quaternion (w, x, y, z), body to world",
+        4,
+        "quaternion_component",
+    ),
     Row("omega", "rad s-1", "angular velocity, body components", 3, "body_axis"),
     Row("position", "m", "horizontal position of G, world frame", 2, "horizontal"),
     Row("velocity", "m s-1", "horizontal velocity of G, world frame", 2, "horizontal"),
@@ -107,17 +122,31 @@ OFF_A = OFF_T + N_STATE  # RK4 accumulator; the first-stage derivative between s
 OFF_B = OFF_A + N_STATE  # the state at the start of the last step
 OFF_G = OFF_B + N_STATE  # right-hand-side intermediates
 N_WORK = OFF_G + N_SCRATCH
-check_regions("rattleback workspace", {
-    "shared": (0, N_SHARED), "model parameters": (N_SHARED, N_PARAM - COMMON_PARAMS.size),
-    "E": (OFF_E, N_DERIVED),
-    "Y": (OFF_Y, N_STATE), "T": (OFF_T, N_STATE), "A": (OFF_A, N_STATE),
-    "B": (OFF_B, N_STATE), "G": (OFF_G, N_SCRATCH)}, N_WORK)
+check_regions(
+    "rattleback workspace",
+    {
+        "shared": (0, N_SHARED),
+        "model parameters": (N_SHARED, N_PARAM - COMMON_PARAMS.size),
+        "E": (OFF_E, N_DERIVED),
+        "Y": (OFF_Y, N_STATE),
+        "T": (OFF_T, N_STATE),
+        "A": (OFF_A, N_STATE),
+        "B": (OFF_B, N_STATE),
+        "G": (OFF_G, N_SCRATCH),
+    },
+    N_WORK,
+)
 
 # --- recorded time series, rows of the record array ------------------------------------
 RECORD = Rows(
     "rattleback record",
-    Row("quaternion", "1", "orientation quaternion (w, x, y, z), body to world", 4,
-        "quaternion_component"),
+    Row(
+        "quaternion",
+        "1",
+        "orientation quaternion (w, x, y, z), body to world",
+        4,
+        "quaternion_component",
+    ),
     Row("omega", "rad s-1", "angular velocity, body components", 3, "body_axis"),
     Row("position", "m", "position of the centre of mass, world frame", 3, "axis"),
     Row("velocity", "m s-1", "velocity of the centre of mass, world frame", 3, "axis"),
@@ -127,13 +156,28 @@ RECORD = Rows(
     Row("heading", "rad", "heading of the long axis, seen from above (unwrapped)"),
     Row("energy", "J", "mechanical energy"),
     Row("normal_force", "N", "normal contact force"),
-    Row("friction_force", "N", "horizontal friction force on the body, world frame", 2,
-        "horizontal"),
-    Row("slip_velocity", "m s-1",
-        "horizontal velocity of the material contact point, world frame", 2, "horizontal"),
+    Row(
+        "friction_force",
+        "N",
+        "horizontal friction force on the body, world frame",
+        2,
+        "horizontal",
+    ),
+    Row(
+        "slip_velocity",
+        "m s-1",
+        "horizontal velocity of the material contact point, world frame",
+        2,
+        "horizontal",
+    ),
     Row("slipping", "1", "1 while the contact slips, 0 while it sticks"),
-    Row("friction_impulse", "N s", "horizontal friction impulse of re-sticking since the "
-        "previous sample, world frame", 2, "horizontal"),
+    Row(
+        "friction_impulse",
+        "N s",
+        "horizontal friction impulse of re-sticking since the previous sample, world frame",
+        2,
+        "horizontal",
+    ),
     Row("contact_point", "m", "contact point on the floor, world frame", 2, "horizontal"),
 )
 R_QUATERNION = RECORD.start("quaternion")

@@ -12,23 +12,91 @@ import math
 
 from ..jit import inline_kernel, kernel
 from ..workspace import (
-    BLOCK, DT, K_HEAD_EXT_X, K_HEAD_EXT_Y, K_HEAD_TURNS, K_WATCH_LOW, MU_ROLL, OFF_K, OFF_P, OFF_S, OFF_X, S_JX, S_JY, S_MODE, S_ROLL,
-    X_FX, X_FY, X_N, X_UX, X_UY, at,
+    BLOCK,
+    DT,
+    K_HEAD_EXT_X,
+    K_HEAD_EXT_Y,
+    K_HEAD_TURNS,
+    K_WATCH_LOW,
+    MU_ROLL,
+    OFF_K,
+    OFF_P,
+    OFF_S,
+    OFF_X,
+    S_JX,
+    S_JY,
+    S_MODE,
+    S_ROLL,
+    X_FX,
+    X_FY,
+    X_N,
+    X_UX,
+    X_UY,
+    at,
 )
 from .geometry import (
-    contact_point, energy_terms, plastic_contact_impulse, plastic_roll_impulse, rotation,
+    contact_point,
+    energy_terms,
+    plastic_contact_impulse,
+    plastic_roll_impulse,
+    rotation,
 )
 from .layout import (
-    A2, B2, C2, COM_X, COM_Y, COM_Z, FULL, N_STATE, O_MAX_TILT, OFF_A, OFF_B, OFF_T, OFF_Y,
-    OMEGA_X, OMEGA_Y, OMEGA_Z, POS_X, POS_Y, Q0, Q1, Q2, Q3, R_CONTACT, R_ENERGY,
-    R_FRICTION, R_HEADING, R_IMPULSE, R_NORMAL, R_OMEGA, R_POSITION, R_QUATERNION,
-    R_SLIP_VELOCITY, R_SLIPPING, R_SPIN, R_TILT, R_VELOCITY, VEL_X, VEL_Y,
+    A2,
+    B2,
+    C2,
+    COM_X,
+    COM_Y,
+    COM_Z,
+    FULL,
+    N_STATE,
+    O_MAX_TILT,
+    OFF_A,
+    OFF_B,
+    OFF_T,
+    OFF_Y,
+    OMEGA_X,
+    OMEGA_Y,
+    OMEGA_Z,
+    POS_X,
+    POS_Y,
+    Q0,
+    Q1,
+    Q2,
+    Q3,
+    R_CONTACT,
+    R_ENERGY,
+    R_FRICTION,
+    R_HEADING,
+    R_IMPULSE,
+    R_NORMAL,
+    R_OMEGA,
+    R_POSITION,
+    R_QUATERNION,
+    R_SLIP_VELOCITY,
+    R_SLIPPING,
+    R_SPIN,
+    R_TILT,
+    R_VELOCITY,
+    VEL_X,
+    VEL_Y,
 )
 
 __all__ = [
-    "LOCATES_SWITCHES", "check_step", "couple_rates", "energy", "euler_step", "finish",
-    "heading", "park", "record", "roll_start", "spin_and_watch", "start_lane",
-    "stick_couples", "stick_impulse",
+    "LOCATES_SWITCHES",
+    "check_step",
+    "couple_rates",
+    "energy",
+    "euler_step",
+    "finish",
+    "heading",
+    "park",
+    "record",
+    "roll_start",
+    "spin_and_watch",
+    "start_lane",
+    "stick_couples",
+    "stick_impulse",
 ]
 
 LOCATES_SWITCHES = True
@@ -65,7 +133,7 @@ def start_lane(W, j):
     q1 = W[at(OFF_Y, Q1, j)]
     q2 = W[at(OFF_Y, Q2, j)]
     q3 = W[at(OFF_Y, Q3, j)]
-    qn = 1.0 / math.sqrt(q0 ** 2 + q1 ** 2 + q2 ** 2 + q3 ** 2)
+    qn = 1.0 / math.sqrt(q0**2 + q1**2 + q2**2 + q3**2)
     for k in range(4):
         W[at(OFF_Y, Q0 + k, j)] *= qn
     return W[at(OFF_P, FULL, j)] < 0.5 and up_vector(W, OFF_Y, j)[2] <= 0.0
@@ -117,10 +185,14 @@ def check_step(W, j):
     # a sum of the state is non-finite when a component is (or, harmlessly, when the
     # finite ones overflow together), and s − s is NaN exactly then: fewer operations
     # than a test per component, in a tree of short dependency chains
-    total = (((q0 + q1) + (q2 + q3))
-             + ((W[at(OFF_Y, OMEGA_X, j)] + W[at(OFF_Y, OMEGA_Y, j)])
-                + (W[at(OFF_Y, OMEGA_Z, j)] + W[at(OFF_Y, POS_X, j)]))
-             + ((W[at(OFF_Y, POS_Y, j)] + W[at(OFF_Y, VEL_X, j)]) + W[at(OFF_Y, VEL_Y, j)]))
+    total = (
+        ((q0 + q1) + (q2 + q3))
+        + (
+            (W[at(OFF_Y, OMEGA_X, j)] + W[at(OFF_Y, OMEGA_Y, j)])
+            + (W[at(OFF_Y, OMEGA_Z, j)] + W[at(OFF_Y, POS_X, j)])
+        )
+        + ((W[at(OFF_Y, POS_Y, j)] + W[at(OFF_Y, VEL_X, j)]) + W[at(OFF_Y, VEL_Y, j)])
+    )
     nan_or_inf = total - total
     qn = 1.0 / math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
     q1 *= qn
@@ -143,9 +215,11 @@ def spin_and_watch(W, j):
     q2 = W[at(OFF_Y, Q2, j)]
     q3 = W[at(OFF_Y, Q3, j)]
     up_z = 1.0 - 2.0 * (q1 * q1 + q2 * q2)
-    n = (W[at(OFF_Y, OMEGA_X, j)] * (2.0 * (q1 * q3 - q0 * q2))
-         + W[at(OFF_Y, OMEGA_Y, j)] * (2.0 * (q2 * q3 + q0 * q1))
-         + W[at(OFF_Y, OMEGA_Z, j)] * up_z)
+    n = (
+        W[at(OFF_Y, OMEGA_X, j)] * (2.0 * (q1 * q3 - q0 * q2))
+        + W[at(OFF_Y, OMEGA_Y, j)] * (2.0 * (q2 * q3 + q0 * q1))
+        + W[at(OFF_Y, OMEGA_Z, j)] * up_z
+    )
     return n, up_z
 
 
@@ -172,8 +246,9 @@ def roll_start(W, j):
 def stick_impulse(W, j):
     """Apply the plastic contact impulse that brings lane j's slipping contact point to
     rest; returns its world-horizontal components (N s)."""
-    return plastic_contact_impulse(W, OFF_Y, j, W[at(OFF_X, X_UX, j)],
-                                   W[at(OFF_X, X_UY, j)])
+    return plastic_contact_impulse(
+        W, OFF_Y, j, W[at(OFF_X, X_UX, j)], W[at(OFF_X, X_UY, j)]
+    )
 
 
 @kernel
@@ -244,8 +319,11 @@ def record(W, j, out):
     ex = W[at(OFF_K, K_HEAD_EXT_X, j)]
     ey = W[at(OFF_K, K_HEAD_EXT_Y, j)]
     turns = W[at(OFF_K, K_HEAD_TURNS, j)]
-    out[R_HEADING] = (math.atan2(ey + 0.0, ex) + 2.0 * math.pi * turns
-                      + math.atan2(ex * hy - ey * hx, ex * hx + ey * hy))
+    out[R_HEADING] = (
+        math.atan2(ey + 0.0, ex)
+        + 2.0 * math.pi * turns
+        + math.atan2(ex * hy - ey * hx, ex * hx + ey * hy)
+    )
     n0, n1, n2 = up_vector(W, OFF_Y, j)
     # atan2 keeps full precision at tiny tilts, where 1 - cos(tilt) underflows float64
     out[R_TILT] = math.atan2(math.sqrt(n0 * n0 + n1 * n1), n2)
@@ -266,11 +344,15 @@ def floor_contact(W, j):
     """World-horizontal position (m) of lane j's contact point on the floor: G plus
     R ρ, with ρ from G to the contact point (MODEL.md section 3)."""
     r00, r01, r02, r10, r11, r12, n0, n1, n2 = rotation(
-        W[at(OFF_Y, Q0, j)], W[at(OFF_Y, Q1, j)], W[at(OFF_Y, Q2, j)], W[at(OFF_Y, Q3, j)])
-    s0, s1, s2, _ = contact_point(W[at(OFF_P, A2, j)], W[at(OFF_P, B2, j)],
-                                  W[at(OFF_P, C2, j)], n0, n1, n2)
+        W[at(OFF_Y, Q0, j)], W[at(OFF_Y, Q1, j)], W[at(OFF_Y, Q2, j)], W[at(OFF_Y, Q3, j)]
+    )
+    s0, s1, s2, _ = contact_point(
+        W[at(OFF_P, A2, j)], W[at(OFF_P, B2, j)], W[at(OFF_P, C2, j)], n0, n1, n2
+    )
     rho0 = s0 - W[at(OFF_P, COM_X, j)]
     rho1 = s1 - W[at(OFF_P, COM_Y, j)]
     rho2 = s2 - W[at(OFF_P, COM_Z, j)]
-    return (W[at(OFF_Y, POS_X, j)] + r00 * rho0 + r01 * rho1 + r02 * rho2,
-            W[at(OFF_Y, POS_Y, j)] + r10 * rho0 + r11 * rho1 + r12 * rho2)
+    return (
+        W[at(OFF_Y, POS_X, j)] + r00 * rho0 + r01 * rho1 + r02 * rho2,
+        W[at(OFF_Y, POS_Y, j)] + r10 * rho0 + r11 * rho1 + r12 * rho2,
+    )

@@ -15,19 +15,78 @@ from numba.extending import overload
 
 from ..jit import OVERLOAD_OPTIONS, inline_kernel, kernel
 from ..workspace import (
-    DT, EPS_U, GRAV, MU_K, OFF_P, OFF_S, OFF_X, ROLLING, S_DCX, S_DCY, S_DPX, S_DPY,
-    S_MODE, S_TURN, S_UHX, S_UHY, X_DCX, X_DCY, X_TURN, at, lane_range,
+    DT,
+    EPS_U,
+    GRAV,
+    MU_K,
+    OFF_P,
+    OFF_S,
+    OFF_X,
+    ROLLING,
+    S_DCX,
+    S_DCY,
+    S_DPX,
+    S_DPY,
+    S_MODE,
+    S_TURN,
+    S_UHX,
+    S_UHY,
+    X_DCX,
+    X_DCY,
+    X_TURN,
+    at,
+    lane_range,
 )
 from .contact import horizontal_rows
 from .geometry import cross
 from .layout import (
-    DAMPING_PM, INV_QQ, J_XX, J_XY, J_XZ, J_YY, J_YZ,
-    J_ZZ, JI_XX, JI_XY, JI_XZ, JI_YY, JI_YZ, JI_ZZ, OFF_E,
-    OFF_G, OMEGA_X, OMEGA_Y, OMEGA_Z, Q0, Q1, Q2, Q3, RHO_X,
-    RHO_Y, RHO_Z, SLIP_KIND, SLIP_X, SLIP_Y, UHAT_X, UHAT_Y, UP_X, UP_Y, UP_Z, WW_X, WW_Y, WW_Z,
+    DAMPING_PM,
+    INV_QQ,
+    J_XX,
+    J_XY,
+    J_XZ,
+    J_YY,
+    J_YZ,
+    J_ZZ,
+    JI_XX,
+    JI_XY,
+    JI_XZ,
+    JI_YY,
+    JI_YZ,
+    JI_ZZ,
+    OFF_E,
+    OFF_G,
+    OMEGA_X,
+    OMEGA_Y,
+    OMEGA_Z,
+    Q0,
+    Q1,
+    Q2,
+    Q3,
+    RHO_X,
+    RHO_Y,
+    RHO_Z,
+    SLIP_KIND,
+    SLIP_X,
+    SLIP_Y,
+    UHAT_X,
+    UHAT_Y,
+    UP_X,
+    UP_Y,
+    UP_Z,
+    WW_X,
+    WW_Y,
+    WW_Z,
 )
 
-__all__ = ["FAST_SLIP", "RELAX_STEPS", "SLOW_SLIP", "consistent_direction", "slip_direction", "steer"]
+__all__ = [
+    "FAST_SLIP",
+    "RELAX_STEPS",
+    "SLOW_SLIP",
+    "consistent_direction",
+    "slip_direction",
+    "steer",
+]
 
 
 FAST_SLIP = 1.0
@@ -122,9 +181,11 @@ def consistent_direction(W, j, state, mu, gx, gy, dx, dy):
     jy0 = kxx * py0 + kxy * py1 + kxz * py2
     jy1 = kxy * py0 + kyy * py1 + kyz * py2
     jy2 = kxz * py0 + kyz * py1 + kzz * py2
-    k_xx = 1.0 + (px0 * (kxx * px0 + kxy * px1 + kxz * px2)
-                  + px1 * (kxy * px0 + kyy * px1 + kyz * px2)
-                  + px2 * (kxz * px0 + kyz * px1 + kzz * px2))
+    k_xx = 1.0 + (
+        px0 * (kxx * px0 + kxy * px1 + kxz * px2)
+        + px1 * (kxy * px0 + kyy * px1 + kyz * px2)
+        + px2 * (kxz * px0 + kyz * px1 + kzz * px2)
+    )
     k_yy = 1.0 + (py0 * jy0 + py1 * jy1 + py2 * jy2)
     k_zz = 1.0 + (pn0 * jn0 + pn1 * jn1 + pn2 * jn2)
     k_xy = px0 * jy0 + px1 * jy1 + px2 * jy2
@@ -142,13 +203,25 @@ def consistent_direction(W, j, state, mu, gx, gy, dx, dy):
     jxz = W[at(OFF_E, J_XZ, j)]
     jyz = W[at(OFF_E, J_YZ, j)]
     cvm = W[at(OFF_E, DAMPING_PM, j)]
-    g0, g1, g2 = cross(w0, w1, w2, jxx * w0 + jxy * w1 + jxz * w2,
-                       jxy * w0 + jyy * w1 + jyz * w2, jxz * w0 + jyz * w1 + jzz * w2)
+    g0, g1, g2 = cross(
+        w0,
+        w1,
+        w2,
+        jxx * w0 + jxy * w1 + jxz * w2,
+        jxy * w0 + jyy * w1 + jyz * w2,
+        jxz * w0 + jyz * w1 + jzz * w2,
+    )
     g0 = -g0 - cvm * w0
     g1 = -g1 - cvm * w1
     g2 = -g2 - cvm * w2
-    a0, a1, a2 = cross(kxx * g0 + kxy * g1 + kxz * g2, kxy * g0 + kyy * g1 + kyz * g2,
-                       kxz * g0 + kyz * g1 + kzz * g2, r0, r1, r2)
+    a0, a1, a2 = cross(
+        kxx * g0 + kxy * g1 + kxz * g2,
+        kxy * g0 + kyy * g1 + kyz * g2,
+        kxz * g0 + kyz * g1 + kzz * g2,
+        r0,
+        r1,
+        r2,
+    )
     g = W[at(OFF_P, GRAV, j)]
     a0 += W[at(OFF_G, WW_X, j)] - g * n0
     a1 += W[at(OFF_G, WW_Y, j)] - g * n1
@@ -231,12 +304,30 @@ def slip_direction(W, state, one_lane, lane, history):
         W[at(OFF_G, UHAT_X, j)] = ux / uu if moving else W[at(OFF_S, S_UHX, j)]
         W[at(OFF_G, UHAT_Y, j)] = uy / uu if moving else W[at(OFF_S, S_UHY, j)]
         mu = W[at(OFF_P, MU_K, j)]
-        slow = slipping & (mu > 0.0) & (
-            RELAX_STEPS * uu < SLOPE_BOUND * mu * W[at(OFF_P, GRAV, j)] * (
-                1.0 + (W[at(OFF_G, RHO_X, j)] ** 2 + W[at(OFF_G, RHO_Y, j)] ** 2
-                       + W[at(OFF_G, RHO_Z, j)] ** 2)
-                * (W[at(OFF_E, JI_XX, j)] + W[at(OFF_E, JI_YY, j)]
-                   + W[at(OFF_E, JI_ZZ, j)])) * W[at(OFF_P, DT, j)])
+        slow = (
+            slipping
+            & (mu > 0.0)
+            & (
+                RELAX_STEPS * uu
+                < SLOPE_BOUND
+                * mu
+                * W[at(OFF_P, GRAV, j)]
+                * (
+                    1.0
+                    + (
+                        W[at(OFF_G, RHO_X, j)] ** 2
+                        + W[at(OFF_G, RHO_Y, j)] ** 2
+                        + W[at(OFF_G, RHO_Z, j)] ** 2
+                    )
+                    * (
+                        W[at(OFF_E, JI_XX, j)]
+                        + W[at(OFF_E, JI_YY, j)]
+                        + W[at(OFF_E, JI_ZZ, j)]
+                    )
+                )
+                * W[at(OFF_P, DT, j)]
+            )
+        )
         W[at(OFF_G, SLIP_KIND, j)] = SLOW_SLIP if slow else (FAST_SLIP if slipping else 0.0)
         n_slow += 1 if slow else 0
         n_slip += 1 if slipping else 0
@@ -267,8 +358,15 @@ def slip_direction(W, state, one_lane, lane, history):
         dy = W[at(OFF_S, S_UHY, j)]
         none = gx * gx + gy * gy < 0.5  # no d* yet: the launch's step
         cx, cy, slope = consistent_direction(
-            W, j, state, W[at(OFF_P, MU_K, j)], dx if none else gx, dy if none else gy,
-            dx, dy)
+            W,
+            j,
+            state,
+            W[at(OFF_P, MU_K, j)],
+            dx if none else gx,
+            dy if none else gy,
+            dx,
+            dy,
+        )
         if history:
             turn = turn_rate(W, j, cx, cy, h) if slope > 0.0 else 0.0
             W[at(OFF_X, X_TURN, j)] = turn
@@ -299,4 +397,5 @@ def _steer(W, slip_possible, state, one_lane, lane, history):
     if slip_possible.literal_value == ROLLING:
         return lambda W, slip_possible, state, one_lane, lane, history: None
     return lambda W, slip_possible, state, one_lane, lane, history: slip_direction(
-        W, state, one_lane, lane, history)
+        W, state, one_lane, lane, history
+    )
