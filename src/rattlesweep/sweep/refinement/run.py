@@ -1,4 +1,4 @@
-"""Running a refined sweep (:mod:`.refine`) level by level into a resumable directory.
+"""Running a refined sweep (:mod:`.plan`) level by level into a resumable directory.
 
 The directory holds ``sweep.toml``, ``levels/level-K/tile-NNNNNN.nc`` (the simulated
 points of level K, a tile of at most ``tile_size`` of them per file, written atomically
@@ -20,16 +20,16 @@ import netCDF4
 import numpy as np
 import xarray as xr
 
-from ..rattleback import batch
-from .._run import kernels_compiled
-from ..io import NETCDF_LOCK
-from .directory import CONFIG_NAME, RESULT_NAME, TileDirectory, write_text_atomic
-from .execute import run_tiles
-from .merge import grid_coords, result_attrs
-from .progress import Progress
-from .refine import Levels, plan_level
-from .spec import Sweep
-from .tiles import (
+from ...rattleback import batch
+from ..._run import kernels_compiled
+from ...io import NETCDF_LOCK
+from ..outputs.directory import CONFIG_NAME, RESULT_NAME, TileDirectory, write_text_atomic
+from ..execution.execute import run_tiles
+from ..outputs.merge import grid_coords, result_attrs
+from ..execution.progress import Progress
+from .plan import Levels, plan_level
+from ..config.spec import Sweep
+from ..execution.tiles import (
     NOT_COMPUTED,
     compute_points,
     extra_vars,

@@ -12,12 +12,12 @@ import netCDF4
 import numpy as np
 import xarray as xr
 
-from ..io import NETCDF_LOCK, write_netcdf
-from .lock import LOCK_NAME, SweepLock
+from ...io import NETCDF_LOCK, write_netcdf
+from ..execution.lock import LOCK_NAME, SweepLock
 from .merge import merge_arrays
-from .spec import Sweep
+from ..config.spec import Sweep
 from .store import write_failure
-from .tiles import TileResult, result_names, variable_attrs
+from ..execution.tiles import TileResult, result_names, variable_attrs
 
 __all__ = [
     "CONFIG_NAME",

@@ -1,8 +1,8 @@
 """What the two outputs of a sweep share: the interface the runner writes through, and the
 error a failed write becomes.
 
-An output (:class:`~rattlesweep.sweep.directory.TileDirectory` for netCDF,
-:class:`~rattlesweep.sweep.zarr_store.ZarrStore`) is opened for one sweep, says which
+An output (:class:`~rattlesweep.sweep.outputs.directory.TileDirectory` for netCDF,
+:class:`~rattlesweep.sweep.outputs.zarr_store.ZarrStore`) is opened for one sweep, says which
 tiles are still to compute, takes each finished tile's results from the runner (only
 the process that runs the sweep writes), and finishes into the result dataset.
 """
@@ -16,7 +16,7 @@ from typing import Protocol
 
 import xarray as xr
 
-from .tiles import TileResult
+from ..execution.tiles import TileResult
 
 __all__ = ["SweepWriteError", "TileStore", "write_failure"]
 

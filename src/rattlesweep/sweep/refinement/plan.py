@@ -25,7 +25,7 @@ is a separate map):
   cell.
 
 Everything here is plain NumPy on arrays over the finest grid; running the levels and
-storing them is :mod:`.refined_run`.
+storing them is :mod:`~rattlesweep.sweep.refinement.run`.
 """
 
 from __future__ import annotations

@@ -11,13 +11,13 @@ from typing import Any
 
 import numpy as np
 
-from .. import _results as results
-from .. import _run as engine
-from ..rattleback.batch import MODEL, prepare
-from .._options import check_method
-from ..inputs import RATTLEBACK
-from .outcomes import OUTCOME_ATTRS, classify
-from .spec import Sweep
+from ... import _results as results
+from ... import _run as engine
+from ...rattleback.batch import MODEL, prepare
+from ..._options import check_method
+from ...inputs import RATTLEBACK
+from ..outputs.outcomes import OUTCOME_ATTRS, classify
+from ..config.spec import Sweep
 
 __all__ = [
     "NOT_COMPUTED",
