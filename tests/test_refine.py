@@ -13,7 +13,7 @@ from rattlesweep.cli import main
 from rattlesweep.sweep import Sweep, run_sweep
 from rattlesweep.sweep.outputs.compare import compare_with_full
 from rattlesweep.sweep.refinement.plan import Levels, plan_level
-from rattlesweep.sweep.refinement.run import COMPUTED_ATTRS
+from rattlesweep.sweep.outputs.refined import COMPUTED_ATTRS
 from sweep_helpers import assert_same_file, file_stats
 
 

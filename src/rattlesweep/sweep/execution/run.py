@@ -56,7 +56,7 @@ def open_output(
     *,
     command: str | None = None,
     storage_options: Mapping[str, Any] | None = None,
-) -> TileStore:
+) -> TileStore[TileResult]:
     """The output ``sweep.output`` names, at ``out`` (not opened yet)."""
     if sweep.output == "zarr":
         from ..outputs.zarr_store import ZarrStore
