@@ -11,7 +11,8 @@ For each problem, in this process and in this order, on ``--workers`` local thre
 tasks, tile files, the result file):
 
 1. "full": the map simulated at every point of the finest grid;
-2. "adaptive": the declared grid refined ``levels`` times (:mod:`rattlesweep.sweep.refine`);
+2. "adaptive": the declared grid refined ``levels`` times
+   (:mod:`rattlesweep.sweep.refinement.plan`);
 3. "adaptive+stop": the same with ``stop = "first_reversal"``;
 4. "full+stop": every point of the finest grid with the stop (skipped with --no-full-stop).
 
@@ -53,9 +54,9 @@ import xarray as xr
 
 from rattlesweep import Body, run_batch
 from rattlesweep.sweep import Sweep, run_sweep
-from rattlesweep.sweep.compare import compare_with_full
-from rattlesweep.sweep.demo import DEMO_TOML
-from rattlesweep.sweep.outcomes import at_first_reversal
+from rattlesweep.sweep.outputs.compare import compare_with_full
+from rattlesweep.sweep.config.demo import DEMO_TOML
+from rattlesweep.sweep.outputs.outcomes import at_first_reversal
 from rattlesweep.core.workspace import BLOCK
 
 THIN_TOML = """\

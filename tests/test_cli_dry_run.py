@@ -12,7 +12,7 @@ import pytest
 
 from rattlesweep import Sweep
 from rattlesweep.cli import main
-from rattlesweep.sweep.estimate import estimate
+from rattlesweep.sweep.execution.estimate import estimate
 
 CONFIG = """\
 name = "dry"
@@ -106,7 +106,7 @@ kernel time, which a calibration running whole launches spent before answering."
 
 
 def test_calibration_of_hours_long_launches_runs_a_bounded_number_of_steps():
-    from rattlesweep.sweep import estimate as module
+    from rattlesweep.sweep.execution import estimate as module
 
     sweep = Sweep.from_toml(LONG)
     e = estimate(sweep, workers=1)

@@ -473,7 +473,7 @@ def not_robust(tmp_path_factory):
 
 def test_a_design_not_robust_fails_loudly_and_says_what_to_try(not_robust, made):
     out, status, stdout, stderr = not_robust
-    from rattlesweep.cli import NOT_ROBUST_STATUS
+    from rattlesweep.cli._launches import NOT_ROBUST_STATUS
 
     assert status == NOT_ROBUST_STATUS != 0
     with open(out / "design.toml", "rb") as f:

@@ -57,12 +57,12 @@ _FROM = {
     "run_planar_batch": ".planar",
     "simulate_planar": ".planar",
     "Sweep": ".sweep",
-    "resume": ".sweep.run",
-    "run_sweep": ".sweep.run",
+    "resume": ".sweep.execution.run",
+    "run_sweep": ".sweep.execution.run",
     "CoarseStepWarning": "._steps",
     "LongRunWarning": "._steps",
-    "SweepWriteError": ".sweep.store",
-    "SweepLocked": ".sweep.lock",
+    "SweepWriteError": ".sweep.outputs.store",
+    "SweepLocked": ".sweep.execution.lock",
     "DesignRefused": ".design.constraints",
 }
 """Each name of the package and the module it comes from."""
@@ -76,9 +76,9 @@ if TYPE_CHECKING:
     from .rattleback import PRESETS, Body, UnitsWarning, run_batch
     from .rattleback.simulate import simulate
     from .sweep import Sweep
-    from .sweep.lock import SweepLocked
-    from .sweep.run import resume, run_sweep
-    from .sweep.store import SweepWriteError
+    from .sweep.execution.lock import SweepLocked
+    from .sweep.execution.run import resume, run_sweep
+    from .sweep.outputs.store import SweepWriteError
     from .tidy import decode, to_csv, to_table, unstack
 else:
     # hidden from type checkers, which would give any other name its result type

@@ -88,8 +88,8 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
 def _sweep_output(path: Path) -> Path | None:
     """The sweep output ``path`` is or belongs to: a zarr store, a sweep directory, or
     the directory of a merged ``sweep.nc``; None for a file of no sweep directory."""
-    from ..sweep.directory import CONFIG_NAME, RESULT_NAME
-    from ..sweep.zarr_store import is_zarr_store
+    from ..sweep.outputs.directory import CONFIG_NAME, RESULT_NAME
+    from ..sweep.outputs.zarr_store import is_zarr_store
 
     if is_zarr_store(path) or (path / CONFIG_NAME).is_file():
         return path
@@ -103,7 +103,7 @@ def _warn_damaged(path: Path, command: str) -> Path | None:
     does) and warn on stderr about any tile or merged file damaged or lost; tiles of an
     unfinished output not computed yet are no damage. Returns the output warned
     about."""
-    from ..sweep.verify import verify
+    from ..sweep.outputs.verify import verify
 
     out = _sweep_output(path)
     if out is None:
@@ -132,7 +132,7 @@ def _warn_damaged(path: Path, command: str) -> Path | None:
 def _info_directory(path: Path) -> Path | None:
     """The merged result of a sweep directory, or None after printing the progress of an
     unfinished one; ValueError when ``path`` is no sweep directory."""
-    from ..sweep.zarr_store import is_zarr_store
+    from ..sweep.outputs.zarr_store import is_zarr_store
 
     if is_zarr_store(path):
         return path
@@ -143,7 +143,7 @@ def _info_directory(path: Path) -> Path | None:
             f"{path} is a directory without sweep.nc or sweep.toml: expected a "
             "sweep directory (what 'rattlesweep sweep --out DIR' writes)"
         )
-    from ..sweep.directory import read_config
+    from ..sweep.outputs.directory import read_config
 
     sweep = read_config(path / "sweep.toml")
     print(f"{path} (unfinished sweep: no sweep.nc yet)")
@@ -164,7 +164,7 @@ def _info_directory(path: Path) -> Path | None:
             f"written; 'rattlesweep resume {path}' completes it"
         )
         return None
-    from ..sweep.verify import verify
+    from ..sweep.outputs.verify import verify
 
     found = verify(path)
     done = sweep.n_tiles - len(found.missing) - len(found.damaged)
@@ -179,7 +179,12 @@ def _info_directory(path: Path) -> Path | None:
 def _open_result(path: Path) -> xr.Dataset:
     import xarray as xr
 
-    from ..sweep.zarr_store import is_zarr_store, open_result, stored_sweep, tiles_done
+    from ..sweep.outputs.zarr_store import (
+        is_zarr_store,
+        open_result,
+        stored_sweep,
+        tiles_done,
+    )
 
     if not is_zarr_store(path):
         return xr.open_dataset(path)

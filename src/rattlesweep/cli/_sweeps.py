@@ -70,7 +70,7 @@ def _points(ds: xr.Dataset) -> str:
 
 
 def _run(sweep: Sweep, out: str, args: argparse.Namespace, argv: list[str] | None) -> int:
-    from ..sweep.run import RESULT_NAME, run_sweep
+    from ..sweep.execution.run import RESULT_NAME, run_sweep
 
     try:
         ds = run_sweep(sweep, out, command=_command(argv), **_sweep_args(args))
@@ -109,8 +109,8 @@ def _cmd_sweep(args: argparse.Namespace, argv: list[str] | None) -> int:
 
 
 def _dry_run(sweep: Sweep, args: argparse.Namespace) -> int:
-    from ..sweep.estimate import estimate, format_estimate
-    from ..sweep.run import _cores
+    from ..sweep.execution.estimate import estimate, format_estimate
+    from ..sweep.execution.run import _cores
 
     _sweep_args(args)  # the same checks of the options as a run
     if args.scheduler:
@@ -129,13 +129,13 @@ def _dry_run(sweep: Sweep, args: argparse.Namespace) -> int:
 
 
 def _cmd_resume(args: argparse.Namespace, argv: list[str] | None) -> int:
-    from ..sweep.run import stored_sweep
+    from ..sweep.execution.run import stored_sweep
 
     return _run(stored_sweep(args.dir), args.dir, args, argv)
 
 
 def _cmd_export(args: argparse.Namespace, argv: list[str] | None) -> int:
-    from ..sweep.run import export
+    from ..sweep.execution.run import export
 
     path = export(args.store, args.out)
     print(f"wrote {path}")
@@ -143,7 +143,7 @@ def _cmd_export(args: argparse.Namespace, argv: list[str] | None) -> int:
 
 
 def _cmd_verify(args: argparse.Namespace, argv: list[str] | None) -> int:
-    from ..sweep.verify import verify
+    from ..sweep.outputs.verify import verify
 
     failed = 0
     for out in args.outputs:
@@ -155,8 +155,8 @@ def _cmd_verify(args: argparse.Namespace, argv: list[str] | None) -> int:
 
 def _cmd_demo(args: argparse.Namespace, argv: list[str] | None) -> int:
     from ..sweep import Sweep
-    from ..sweep.demo import DEMO_TOML
-    from ..sweep.run import RESULT_NAME, run_sweep
+    from ..sweep.config.demo import DEMO_TOML
+    from ..sweep.execution.run import RESULT_NAME, run_sweep
 
     if args.print_config:
         print(DEMO_TOML, end="")

@@ -1,7 +1,8 @@
 """Running a sweep: tiles on local threads or a dask.distributed cluster, results written
 by this process only (workers send them back through dask), into a resumable output: a
-directory of netCDF tiles merged into ``sweep.nc`` (:mod:`.directory`) or a zarr store
-(:mod:`.zarr_store`)."""
+directory of netCDF tiles merged into ``sweep.nc``
+(:mod:`~rattlesweep.sweep.outputs.directory`) or a zarr store
+(:mod:`~rattlesweep.sweep.outputs.zarr_store`)."""
 
 from __future__ import annotations
 
@@ -13,12 +14,18 @@ from typing import TYPE_CHECKING, Any, Iterator, Mapping
 import numpy as np
 import xarray as xr
 
-from .._run import kernels_compiled
-from .directory import CONFIG_NAME, RESULT_NAME, TILES_DIR, TileDirectory, read_config
+from ..._run import kernels_compiled
+from ..outputs.directory import (
+    CONFIG_NAME,
+    RESULT_NAME,
+    TILES_DIR,
+    TileDirectory,
+    read_config,
+)
 from .execute import run_tiles
 from .progress import Progress
-from .spec import Sweep
-from .store import TileStore
+from ..config.spec import Sweep
+from ..outputs.store import TileStore
 from .tiles import TileResult
 
 if TYPE_CHECKING:
@@ -49,10 +56,10 @@ def open_output(
     *,
     command: str | None = None,
     storage_options: Mapping[str, Any] | None = None,
-) -> TileStore:
+) -> TileStore[TileResult]:
     """The output ``sweep.output`` names, at ``out`` (not opened yet)."""
     if sweep.output == "zarr":
-        from .zarr_store import ZarrStore
+        from ..outputs.zarr_store import ZarrStore
 
         return ZarrStore(sweep, out, storage_options=storage_options, command=command)
     if storage_options or "://" in str(out):
@@ -95,8 +102,9 @@ def run_sweep(
       (``storage_options`` are passed to fsspec), laid out before compute and filled
       tile by tile; a lazy dataset over it (``xarray.open_zarr``) is returned.
 
-    A sweep with ``refine`` runs level by level (:mod:`.refined_run`) into a local
-    directory and returns its result on the finest grid.
+    A sweep with ``refine`` runs level by level
+    (:mod:`~rattlesweep.sweep.refinement.run`) into a local directory and returns its
+    result on the finest grid.
 
     Rerunning the same sweep into the same output computes only the tiles not written
     yet; a different sweep there is refused, and so is a second sweep while one runs
@@ -130,7 +138,7 @@ def run_sweep(
     check_size(sweep)
     announce(sweep)
     if sweep.refine is not None:
-        from .refined_run import run_refined
+        from ..refinement.run import run_refined
 
         if storage_options or "://" in str(out):
             raise ValueError(
@@ -206,7 +214,7 @@ def check_size(sweep: Sweep) -> None:
     """Refuse, before anything is written or computed, a sweep whose result would not
     fit in the memory available: a netCDF sweep merges the whole grid in memory, a
     refined one holds its finest grid, a zarr one a flag per tile."""
-    from .._validation import check_memory
+    from ..._validation import check_memory
     from .tiles import result_dtypes
 
     if sweep.refine is not None:
@@ -244,7 +252,7 @@ def announce(sweep: Sweep) -> None:
     sweep simulates an unknown part of its finest grid; its first level is counted."""
     import warnings
 
-    from .._steps import LONG_RUN_STEPS, LongRunWarning
+    from ..._steps import LONG_RUN_STEPS, LongRunWarning
 
     total = float(sweep.size) * sweep.max_steps
     if total > LONG_RUN_STEPS:
@@ -288,10 +296,10 @@ def stored_sweep(
     out: str | os.PathLike, storage_options: Mapping[str, Any] | None = None
 ) -> Sweep:
     """The sweep whose results ``out`` (a sweep directory or zarr store) holds."""
-    from .zarr_store import is_zarr_store
+    from ..outputs.zarr_store import is_zarr_store
 
     if is_zarr_store(out):
-        from .zarr_store import stored_sweep as from_store
+        from ..outputs.zarr_store import stored_sweep as from_store
 
         return from_store(str(out), storage_options)
     config = Path(out) / CONFIG_NAME
@@ -315,6 +323,6 @@ def export(
 ) -> Path:
     """Write the finished zarr store ``store`` as one netCDF file ``out`` (the file a
     netCDF sweep writes as ``sweep.nc``)."""
-    from .zarr_store import export_netcdf
+    from ..outputs.zarr_store import export_netcdf
 
     return export_netcdf(str(store), out, storage_options)

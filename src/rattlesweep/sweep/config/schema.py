@@ -4,11 +4,11 @@ form.
 The normal form is plain data (numbers, strings, lists, tables) in which equal sweeps
 look equal: axis values are floats, units equal to a parameter's default are left out, a
 body is a preset name or a :meth:`rattlesweep.Body.describe` table, and the defaults
-(the ``toy`` body, :data:`~rattlesweep.sweep.params.DEFAULTS`) are filled in. Every
+(the ``toy`` body, :data:`~rattlesweep.sweep.config.params.DEFAULTS`) are filled in. Every
 error is a ValueError naming the key (``axes.spin``, ``fixed.body``, ``repeats``).
 
 These checks look at one value at a time; the combinations of values a grid reaches are
-checked by :mod:`rattlesweep.sweep.corners`.
+checked by :mod:`rattlesweep.sweep.config.corners`.
 """
 
 from __future__ import annotations
@@ -18,10 +18,10 @@ from typing import Any, Mapping, TypeGuard
 
 import numpy as np
 
-from ..core.workspace import METHODS
-from .._options import check_band
-from ..rattleback.body import PRESETS, Body
-from .._validation import check_memory, is_real
+from ...core.workspace import METHODS
+from ..._options import check_band
+from ...rattleback.body import PRESETS, Body
+from ..._validation import check_memory, is_real
 from .grid import RandomParam
 from .params import BODY_PARAMS, DEFAULTS, PARAMS, check_values, resolve
 
@@ -59,7 +59,7 @@ CONFIG_KEYS = (
 
 OUTPUTS = ("netcdf", "zarr")
 """Output formats of a sweep: a directory of netCDF tiles merged into one file, or a
-zarr store written tile by tile (:mod:`rattlesweep.sweep.zarr_store`)."""
+zarr store written tile by tile (:mod:`rattlesweep.sweep.outputs.zarr_store`)."""
 
 STOPS = ("first_reversal",)
 """Stop rules a sweep may name (:func:`rattlesweep.run_batch`'s ``stop``); without one,
@@ -434,12 +434,12 @@ def normalise_config(
 ) -> dict[str, Any]:
     """The normal form of a configuration: a dict with the keys of :data:`CONFIG_KEYS`,
     scalars first (the order of the TOML file). ``tile_size`` stays None when not given
-    (:func:`rattlesweep.sweep.corners.choose_tile_size` chooses it); ``stop`` and
+    (:func:`rattlesweep.sweep.config.corners.choose_tile_size` chooses it); ``stop`` and
     ``refine`` are there only when given, so that the configurations (and hashes) of
     sweeps without them do not change.
 
     ``fixed`` gains the parameters left out: the ``toy`` body when neither a body nor a
-    semi-ellipsoid parameter is given, and :data:`~rattlesweep.sweep.params.DEFAULTS`.
+    semi-ellipsoid parameter is given, and :data:`~rattlesweep.sweep.config.params.DEFAULTS`.
     """
     for label, m in (("axes", axes), ("fixed", fixed), ("random", random)):
         if not isinstance(m, Mapping):

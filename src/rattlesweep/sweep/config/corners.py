@@ -14,8 +14,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..rattleback import batch
-from ..rattleback.body import Body
+from ...rattleback import batch
+from ...rattleback.body import Body
 from .grid import Axis, RandomParam, batch_inputs
 from .params import resolve
 

@@ -11,18 +11,21 @@ from typing import Any
 
 import numpy as np
 
-from .. import _results as results
-from .. import _run as engine
-from ..rattleback.batch import MODEL, prepare
-from .._options import check_method
-from ..inputs import RATTLEBACK
-from .outcomes import OUTCOME_ATTRS, classify
-from .spec import Sweep
+from ... import _results as results
+from ... import _run as engine
+from ...rattleback.batch import MODEL, prepare
+from ..._options import check_method
+from ...inputs import RATTLEBACK
+from ..outputs.outcomes import OUTCOME_ATTRS, classify
+from ..config.spec import Sweep
 
 __all__ = [
     "NOT_COMPUTED",
     "RESULT_VARS",
+    "LevelTile",
+    "LevelTileResult",
     "TileResult",
+    "compute_level_tile",
     "compute_points",
     "compute_tile",
     "extra_vars",
@@ -163,3 +166,47 @@ def compute_tile(sweep: Sweep, tile: int) -> TileResult:
     start, stop = sweep.tile_range(tile)
     data, steps = compute_points(sweep, np.arange(start, stop, dtype=np.int64))
     return TileResult(tile, start, stop, data, steps, time.perf_counter() - t0)
+
+
+@dataclass(frozen=True)
+class LevelTile:
+    """A task of a refined sweep: the points ``index`` (flat indices into the finest
+    grid) of tile ``tile`` of refinement level ``level``."""
+
+    level: int
+    tile: int
+    index: np.ndarray
+
+    @property
+    def key(self) -> str:
+        return f"level{self.level}-{self.tile}"
+
+
+@dataclass(frozen=True)
+class LevelTileResult:
+    """A finished :class:`LevelTile`: every per-point variable, the trajectory-steps
+    taken and the task's wall time (s)."""
+
+    level: int
+    tile: int
+    index: np.ndarray
+    data: dict[str, np.ndarray]
+    steps: int
+    seconds: float
+
+    def summary(self) -> dict[str, Any]:
+        return {
+            "tile": self.tile,
+            "n": len(self.index),
+            "steps": self.steps,
+            "seconds": self.seconds,
+        }
+
+
+def compute_level_tile(fine: Sweep, item: LevelTile) -> LevelTileResult:
+    """Simulate the points of one level's tile on the finest grid ``fine``."""
+    t0 = time.perf_counter()
+    data, steps = compute_points(fine, item.index)
+    return LevelTileResult(
+        item.level, item.tile, item.index, data, steps, time.perf_counter() - t0
+    )

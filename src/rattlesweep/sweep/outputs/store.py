@@ -1,10 +1,12 @@
 """What the two outputs of a sweep share: the interface the runner writes through, and the
 error a failed write becomes.
 
-An output (:class:`~rattlesweep.sweep.directory.TileDirectory` for netCDF,
-:class:`~rattlesweep.sweep.zarr_store.ZarrStore`) is opened for one sweep, says which
-tiles are still to compute, takes each finished tile's results from the runner (only
-the process that runs the sweep writes), and finishes into the result dataset.
+An output (:class:`~rattlesweep.sweep.outputs.directory.TileDirectory` for netCDF,
+:class:`~rattlesweep.sweep.outputs.zarr_store.ZarrStore`, and
+:class:`~rattlesweep.sweep.outputs.refined.RefinedDirectory` for a refined sweep) is
+opened for one sweep, says which tiles are still to compute, takes each finished tile's
+results from the runner (only the process that runs the sweep writes), and finishes
+into the result dataset.
 """
 
 from __future__ import annotations
@@ -12,11 +14,9 @@ from __future__ import annotations
 import errno
 import os
 from pathlib import Path
-from typing import Protocol
+from typing import Protocol, TypeVar
 
 import xarray as xr
-
-from .tiles import TileResult
 
 __all__ = ["SweepWriteError", "TileStore", "write_failure"]
 
@@ -26,13 +26,20 @@ class SweepWriteError(OSError):
     What was written before is intact, and a resume continues from there."""
 
 
-class TileStore(Protocol):
+Result = TypeVar("Result", contravariant=True)
+"""What a tile task returns and the output writes: a
+:class:`~rattlesweep.sweep.execution.tiles.TileResult`, or a
+:class:`~rattlesweep.sweep.execution.tiles.LevelTileResult` in a refined sweep."""
+
+
+class TileStore(Protocol[Result]):
     location: str
 
     def open(self) -> list[int]:
-        """Lock and prepare the output; return the tiles still to compute."""
+        """Lock and prepare the output; return the tiles still to compute (of a refined
+        sweep: none, its levels' tiles are planned as the levels run)."""
 
-    def write(self, result: TileResult) -> None:
+    def write(self, result: Result) -> None:
         """Write one finished tile, so that a crash leaves it whole or absent."""
 
     def finish(self) -> xr.Dataset:

@@ -24,8 +24,9 @@ is a separate map):
   outcome, and first reversal times within the jump): it carries the outcome of that
   cell.
 
-Everything here is plain NumPy on arrays over the finest grid; running the levels and
-storing them is :mod:`.refined_run`.
+Everything here is plain NumPy on arrays over the finest grid; running the levels is
+:mod:`~rattlesweep.sweep.refinement.run`, storing them
+:mod:`~rattlesweep.sweep.outputs.refined`.
 """
 
 from __future__ import annotations

@@ -12,16 +12,17 @@ import netCDF4
 import numpy as np
 import xarray as xr
 
-from ..io import NETCDF_LOCK, write_netcdf
-from .lock import LOCK_NAME, SweepLock
+from ...io import NETCDF_LOCK, write_netcdf
+from ..execution.lock import LOCK_NAME, SweepLock
 from .merge import merge_arrays
-from .spec import Sweep
+from ..config.spec import Sweep
 from .store import write_failure
-from .tiles import TileResult, result_names, variable_attrs
+from ..execution.tiles import TileResult, result_names, variable_attrs
 
 __all__ = [
     "CONFIG_NAME",
     "RESULT_NAME",
+    "SweepDirectory",
     "TILES_DIR",
     "TileDirectory",
     "read_config",
@@ -97,8 +98,10 @@ def tile_dataset(sweep: Sweep, result: TileResult) -> xr.Dataset:
     return ds
 
 
-class TileDirectory:
-    """The netCDF output of ``sweep`` in ``out_dir`` (see the module's description)."""
+class SweepDirectory:
+    """What every output directory of ``sweep`` in ``out_dir`` does: check the path and
+    the configuration, hold the lock, write files atomically. Subclasses say which tile
+    files it holds (:meth:`_prepare`), write them and finish the result."""
 
     def __init__(
         self, sweep: Sweep, out_dir: str | os.PathLike[str], *, command: str | None = None
@@ -232,6 +235,32 @@ class TileDirectory:
         self.tiles_dir.mkdir(exist_ok=True)
 
     def _prepare(self) -> list[int]:
+        """With the lock held: check and prepare the directory, return the tiles still to
+        compute."""
+        raise NotImplementedError
+
+    def _write_file(self, ds: xr.Dataset, path: Path) -> None:
+        """Write ``ds`` to ``path`` atomically; a failure is a SweepWriteError that names
+        the file, the cause and how to resume."""
+        try:
+            path.parent.mkdir(exist_ok=True)
+            write_netcdf(ds, path)
+        except (
+            OSError,
+            RuntimeError,
+        ) as exc:  # netCDF4 reports HDF5 failures as RuntimeError
+            raise write_failure(
+                path, exc, self.written, f"rattlesweep resume {self.out}"
+            ) from exc
+
+    def close(self) -> None:
+        self.lock.release()
+
+
+class TileDirectory(SweepDirectory):
+    """The netCDF output of ``sweep`` in ``out_dir`` (see the module's description)."""
+
+    def _prepare(self) -> list[int]:
         sweep = self.sweep
         config = self._check_config()
         self.make_tiles_dir()
@@ -286,20 +315,6 @@ class TileDirectory:
         self._write_file(ds, self.out / RESULT_NAME)
         return ds
 
-    def _write_file(self, ds: xr.Dataset, path: Path) -> None:
-        """Write ``ds`` to ``path`` atomically; a failure is a SweepWriteError that names
-        the file, the cause and how to resume."""
-        try:
-            path.parent.mkdir(exist_ok=True)
-            write_netcdf(ds, path)
-        except (
-            OSError,
-            RuntimeError,
-        ) as exc:  # netCDF4 reports HDF5 failures as RuntimeError
-            raise write_failure(
-                path, exc, self.written, f"rattlesweep resume {self.out}"
-            ) from exc
-
     def _tile_arrays(
         self, names: tuple[str, ...]
     ) -> Iterator[tuple[tuple[int, int], dict[str, np.ndarray]]]:
@@ -308,9 +323,6 @@ class TileDirectory:
                 self.sweep.tile_range(tile),
                 read_tile(tile_path(self.tiles_dir, tile), names),
             )
-
-    def close(self) -> None:
-        self.lock.release()
 
 
 def write_text_atomic(path: Path, text: str) -> None:

@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Mapping
 
-from ..rattleback.body import Body
+from ...rattleback.body import Body
 from .schema import body_from_table
 from .toml_io import read_toml
 

@@ -1,4 +1,5 @@
-"""Running a refined sweep (:mod:`.refine`) level by level into a resumable directory.
+"""The output of a refined sweep (:mod:`~rattlesweep.sweep.refinement`): a resumable
+directory.
 
 The directory holds ``sweep.toml``, ``levels/level-K/tile-NNNNNN.nc`` (the simulated
 points of level K, a tile of at most ``tile_size`` of them per file, written atomically
@@ -11,42 +12,32 @@ files, computes only the tiles missing, and reaches the same result.
 from __future__ import annotations
 
 import os
-import time
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import netCDF4
 import numpy as np
 import xarray as xr
 
-from ..rattleback import batch
-from .._run import kernels_compiled
-from ..io import NETCDF_LOCK
-from .directory import CONFIG_NAME, RESULT_NAME, TileDirectory, write_text_atomic
-from .execute import run_tiles
-from .merge import grid_coords, result_attrs
-from .progress import Progress
-from .refine import Levels, plan_level
-from .spec import Sweep
-from .tiles import (
+from ...io import NETCDF_LOCK
+from ...rattleback import batch
+from ..config.spec import Sweep
+from ..execution.tiles import (
     NOT_COMPUTED,
-    compute_points,
+    LevelTile,
+    LevelTileResult,
     extra_vars,
     result_dtypes,
     result_names,
     variable_attrs,
 )
+from .directory import CONFIG_NAME, RESULT_NAME, SweepDirectory, write_text_atomic
+from .merge import grid_coords, result_attrs
 
 __all__ = [
     "COMPUTED_ATTRS",
     "LEVELS_DIR",
-    "LevelTile",
-    "LevelTileResult",
     "RefinedDirectory",
-    "compute_level_tile",
     "level_tile_path",
-    "run_refined",
 ]
 
 LEVELS_DIR = "levels"
@@ -64,57 +55,14 @@ COMPUTED_ATTRS = {
 """CF attributes of a refined result's ``computed`` flag."""
 
 
-@dataclass(frozen=True)
-class LevelTile:
-    """A task: the points ``index`` (flat indices into the finest grid) of tile ``tile``
-    of refinement level ``level``."""
-
-    level: int
-    tile: int
-    index: np.ndarray
-
-    @property
-    def key(self) -> str:
-        return f"level{self.level}-{self.tile}"
-
-
-@dataclass(frozen=True)
-class LevelTileResult:
-    """A finished :class:`LevelTile`: every per-point variable, the trajectory-steps
-    taken and the task's wall time (s)."""
-
-    level: int
-    tile: int
-    index: np.ndarray
-    data: dict[str, np.ndarray]
-    steps: int
-    seconds: float
-
-    def summary(self) -> dict[str, Any]:
-        return {
-            "tile": self.tile,
-            "n": len(self.index),
-            "steps": self.steps,
-            "seconds": self.seconds,
-        }
-
-
-def compute_level_tile(fine: Sweep, item: LevelTile) -> LevelTileResult:
-    """Simulate the points of one level's tile on the finest grid ``fine``."""
-    t0 = time.perf_counter()
-    data, steps = compute_points(fine, item.index)
-    return LevelTileResult(
-        item.level, item.tile, item.index, data, steps, time.perf_counter() - t0
-    )
-
-
 def level_tile_path(levels_dir: Path, level: int, tile: int) -> Path:
     return Path(levels_dir) / f"level-{level}" / f"tile-{tile:06d}.nc"
 
 
-class RefinedDirectory(TileDirectory):
-    """The output directory of a refined sweep (see the module's description): the
-    configuration check and lock of :class:`.TileDirectory`, tiles per level."""
+class RefinedDirectory(SweepDirectory):
+    """The output directory of a refined sweep (see the module's description): tiles per
+    level, and the results known so far over the finest grid (``values``, ``computed``),
+    from which the next level is planned and the result is made."""
 
     def __init__(
         self, sweep: Sweep, out_dir: str | os.PathLike[str], *, command: str | None = None
@@ -122,6 +70,8 @@ class RefinedDirectory(TileDirectory):
         super().__init__(sweep, out_dir, command=command)
         self.tiles_dir = self.out / LEVELS_DIR
         self.fine = sweep.finest()
+        self.values = _empty_values(self.fine)
+        self.computed = np.zeros(self.fine.shape, dtype=bool)
 
     def _prepare(self) -> list[int]:
         config = self._check_config()
@@ -134,14 +84,15 @@ class RefinedDirectory(TileDirectory):
         return []
 
     def scan(self, items: list[LevelTile]) -> tuple[list[LevelTileResult], list[LevelTile]]:
-        """The tiles of a level already written (read back) and those still to compute.
-        Unreadable files, and files of other points, are deleted to be computed again;
-        files of another configuration are refused."""
+        """The tiles of a level already written (read back and taken into the results)
+        and those still to compute. Unreadable files, and files of other points, are
+        deleted to be computed again; files of another configuration are refused."""
         done, todo, foreign = [], [], []
         for item in items:
             path = level_tile_path(self.tiles_dir, item.level, item.tile)
             state = self._read(path, item) if path.exists() else "missing"
             if isinstance(state, LevelTileResult):
+                self._apply(state)
                 done.append(state)
                 continue
             todo.append(item)
@@ -177,9 +128,13 @@ class RefinedDirectory(TileDirectory):
             item.level, item.tile, item.index, data, int(np.sum(data["steps"])), 0.0
         )
 
-    # The ignores: a refined directory keeps TileDirectory's configuration check and lock
-    # but holds other tiles and result; it is never used as a TileDirectory.
-    def write(self, result: LevelTileResult) -> None:  # type: ignore[override]
+    def _apply(self, result: LevelTileResult) -> None:
+        for name, v in self.values.items():
+            v.ravel()[result.index] = result.data[name]
+        self.computed.ravel()[result.index] = True
+
+    def write(self, result: LevelTileResult) -> None:
+        """Write one finished tile of a level and take it into the results."""
         path = level_tile_path(self.tiles_dir, result.level, result.tile)
         ds = xr.Dataset(
             {k: ("point", v, variable_attrs(self.fine, k)) for k, v in result.data.items()},
@@ -200,9 +155,11 @@ class RefinedDirectory(TileDirectory):
         )
         self._write_file(ds, path)
         self.written += 1
+        self._apply(result)
 
-    def finish(self, ds: xr.Dataset) -> xr.Dataset:  # type: ignore[override]
-        """Write the result ``sweep.nc`` (atomically) and return it."""
+    def finish(self) -> xr.Dataset:
+        """Write the result on the finest grid, ``sweep.nc`` (atomically), and return it."""
+        ds = _dataset(self.sweep, self.fine, self.values, self.computed, self.command)
         self._write_file(ds, self.out / RESULT_NAME)
         return ds
 
@@ -233,87 +190,6 @@ def _inputs(fine: Sweep) -> dict[str, np.ndarray]:
     for rp in fine.random_params:
         out[rp.name] = rp.result_draw(fine.seed, index).reshape(fine.shape)
     return out
-
-
-def run_refined(
-    sweep: Sweep,
-    out: str | os.PathLike[str],
-    *,
-    client: Any = None,
-    workers: int = 1,
-    progress: bool = True,
-    command: str | None = None,
-) -> xr.Dataset:
-    """Run the refined sweep ``sweep`` into the directory ``out`` and return its result
-    on the finest grid (arguments as for :func:`rattlesweep.sweep.run_sweep`, which
-    calls this for a sweep with ``refine``)."""
-    refine = sweep.refine
-    assert refine is not None, "run_refined runs a sweep with refine"
-    fine = sweep.finest()
-    levels = Levels(
-        fine.shape,
-        tuple(list(fine.axes).index(k) for k in refine["axes"]),
-        refine["levels"],
-    )
-    values = _empty_values(fine)
-    computed = np.zeros(fine.shape, dtype=bool)
-
-    def apply(result: LevelTileResult) -> None:
-        for name, v in values.items():
-            v.ravel()[result.index] = result.data[name]
-        computed.ravel()[result.index] = True
-
-    store = RefinedDirectory(sweep, out, command=command)
-    store.open()
-    try:
-        for level in range(levels.levels + 1):
-            index = (
-                levels.level0()
-                if level == 0
-                else plan_level(
-                    values, computed, levels, level, refine.get("reversal_time_jump")
-                )
-            )
-            size = sweep.tile_size
-            items = [
-                LevelTile(level, t, index[a : a + size])
-                for t, a in enumerate(range(0, len(index), size))
-            ]
-            done, todo = store.scan(items)
-            for result in done:
-                apply(result)
-            bar = Progress(
-                len(items),
-                len(index),
-                len(done),
-                sum(len(r.index) for r in done),
-                enabled=progress,
-                compiling=client is None
-                and not kernels_compiled(parallel=False, level=sweep.friction_level),
-            )
-
-            def write(result: LevelTileResult) -> None:
-                store.write(result)
-                apply(result)
-                bar.update(result.summary())
-
-            try:
-                run_tiles(
-                    fine,
-                    todo,
-                    write,
-                    client=client,
-                    workers=workers,
-                    compute=compute_level_tile,
-                    on_wait=bar.tick,
-                )
-            except KeyboardInterrupt:
-                bar.interrupted(store.location)
-                raise
-            bar.close(f"level {level} of {levels.levels}")
-        return store.finish(_dataset(sweep, fine, values, computed, command))
-    finally:
-        store.close()
 
 
 def _dataset(

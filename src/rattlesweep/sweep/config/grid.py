@@ -16,7 +16,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..rattleback.body import Body
+from ...rattleback.body import Body
 from .params import BODY_PARAMS, DEFAULTS, PARAMS, result_name, result_values
 
 __all__ = [
@@ -52,7 +52,8 @@ class Axis:
 
     @property
     def name(self) -> str:
-        """The dimension's name in results (:func:`~rattlesweep.sweep.params.result_name`)."""
+        """The dimension's name in results
+        (:func:`~rattlesweep.sweep.config.params.result_name`)."""
         return result_name(self.key)
 
     def coordinate(self) -> tuple[np.ndarray, str]:

@@ -21,11 +21,11 @@ import time
 
 import numpy as np
 
-from .. import _results as results
-from .. import _run as engine
-from .._options import check_method
-from ..rattleback.batch import MODEL, prepare
-from .spec import Sweep
+from ... import _results as results
+from ... import _run as engine
+from ..._options import check_method
+from ...rattleback.batch import MODEL, prepare
+from ..config.spec import Sweep
 from .tiles import result_dtypes
 
 __all__ = ["Estimate", "KERNEL_BYTES_PER_LAUNCH", "estimate", "format_estimate"]
@@ -92,7 +92,7 @@ def _process_bytes() -> int:
 
 def _calibrate(sweep: Sweep, index: np.ndarray, most: int) -> tuple[float, int, int]:
     """Run the points at flat indices ``index`` through the kernel on this thread, as
-    :func:`~rattlesweep.sweep.tiles.compute_points` does, each for at most ``most``
+    :func:`~rattlesweep.sweep.execution.tiles.compute_points` does, each for at most ``most``
     steps. Returns the seconds taken, the steps run and the steps the launches take in
     a sweep: a launch that ended before ``most`` (its stop rule, a capsize) takes the
     steps it ran, one stopped at ``most`` all of its own."""

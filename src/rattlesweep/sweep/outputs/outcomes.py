@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core import workspace as _status
-from .._metadata import flag_attrs
+from ...core import workspace as _status
+from ..._metadata import flag_attrs
 
 __all__ = [
     "CAPSIZED",

@@ -6,7 +6,7 @@ the configuration and versions as global attributes) whose chunks are the sweep'
 (:attr:`~rattlesweep.sweep.Sweep.tile_shape`), so each finished tile is written into
 its own chunks and nothing is merged at the end. A point not computed yet reads as NaN
 (-1 for integers), with ``status`` and ``outcome`` equal to
-:data:`~rattlesweep.sweep.tiles.NOT_COMPUTED`; ``status`` is written after the point's
+:data:`~rattlesweep.sweep.execution.tiles.NOT_COMPUTED`; ``status`` is written after the point's
 other variables, so ``xarray.open_zarr`` on a store being written shows every point
 either complete or flagged. The group ``rattlesweep`` holds ``tile_done``, one byte per
 tile set after the tile's data: a resume reads from it which tiles are complete.
@@ -19,7 +19,8 @@ deleted, truncated or changed is found, and ``resume`` recomputes its tile, whil
 
 The location is a local path or any fsspec URL (``s3://bucket/run.zarr``, with
 ``storage_options`` for credentials). Only local stores are locked against a second
-sweep (:mod:`.lock`; the lock file ``STORE.lock`` lies beside the store).
+sweep (:mod:`~rattlesweep.sweep.execution.lock`; the lock file ``STORE.lock`` lies beside
+the store).
 
 zarr is an optional dependency (``pip install 'rattlesweep[zarr]'``), imported here only.
 """
@@ -36,11 +37,11 @@ from typing import TYPE_CHECKING, Any, Iterator, Mapping
 import numpy as np
 import xarray as xr
 
-from .lock import SweepLock
+from ..execution.lock import SweepLock
 from .merge import grid_coords, result_attrs
-from .spec import Sweep
+from ..config.spec import Sweep
 from .store import write_failure
-from .tiles import NOT_COMPUTED, TileResult, result_dtypes, variable_attrs
+from ..execution.tiles import NOT_COMPUTED, TileResult, result_dtypes, variable_attrs
 
 if TYPE_CHECKING:
     from zarr import Group
@@ -526,7 +527,7 @@ def export_netcdf(
     verified first."""
     import dask
 
-    from ..io import write_netcdf
+    from ...io import write_netcdf
 
     sweep = stored_sweep(location, storage_options)
     done = tiles_done(location, sweep.n_tiles, storage_options)

@@ -68,7 +68,7 @@ def verify(
     """Read back every tile of the sweep output ``out`` (a sweep directory or a zarr
     store, local or a URL) and say what is missing or damaged. Writes nothing; a
     ValueError when ``out`` holds no sweep."""
-    from .run import stored_sweep
+    from ..execution.run import stored_sweep
     from .zarr_store import is_zarr_store
 
     sweep = stored_sweep(out, storage_options)
@@ -139,7 +139,7 @@ def _check_merged(
     ``required``."""
     import netCDF4
 
-    from ..io import NETCDF_LOCK
+    from ...io import NETCDF_LOCK
     from .merge import grid_coords
 
     if not path.exists():

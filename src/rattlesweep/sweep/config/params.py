@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..inputs import RATTLEBACK, Input, Rule
+from ...inputs import RATTLEBACK, Input, Rule
 
 __all__ = [
     "BODY_PARAMS",
