@@ -13,15 +13,15 @@ Where things live:
   and the switching a level needs;
 * ``reversals`` – the spin's first reversal and the heading's reversals, observed once
   per step;
-* ``switching`` – the Coulomb stick/slip decisions (MODEL.md section 4);
+* ``switching`` – the Coulomb stick/slip decisions (docs/model.md: dynamics);
 * ``events`` – the scalar path that redoes a lane's step with its switches located;
 * ``stages`` – the RK4 stage arithmetic fused into each model's derivative loop;
 * ``models`` – the hooks the stepper calls, chosen per model at compile time;
 * ``rattleback/`` – the 3-D model: ``layout`` (its rows), ``geometry`` (contact
-  geometry, impulses; MODEL.md section 3), ``dynamics`` (the right-hand side,
+  geometry, impulses; docs/model.md: contact geometry), ``dynamics`` (the right-hand side,
   ``eval_block``) with its phases ``contact`` (kinematics, slip velocity), ``slip`` (the
   friction direction), ``accelerations`` (with the couples) and ``derivative`` (friction
   force, stage arithmetic), ``model`` (what it supplies to the stepper);
-* ``planar/`` – the rocking semi-ellipse of MODEL.md section 8, with the same modules;
+* ``planar/`` – the rocking semi-ellipse of docs/model.md: the planar rocking semi-ellipse, with the same modules;
 * ``jit`` – the compile policy every kernel uses.
 """

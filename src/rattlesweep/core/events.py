@@ -1,4 +1,4 @@
-"""Stick/slip switches located inside the step (MODEL.md section 4): the scalar path of
+"""Stick/slip switches located inside the step (docs/model.md: dynamics): the scalar path of
 the few lanes whose contact mode changes.
 
 The vector RK4 step holds every lane's mode through the step; afterwards
@@ -7,7 +7,7 @@ The vector RK4 step holds every lane's mode through the step; afterwards
 (region B), locating every switch:
 
 * scalar events: a sticking contact's friction leaving the cone, and each couple's
-  switch (MODEL.md section 4b: a slipping couple's held sense times its rate reaching
+  switch (docs/model.md: dynamics, the couples: a slipping couple's held sense times its rate reaching
   zero, a stuck couple's demand reaching its bound). Each motion is smooth through its
   switching instant, so a piece of the step integrated in the present modes is a
   smooth continuation of it. The cubic Hermite interpolant of the piece (its end

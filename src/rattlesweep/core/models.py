@@ -104,7 +104,7 @@ def _euler_step(W, model):
     return _pick(
         model,
         lambda W, model: rattleback_model.euler_step(W),
-        lambda W, model: planar_dynamics.euler_step(W),
+        lambda W, model: planar_model.euler_step(W),
     )
 
 
@@ -166,7 +166,7 @@ def stick_couples(W, model, j):
     """Lane j's couples have just switched: apply what a couple that now sticks needs."""
 
 
-_lane_hook(derive, rattleback_dynamics.derive_parameters, planar_model.derive)
+_lane_hook(derive, rattleback_model.derive, planar_model.derive)
 _lane_hook(start_lane, rattleback_model.start_lane, planar_model.start_lane)
 _lane_hook(check_step, rattleback_model.check_step, planar_model.check_step, "always")
 _lane_hook(

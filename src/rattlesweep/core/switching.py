@@ -1,4 +1,4 @@
-"""Coulomb stick/slip switching (MODEL.md section 4) in the shared rows of every model
+"""Coulomb stick/slip switching (docs/model.md: dynamics) in the shared rows of every model
 (:mod:`.workspace`): which lanes change mode, in one vector pass per step.
 
 * sticking → slipping where the friction sticking needs leaves the cone, |F_t| > μ_s N

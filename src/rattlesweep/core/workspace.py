@@ -103,7 +103,7 @@ ROLLING = 0
 SLIDING = 1
 """Coulomb stick/slip of the contact point (finite static friction)."""
 COUPLES = 2
-"""Stick/slip plus the spin and rolling couples (MODEL.md section 4b)."""
+"""Stick/slip plus the spin and rolling couples (docs/model.md: dynamics, the couples)."""
 LEVEL_NAMES = ("rolling", "sliding", "couples")
 
 

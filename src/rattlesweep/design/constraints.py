@@ -1,7 +1,7 @@
 """What a design must satisfy, checked before any simulation.
 
 - The shell: semi-axes finite and > 0 (SI: m), the empty print (no pockets, no coins)
-  stable upright (its centre of mass below both centres of curvature, MODEL.md section 2),
+  stable upright (its centre of mass below both centres of curvature, docs/model.md: the body),
   and deep enough for a pocket with a wall below it.
 - The coin: its pocket, with a rim on each side, no wider than the flat face.
 - A placement: each pocket inside the flat face with ``rim`` left to the edge, its solid

@@ -2,7 +2,7 @@
 
 The printed part is described by :class:`Part` (the printing assumptions are in
 :mod:`.printing`): a semi-ellipsoid with semi-axes a, b, c (m) whose flat face is the
-plane z = 0 of the body frame (MODEL.md: z up out of the flat face, the curved surface
+plane z = 0 of the body frame (docs/model.md: z up out of the flat face, the curved surface
 below), with two cylindrical pockets in the flat face at (x, y) and (−x, −y), each as
 deep as a coin is thick, and a coin in each, its top flush with the face.
 

@@ -1,1 +1,1 @@
-"""The planar rocking semi-ellipse's kernels (MODEL.md section 8)."""
+"""The planar rocking semi-ellipse's kernels (docs/model.md: the planar rocking semi-ellipse)."""

@@ -1,4 +1,4 @@
-"""Kernel for the planar rocking semi-ellipse (MODEL.md section 8), on the 3-D engine's plan.
+"""Kernel for the planar rocking semi-ellipse (docs/model.md: the planar rocking semi-ellipse), on the 3-D engine's plan.
 
 The lamina x²/a² + y²/b² ≤ 1, y ≤ 0 (body frame, y up, origin C at the centre of the flat
 edge) rocks on the line Y = 0 by the angle θ (counter-clockwise, rad). G lies d below C.
@@ -51,7 +51,6 @@ from ..switching import stop_time
 from ..workspace import (
     BLOCK,
     COUPLES,
-    DT,
     EPS_U,
     GRAV,
     MU_K,
@@ -93,7 +92,7 @@ from .layout import (
     XG,
 )
 
-__all__ = ["contact_impulse", "energy", "eval_block", "euler_step", "shape"]
+__all__ = ["contact_impulse", "energy", "eval_block", "shape"]
 
 
 @kernel
@@ -138,7 +137,7 @@ def eval_block(W, slip_possible, stage, one_lane, lane):
     """Time derivative of every lane, used as ``stage`` asks (:mod:`..stages`), with the
     contact outputs N, F and u (region X) at the first stages; reads each lane's mode and
     held slip direction (region S). ``slip_possible`` matters only as ``COUPLES``, which
-    adds the rolling couple (MODEL.md section 4b): this model's loop is short and computes
+    adds the rolling couple (docs/model.md: dynamics, the couples): this model's loop is short and computes
     both sliding modes' terms anyway.
 
     Stick: θ̈ = −m h′(g + (h + h″)θ̇²)/(I + m(h² + h′²)), F = −m(h θ̈ + h′θ̇²).
@@ -226,22 +225,3 @@ def eval_block(W, slip_possible, stage, one_lane, lane):
         put_derivative(
             W, j, VXG * BLOCK + j, stage, force / m, True, OFF_Y, OFF_T, OFF_A, OFF_B
         )
-
-
-@kernel
-def euler_step(W):
-    """Semi-implicit Euler on region Y, in place, with the derivative in A from the first
-    stage: velocities first, then positions with the new velocities. Leaves the old state
-    in B, as the RK4 stages do."""
-    for j in range(BLOCK):
-        dt = W[at(OFF_P, DT, j)]
-        rate = W[at(OFF_Y, RATE, j)] + dt * W[at(OFF_A, RATE, j)]
-        vx = W[at(OFF_Y, VXG, j)] + dt * W[at(OFF_A, VXG, j)]
-        theta = W[at(OFF_Y, THETA, j)] + dt * rate
-        x = W[at(OFF_Y, XG, j)] + dt * vx
-        for k in (THETA, RATE, XG, VXG):
-            W[at(OFF_B, k, j)] = W[at(OFF_Y, k, j)]
-        W[at(OFF_Y, THETA, j)] = theta
-        W[at(OFF_Y, RATE, j)] = rate
-        W[at(OFF_Y, XG, j)] = x
-        W[at(OFF_Y, VXG, j)] = vx

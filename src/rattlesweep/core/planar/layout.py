@@ -1,4 +1,4 @@
-"""Rows of the planar rocking semi-ellipse (MODEL.md section 8): its parameters, state,
+"""Rows of the planar rocking semi-ellipse (docs/model.md: the planar rocking semi-ellipse): its parameters, state,
 recorded series and observables, and where its regions sit in the block workspace.
 
 Each table is the single source of truth for its rows, as in :mod:`..rattleback.layout`.

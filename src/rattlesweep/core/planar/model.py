@@ -8,6 +8,8 @@ import math
 
 from ..jit import inline_kernel, kernel
 from ..workspace import (
+    BLOCK,
+    DT,
     GRAV,
     K_WATCH_LOW,
     OFF_K,
@@ -22,6 +24,8 @@ from ..workspace import (
 )
 from .dynamics import contact_impulse, energy as planar_energy, shape
 from .layout import (
+    OFF_A,
+    OFF_B,
     A2,
     AB2,
     B2,
@@ -57,6 +61,7 @@ __all__ = [
     "couple_rates",
     "derive",
     "energy",
+    "euler_step",
     "finish",
     "park",
     "record",
@@ -202,3 +207,22 @@ def record(W, j, out):
     out[R_F] = W[at(OFF_X, X_FX, j)]
     out[R_ENERGY] = energy(W, j)
     out[R_SLIP] = W[at(OFF_S, S_MODE, j)]
+
+
+@kernel
+def euler_step(W):
+    """Semi-implicit Euler on region Y, in place, with the derivative in A from the first
+    stage: velocities first, then positions with the new velocities. Leaves the old state
+    in B, as the RK4 stages do."""
+    for j in range(BLOCK):
+        dt = W[at(OFF_P, DT, j)]
+        rate = W[at(OFF_Y, RATE, j)] + dt * W[at(OFF_A, RATE, j)]
+        vx = W[at(OFF_Y, VXG, j)] + dt * W[at(OFF_A, VXG, j)]
+        theta = W[at(OFF_Y, THETA, j)] + dt * rate
+        x = W[at(OFF_Y, XG, j)] + dt * vx
+        for k in (THETA, RATE, XG, VXG):
+            W[at(OFF_B, k, j)] = W[at(OFF_Y, k, j)]
+        W[at(OFF_Y, THETA, j)] = theta
+        W[at(OFF_Y, RATE, j)] = rate
+        W[at(OFF_Y, XG, j)] = x
+        W[at(OFF_Y, VXG, j)] = vx

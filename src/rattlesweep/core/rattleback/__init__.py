@@ -1,1 +1,1 @@
-"""The 3-D rattleback model's kernels (MODEL.md sections 2-4)."""
+"""The 3-D rattleback model's kernels (docs/model.md: the body to the dynamics)."""

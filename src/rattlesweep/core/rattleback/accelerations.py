@@ -1,5 +1,5 @@
 """The angular acceleration of the rattleback in either contact mode, with the spin and
-rolling couples (MODEL.md sections 4 and 4b), and the normal force: phases 2 and 3 of
+rolling couples (docs/model.md: dynamics, with the couples), and the normal force: phases 2 and 3 of
 :func:`.dynamics.eval_block`.
 """
 

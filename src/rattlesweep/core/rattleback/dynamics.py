@@ -1,4 +1,4 @@
-"""Right-hand side of the rattleback with Coulomb stick/slip contact (MODEL.md section 4).
+"""Right-hand side of the rattleback with Coulomb stick/slip contact (docs/model.md: dynamics).
 
 One function, :func:`eval_block`, evaluates the time derivative of every lane of a block
 in a few short straight loops over the lanes. The contact mode of each lane (stick or
@@ -18,71 +18,17 @@ import numba
 
 from ..jit import kernel
 from ..stages import first_stage
-from ..workspace import OFF_P, STAGE_FIRST, STAGE_START, at
+from ..workspace import STAGE_FIRST, STAGE_START
 from .accelerations import accelerations, divide_out
 from .contact import contact_kinematics
 from .derivative import store_derivative
 from .slip import steer
 from .layout import (
-    DAMPING,
-    DAMPING_PM,
-    I_XX,
-    I_XY,
-    I_XZ,
-    I_YY,
-    I_YZ,
-    I_ZZ,
-    J_XX,
-    J_XY,
-    J_XZ,
-    J_YY,
-    J_YZ,
-    J_ZZ,
-    JI_XX,
-    JI_XY,
-    JI_XZ,
-    JI_YY,
-    JI_YZ,
-    JI_ZZ,
-    MASS,
-    OFF_E,
     OFF_T,
     OFF_Y,
 )
 
-__all__ = ["derive_parameters", "eval_block"]
-
-
-@kernel
-def derive_parameters(W, j):
-    """Fill lane j's derived parameters (region E) from its parameters (region P)."""
-    m = W[at(OFF_P, MASS, j)]
-    for src, dst in (
-        (I_XX, J_XX),
-        (I_YY, J_YY),
-        (I_ZZ, J_ZZ),
-        (I_XY, J_XY),
-        (I_XZ, J_XZ),
-        (I_YZ, J_YZ),
-        (DAMPING, DAMPING_PM),
-    ):
-        W[at(OFF_E, dst, j)] = W[at(OFF_P, src, j)] / m
-    a = W[at(OFF_E, J_XX, j)]
-    b = W[at(OFF_E, J_YY, j)]
-    c = W[at(OFF_E, J_ZZ, j)]
-    d = W[at(OFF_E, J_XY, j)]
-    e = W[at(OFF_E, J_XZ, j)]
-    f = W[at(OFF_E, J_YZ, j)]
-    cxx = b * c - f * f
-    cxy = e * f - d * c
-    cxz = d * f - b * e
-    inv = 1.0 / (a * cxx + d * cxy + e * cxz)
-    W[at(OFF_E, JI_XX, j)] = cxx * inv
-    W[at(OFF_E, JI_YY, j)] = (a * c - e * e) * inv
-    W[at(OFF_E, JI_ZZ, j)] = (a * b - d * d) * inv
-    W[at(OFF_E, JI_XY, j)] = cxy * inv
-    W[at(OFF_E, JI_XZ, j)] = cxz * inv
-    W[at(OFF_E, JI_YZ, j)] = (d * e - a * f) * inv
+__all__ = ["eval_block"]
 
 
 @kernel

@@ -1,4 +1,4 @@
-"""Closed-form contact geometry of a semi-ellipsoid on a floor (MODEL.md section 3).
+"""Closed-form contact geometry of a semi-ellipsoid on a floor (docs/model.md: contact geometry).
 
 Scalar functions of plain floats, returning tuples, so they inline into the lane loops.
 Body frame: origin C at the centre of the flat face, z out of the flat face; the curved
@@ -184,7 +184,7 @@ def plastic_contact_impulse(W, off, j, ux, uy):
     Δω = I⁻¹(ρ × J), with J = −K⁻¹ u, K = 𝟙/m − [ρ]ₓ I⁻¹ [ρ]ₓ, u = (ux, uy, 0) the
     slip velocity (world). The vertical slip velocity stays zero, so the floor constraint
     still holds, and the energy change −½ uᵀ K⁻¹ u is never positive. (Zeroing u through
-    G's velocity alone, as MODEL.md section 4 words it, is not an impulse and can add
+    G's velocity alone, as docs/model.md: dynamics words it, is not an impulse and can add
     energy; both agree as dt → 0.)
 
     Returns the world-horizontal components of R J (N s).

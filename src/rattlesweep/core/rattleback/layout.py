@@ -1,9 +1,11 @@
-"""Rows of the rattleback model (MODEL.md sections 2-4): its parameters, state, scratch,
-recorded series and observables, and where its regions sit in the block workspace.
+"""Rows of the rattleback model (docs/model.md: the body to the dynamics): its
+parameters, state, scratch, recorded series and observables, and where its regions sit
+in the block workspace.
 
-Each table is the single source of truth for its rows: the constants below are read off
-it, the batch layer packs inputs and labels results from it (:mod:`rattlesweep.batch`),
-and the CF attributes of results come from it.
+Each table is the single source of truth for its rows' layout: the constants below are
+read off it, and the batch layer (:mod:`rattlesweep.rattleback.batch`) packs each input
+into its row by the input's name in :mod:`rattlesweep.inputs`, whose descriptions give
+the units and long names that results carry.
 """
 
 from __future__ import annotations

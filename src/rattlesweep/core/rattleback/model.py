@@ -42,6 +42,28 @@ from .geometry import (
     rotation,
 )
 from .layout import (
+    DAMPING,
+    DAMPING_PM,
+    I_XX,
+    I_XY,
+    I_XZ,
+    I_YY,
+    I_YZ,
+    I_ZZ,
+    J_XX,
+    J_XY,
+    J_XZ,
+    J_YY,
+    J_YZ,
+    J_ZZ,
+    JI_XX,
+    JI_XY,
+    JI_XZ,
+    JI_YY,
+    JI_YZ,
+    JI_ZZ,
+    MASS,
+    OFF_E,
     A2,
     B2,
     C2,
@@ -86,6 +108,7 @@ __all__ = [
     "LOCATES_SWITCHES",
     "check_step",
     "couple_rates",
+    "derive",
     "energy",
     "euler_step",
     "finish",
@@ -103,6 +126,38 @@ LOCATES_SWITCHES = True
 """The rattleback's stick/slip switches are located inside the step (:mod:`..events`).
 Its slow slips, whose direction relaxes faster than the step follows, are steered onto
 their slow manifold (:func:`.dynamics.slip_direction`)."""
+
+
+@kernel
+def derive(W, j):
+    """Fill lane j's derived parameters (region E) from its parameters (region P)."""
+    m = W[at(OFF_P, MASS, j)]
+    for src, dst in (
+        (I_XX, J_XX),
+        (I_YY, J_YY),
+        (I_ZZ, J_ZZ),
+        (I_XY, J_XY),
+        (I_XZ, J_XZ),
+        (I_YZ, J_YZ),
+        (DAMPING, DAMPING_PM),
+    ):
+        W[at(OFF_E, dst, j)] = W[at(OFF_P, src, j)] / m
+    a = W[at(OFF_E, J_XX, j)]
+    b = W[at(OFF_E, J_YY, j)]
+    c = W[at(OFF_E, J_ZZ, j)]
+    d = W[at(OFF_E, J_XY, j)]
+    e = W[at(OFF_E, J_XZ, j)]
+    f = W[at(OFF_E, J_YZ, j)]
+    cxx = b * c - f * f
+    cxy = e * f - d * c
+    cxz = d * f - b * e
+    inv = 1.0 / (a * cxx + d * cxy + e * cxz)
+    W[at(OFF_E, JI_XX, j)] = cxx * inv
+    W[at(OFF_E, JI_YY, j)] = (a * c - e * e) * inv
+    W[at(OFF_E, JI_ZZ, j)] = (a * b - d * d) * inv
+    W[at(OFF_E, JI_XY, j)] = cxy * inv
+    W[at(OFF_E, JI_XZ, j)] = cxz * inv
+    W[at(OFF_E, JI_YZ, j)] = (d * e - a * f) * inv
 
 
 @kernel
@@ -342,7 +397,7 @@ def record(W, j, out):
 @kernel
 def floor_contact(W, j):
     """World-horizontal position (m) of lane j's contact point on the floor: G plus
-    R ρ, with ρ from G to the contact point (MODEL.md section 3)."""
+    R ρ, with ρ from G to the contact point (docs/model.md: contact geometry)."""
     r00, r01, r02, r10, r11, r12, n0, n1, n2 = rotation(
         W[at(OFF_Y, Q0, j)], W[at(OFF_Y, Q1, j)], W[at(OFF_Y, Q2, j)], W[at(OFF_Y, Q3, j)]
     )

@@ -1,4 +1,4 @@
-"""The friction direction of a slipping rattleback (MODEL.md section 4): the slip's own
+"""The friction direction of a slipping rattleback (docs/model.md: dynamics): the slip's own
 direction, or for a slow slip the consistent direction d*, from the contact's response
 to a contact force; the phase of :func:`.dynamics.eval_block` between the kinematics
 and the accelerations.
@@ -142,7 +142,7 @@ def consistent_direction(W, j, state, mu, gx, gy, dx, dy):
     along which the slip speed grows or shrinks without turning, u̇ ∥ d*: Newton's method
     on the angle, from the guess (gx, gy), the root taken only within 60° of the slip's
     direction (dx, dy). A slow slip's direction locks onto it on the time scale
-    |u| / (μ N k), far below the step (MODEL.md section 4).
+    |u| / (μ N k), far below the step (docs/model.md: dynamics).
 
     Returns (d*_x, d*_y, s) with s (m/s²) such that u's direction relaxes onto d* at the
     rate s / |u|; s ≤ 0 where d* does not attract it or no consistent slip exists (then
