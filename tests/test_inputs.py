@@ -18,7 +18,6 @@ from rattlesweep.inputs import (
     BAND,
     FINITE,
     HALF_TURN,
-    INPUTS,
     NONNEG,
     NONNEG_INF,
     PLANAR,
@@ -181,6 +180,8 @@ def test_a_swept_default_step_and_draws_carry_the_inputs_long_names(results):
 
 
 def test_the_kernel_packs_inputs_in_their_described_units():
+    """Every parameter row the kernel packs an input into carries the input's units and
+    long name, so that the two cannot drift apart."""
     for rows, inputs in (
         (rattleback_layout.PARAMS, RATTLEBACK),
         (planar_layout.PARAMS, PLANAR),
@@ -188,10 +189,7 @@ def test_the_kernel_packs_inputs_in_their_described_units():
         for row in (*COMMON_PARAMS, *rows):
             if row.name in inputs:
                 assert row.units == inputs[row.name].units, row.name
-    # the rows every model shares: their long names too
-    for row in COMMON_PARAMS:
-        if row.name in INPUTS:
-            assert row.long_name == INPUTS[row.name].long_name, row.name
+                assert row.long_name == inputs[row.name].long_name, row.name
 
 
 FUNCTIONS = {
