@@ -157,7 +157,7 @@ def test_orphan_merge_tmp_is_removed_on_resume(tmp_path):
     out = tmp_path / "run"
     s = small_sweep(tile_size=3)
     run_sweep(s, out, progress=False)
-    orphan = out / ".sweep.nc.x1y2z3.tmp"  # what a kill during the merge leaves
+    orphan = out / ".sweep.nc.4242.x1y2_3ab.tmp"  # what a kill during the merge leaves
     orphan.write_bytes(b"partial")
     run_sweep(s, out, progress=False)
     assert not orphan.exists()

@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
+import fnmatch
 import os
+import re
 import tempfile
 import threading
 from pathlib import Path
 
 import xarray as xr
 
-__all__ = ["NETCDF_LOCK", "write_netcdf"]
+__all__ = ["NETCDF_LOCK", "stale_temporaries", "write_netcdf"]
 
 NETCDF_LOCK = threading.RLock()
 """Serialises netCDF/HDF5 calls made by rattlesweep: the HDF5 library is not thread-safe
@@ -29,7 +31,9 @@ def write_netcdf(ds: xr.Dataset, path: str | os.PathLike) -> Path:
         for name in ds.data_vars
         if ds[name].dtype.kind in "fiub"
     }
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    fd, tmp = tempfile.mkstemp(
+        prefix=_temporary_prefix(path.name), suffix=".tmp", dir=path.parent
+    )
     os.close(fd)
     umask = os.umask(0)
     os.umask(umask)
@@ -43,3 +47,23 @@ def write_netcdf(ds: xr.Dataset, path: str | os.PathLike) -> Path:
             os.unlink(tmp)
         raise
     return path
+
+
+# the temporary file of ``NAME``: ``.NAME.<pid>.<tempfile's 8 random characters>.tmp``
+_TEMPORARY = re.compile(r"\.(?P<name>.+)\.[0-9]+\.[a-z0-9_]{8}\.tmp")
+
+
+def _temporary_prefix(name: str) -> str:
+    return f".{name}.{os.getpid()}."
+
+
+def stale_temporaries(directory: str | os.PathLike[str], name_glob: str) -> list[Path]:
+    """The temporary files :func:`write_netcdf` left in ``directory`` (killed before the
+    rename) for files whose names match ``name_glob``. Only names of exactly the form
+    it creates are listed, so a user's file that merely looks alike is never one."""
+    found = []
+    for path in Path(directory).glob(f".{name_glob}.*.tmp"):
+        match = _TEMPORARY.fullmatch(path.name)
+        if match and fnmatch.fnmatchcase(match["name"], name_glob) and path.is_file():
+            found.append(path)
+    return found

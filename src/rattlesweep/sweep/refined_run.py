@@ -22,7 +22,7 @@ import xarray as xr
 
 from ..rattleback import batch
 from .._run import kernels_compiled
-from ..io import NETCDF_LOCK
+from ..io import NETCDF_LOCK, stale_temporaries
 from .directory import CONFIG_NAME, RESULT_NAME, TileDirectory, write_text_atomic
 from .execute import run_tiles
 from .merge import grid_coords, result_attrs
@@ -126,7 +126,8 @@ class RefinedDirectory(TileDirectory):
     def _prepare(self) -> list[int]:
         config = self._check_config()
         self.make_tiles_dir()
-        for stale in self.tiles_dir.glob("level-*/.*.tmp"):
+        levels = (d for d in self.tiles_dir.glob("level-*") if d.is_dir())
+        for stale in (p for d in levels for p in stale_temporaries(d, "tile-*.nc")):
             stale.unlink(missing_ok=True)
         if not config.exists():
             write_text_atomic(config, self.sweep.to_toml())
