@@ -124,8 +124,9 @@ def _dry_run(sweep: Sweep, args: argparse.Namespace) -> int:
     else:
         workers = args.workers or _cores()
         where = f"{workers} local thread{'s' if workers > 1 else ''}"
-    print(format_estimate(sweep, estimate(sweep, workers), where))
-    return 0
+    found = estimate(sweep, workers)
+    print(format_estimate(sweep, found, where))
+    return 2 if found.refused else 0  # the status of the run it stands for
 
 
 def _cmd_resume(args: argparse.Namespace, argv: list[str] | None) -> int:
