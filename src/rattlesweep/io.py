@@ -19,17 +19,21 @@ NETCDF_LOCK = threading.RLock()
 
 
 def write_netcdf(ds: xr.Dataset, path: str | os.PathLike) -> Path:
-    """Write ``ds`` to ``path`` (netCDF4, zlib-compressed) atomically.
+    """Write ``ds`` to ``path`` (netCDF4, zlib-compressed, every numeric array with HDF5's
+    fletcher32 checksums) atomically.
 
     The file is written to a temporary name in the same directory and renamed into place,
     so a crash never leaves a truncated file under ``path``. Returns the path.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
+    # fletcher32: HDF5 checksums every chunk, so a byte changed on disk fails the read
+    # instead of reading as another value (a scalar is not chunked: it has none)
     encoding = {
-        name: {"zlib": True, "complevel": 4}
-        for name in ds.data_vars
-        if ds[name].dtype.kind in "fiub"
+        str(name): {"fletcher32": True}
+        | ({"zlib": True, "complevel": 4} if name in ds.data_vars else {})
+        for name, var in ds.variables.items()
+        if var.dtype.kind in "fiub" and var.ndim
     }
     fd, tmp = tempfile.mkstemp(
         prefix=_temporary_prefix(path.name), suffix=".tmp", dir=path.parent

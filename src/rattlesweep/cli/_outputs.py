@@ -20,11 +20,14 @@ def _open_netcdf(path: str) -> xr.Dataset:
     import xarray as xr
 
     try:
-        return xr.open_dataset(path)
-    except (OSError, ValueError) as exc:
+        with xr.open_dataset(path) as ds:
+            return ds.load()  # all read here: a damaged chunk fails now, not mid-plot
+    except (OSError, ValueError, RuntimeError) as exc:
         reason = str(exc).splitlines()[0] if str(exc).strip() else type(exc).__name__
         if "did not find a match" in reason:
             reason = "it is not a netCDF file"
+        if isinstance(exc, RuntimeError):  # netCDF4's report of an HDF5 read failure
+            raise ValueError(f"cannot read {path}: {_DAMAGED.format(reason)}") from None
         raise ValueError(
             f"cannot read {path}: expected a rattlesweep result file "
             f"(netCDF; a zarr store: `rattlesweep export` it first); "
@@ -32,8 +35,10 @@ def _open_netcdf(path: str) -> xr.Dataset:
         ) from None
 
 
+_DAMAGED = "it is damaged ({}: a chunk fails its checksum or cannot be read)"
+
+
 def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
-    import xarray as xr
 
     from ..plot import reversal_map, reversal_vs_growth
 
@@ -52,7 +57,7 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
     for path in args.files:
         with _open_netcdf(path) as ds:
             if args.versus:
-                with xr.open_dataset(args.versus) as sweep:
+                with _open_netcdf(args.versus) as sweep:
                     fig = reversal_vs_growth(ds, sweep, color_by=args.facet)
                 name = "reversal_vs_growth"
             else:
@@ -182,7 +187,8 @@ def _open_result(path: Path) -> xr.Dataset:
     from ..sweep.zarr_store import is_zarr_store, open_result, stored_sweep, tiles_done
 
     if not is_zarr_store(path):
-        return xr.open_dataset(path)
+        with xr.open_dataset(path) as ds:
+            return ds.load()  # all read here: a damaged chunk fails now
     sweep = stored_sweep(str(path))
     done = tiles_done(str(path), sweep.n_tiles)
     if done is not None and not done.all():
@@ -210,16 +216,20 @@ def _cmd_info(args: argparse.Namespace, argv: list[str] | None) -> int:
             continue
         try:
             ds = _open_result(path)
-        except (OSError, ValueError) as exc:
+        except (OSError, ValueError, RuntimeError) as exc:
             reason = str(exc).splitlines()[0]
             if "did not find a match" in reason:
                 reason = "it is not a netCDF file"
+            if isinstance(exc, RuntimeError):  # netCDF4's report of an HDF5 failure
+                reason = _DAMAGED.format(reason)
             if damaged is not None:
                 print(
                     f"rattlesweep info: cannot read {path} ({reason}): it is damaged; "
                     f"`rattlesweep resume {damaged}` writes it again",
                     file=sys.stderr,
                 )
+            elif isinstance(exc, RuntimeError):
+                print(f"rattlesweep info: cannot read {path}: {reason}", file=sys.stderr)
             else:
                 print(
                     f"rattlesweep info: cannot read {path}: expected a rattlesweep "
