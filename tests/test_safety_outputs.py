@@ -239,3 +239,33 @@ def test_a_finished_refined_directory_verifies_against_its_finest_grid(tmp_path,
     assert verify(out).ok  # its sweep.nc lies on the finest grid, not the declared one
     assert main(["info", str(out)]) == 0
     assert capsys.readouterr().err == ""
+
+
+def test_info_and_plot_of_a_zarr_chunk_failing_its_checksum_end_in_one_clear_line(
+    tmp_path,
+):
+    """They warned, then died with zarr's 'Stored and computed checksum do not match'
+    (plot with asyncio's 'Task was destroyed but it is pending!' after it)."""
+    import subprocess
+    import sys
+
+    store = tmp_path / "run.zarr"
+    run_sweep(as_zarr(small_sweep(tile_size=3)), store, progress=False)
+    chunk = sorted(store.glob("outcome/c/*/*/*/*"))[2]
+    _flip(chunk)
+    for command in (["info", str(store)], ["plot", str(store)]):
+        done = subprocess.run(
+            [sys.executable, "-m", "rattlesweep.cli", *command],
+            capture_output=True,
+            text=True,
+            cwd=tmp_path,
+        )
+        assert done.returncode == 2, done.stderr
+        last = done.stderr.strip().splitlines()[-1]
+        assert last.endswith(
+            f"cannot read {store}: tile 2 is damaged: chunk outcome/c/0/1/0/0 damaged "
+            f"(it fails its CRC-32C checksum); `rattlesweep resume {store}` recomputes "
+            "what is missing or damaged"
+        ), done.stderr
+        for noise in ("Stored and computed", "Traceback", "Task was destroyed", "loop"):
+            assert noise not in done.stderr, done.stderr

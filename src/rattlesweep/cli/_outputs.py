@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -51,13 +52,24 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
             select[key] = float(value)
         except ValueError:
             select[key] = value
+    damage = {}
     for path in (*args.files, *filter(None, (args.overlay, args.versus))):
-        _warn_damaged(Path(path), "plot")
-    overlay = _open_netcdf(args.overlay) if args.overlay else None
+        damage[path] = _warn_damaged(Path(path), "plot")
+
+    def read(path: str) -> xr.Dataset:
+        try:
+            return _open_netcdf(path)
+        except ValueError:
+            found = damage.get(path)
+            if found is None:
+                raise
+            raise ValueError(found.unreadable(path)) from None
+
+    overlay = read(args.overlay) if args.overlay else None
     for path in args.files:
-        with _open_netcdf(path) as ds:
+        with read(path) as ds:
             if args.versus:
-                with _open_netcdf(args.versus) as sweep:
+                with read(args.versus) as sweep:
                     fig = reversal_vs_growth(ds, sweep, color_by=args.facet)
                 name = "reversal_vs_growth"
             else:
@@ -103,10 +115,25 @@ def _sweep_output(path: Path) -> Path | None:
     return None
 
 
-def _warn_damaged(path: Path, command: str) -> Path | None:
+@dataclass(frozen=True)
+class _Damage:
+    """A sweep output found damaged: ``out``, and what is wrong first (``what``)."""
+
+    out: Path
+    what: str
+
+    def unreadable(self, path: str | Path) -> str:
+        """The line that ends a command that could not read ``path`` for this damage."""
+        return (
+            f"cannot read {path}: {self.what}; `rattlesweep resume {self.out}` "
+            "recomputes what is missing or damaged"
+        )
+
+
+def _warn_damaged(path: Path, command: str) -> _Damage | None:
     """Verify the sweep output ``path`` is or belongs to (what ``rattlesweep verify``
     does) and warn on stderr about any tile or merged file damaged or lost; tiles of an
-    unfinished output not computed yet are no damage. Returns the output warned
+    unfinished output not computed yet are no damage. Returns the damage warned
     about."""
     from ..sweep.verify import verify
 
@@ -120,7 +147,7 @@ def _warn_damaged(path: Path, command: str) -> Path | None:
             f"rattlesweep {command}: warning: {out} cannot be verified: {exc}",
             file=sys.stderr,
         )
-        return out
+        return _Damage(out, "it cannot be verified")
     if not (found.damaged or found.problems or (found.missing and found.finished)):
         return None
     head, *lines = found.report().splitlines()
@@ -131,7 +158,14 @@ def _warn_damaged(path: Path, command: str) -> Path | None:
         sep="\n",
         file=sys.stderr,
     )
-    return out
+    if found.damaged:
+        tile = min(found.damaged)
+        what = f"tile {tile} is damaged: {found.damaged[tile]}"
+    elif found.problems:
+        what = found.problems[0]
+    else:
+        what = f"tile {found.missing[0]} is missing"
+    return _Damage(out, what)
 
 
 def _info_directory(path: Path) -> Path | None:
@@ -196,7 +230,11 @@ def _open_result(path: Path) -> xr.Dataset:
             f"{path} (unfinished zarr store: {int(done.sum())} of {sweep.n_tiles} tiles "
             f"written; 'rattlesweep resume {path}' completes it)"
         )
-    return open_result(str(path))
+    ds = open_result(str(path))
+    for name in ("outcome", "computed", *ds.coords):  # what info reads, read here: a
+        if name in ds:  # damaged chunk fails now, where it is named
+            ds[name].load()
+    return ds
 
 
 def _cmd_info(args: argparse.Namespace, argv: list[str] | None) -> int:
@@ -223,11 +261,7 @@ def _cmd_info(args: argparse.Namespace, argv: list[str] | None) -> int:
             if isinstance(exc, RuntimeError):  # netCDF4's report of an HDF5 failure
                 reason = _DAMAGED.format(reason)
             if damaged is not None:
-                print(
-                    f"rattlesweep info: cannot read {path} ({reason}): it is damaged; "
-                    f"`rattlesweep resume {damaged}` writes it again",
-                    file=sys.stderr,
-                )
+                print(f"rattlesweep info: {damaged.unreadable(path)}", file=sys.stderr)
             elif isinstance(exc, RuntimeError):
                 print(f"rattlesweep info: cannot read {path}: {reason}", file=sys.stderr)
             else:
