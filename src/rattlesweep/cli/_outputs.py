@@ -57,10 +57,12 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
         damage[path] = _warn_damaged(Path(path), "plot")
 
     def read(path: str) -> xr.Dataset:
+        found = damage.get(path)
+        if found is not None and found.unread:
+            raise ValueError(found.unreadable(path))
         try:
             return _open_netcdf(path)
         except ValueError:
-            found = damage.get(path)
             if found is None:
                 raise
             raise ValueError(found.unreadable(path)) from None
@@ -117,10 +119,14 @@ def _sweep_output(path: Path) -> Path | None:
 
 @dataclass(frozen=True)
 class _Damage:
-    """A sweep output found damaged: ``out``, and what is wrong first (``what``)."""
+    """A sweep output found damaged: ``out``, what is wrong first (``what``), and
+    whether it is a zarr store with tiles that cannot be read (``unread``: they are
+    not read at all, as zarr's reads of a store's other chunks, left pending when one
+    fails, end the process with asyncio's 'Task was destroyed' noise)."""
 
     out: Path
     what: str
+    unread: bool = False
 
     def unreadable(self, path: str | Path) -> str:
         """The line that ends a command that could not read ``path`` for this damage."""
@@ -159,9 +165,14 @@ def _warn_damaged(path: Path, command: str) -> _Damage | None:
         file=sys.stderr,
     )
     if found.damaged:
-        tile = min(found.damaged)
+        from ..sweep.zarr_store import is_zarr_store
+
+        # a chunk missing reads as not computed; one that cannot be decoded fails a read
+        failing = [t for t, w in sorted(found.damaged.items()) if " damaged (" in w]
+        tile = (failing or sorted(found.damaged))[0]
         what = f"tile {tile} is damaged: {found.damaged[tile]}"
-    elif found.problems:
+        return _Damage(out, what, unread=bool(failing) and is_zarr_store(out))
+    if found.problems:
         what = found.problems[0]
     else:
         what = f"tile {found.missing[0]} is missing"
@@ -242,6 +253,10 @@ def _cmd_info(args: argparse.Namespace, argv: list[str] | None) -> int:
     for name in args.files:
         path = Path(name)
         damaged = _warn_damaged(path, "info")
+        if damaged is not None and damaged.unread:
+            print(f"rattlesweep info: {damaged.unreadable(path)}", file=sys.stderr)
+            failed += 1
+            continue
         try:
             if path.is_dir():
                 result = _info_directory(path)
