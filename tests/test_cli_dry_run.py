@@ -13,6 +13,7 @@ import pytest
 from rattlesweep import Sweep
 from rattlesweep.cli import main
 from rattlesweep.sweep.execution.estimate import estimate
+from rattlesweep.sweep.execution.run import MERGED_BYTES, TILE_BYTES
 
 CONFIG = """\
 name = "dry"
@@ -70,9 +71,12 @@ def test_estimate_adds_up():
     # start and the one tile's writing come on top
     assert e.seconds == pytest.approx(e.sample_seconds + 0.3 + 0.015)
     assert e.peak_bytes == e.process_bytes + e.in_flight_bytes + e.held_bytes
-    assert e.held_bytes == 2 * e.result_bytes > 0  # a netCDF output merges the grid
+    # the figures a run checks before it starts: the tiles' list and, for a netCDF
+    # output, the merged grid
+    assert e.held_bytes == TILE_BYTES * e.tiles + MERGED_BYTES * e.result_bytes
     zarr = estimate(Sweep(**{**sweep.to_dict(), "output": "zarr"}), workers=2)
-    assert zarr.held_bytes == 0  # a zarr store is written tile by tile
+    assert zarr.held_bytes == TILE_BYTES * e.tiles  # a store is written tile by tile
+    assert e.refused is None and zarr.refused is None
 
 
 def test_zarr_output_is_quiet(tmp_path, capsys):

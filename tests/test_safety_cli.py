@@ -96,7 +96,7 @@ def test_info_and_plot_of_a_directory_with_a_corrupt_sweep_nc_say_it_is_damaged(
     err = capsys.readouterr().err
     assert f"rattlesweep info: warning: {out} is damaged (4 of 4 tiles verified" in err
     assert "sweep.nc cannot be read in full" in err
-    assert f"`rattlesweep resume {out}` writes it again" in err
+    assert f"`rattlesweep resume {out}` recomputes what is missing or damaged" in err
     assert "expected a rattlesweep result file" not in err  # it is one, damaged
     assert main(["plot", str(out / "sweep.nc")]) == 2
     err = capsys.readouterr().err

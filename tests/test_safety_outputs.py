@@ -157,7 +157,7 @@ def test_orphan_merge_tmp_is_removed_on_resume(tmp_path):
     out = tmp_path / "run"
     s = small_sweep(tile_size=3)
     run_sweep(s, out, progress=False)
-    orphan = out / ".sweep.nc.x1y2z3.tmp"  # what a kill during the merge leaves
+    orphan = out / ".sweep.nc.4242.x1y2_3ab.tmp"  # what a kill during the merge leaves
     orphan.write_bytes(b"partial")
     run_sweep(s, out, progress=False)
     assert not orphan.exists()
@@ -239,3 +239,58 @@ def test_a_finished_refined_directory_verifies_against_its_finest_grid(tmp_path,
     assert verify(out).ok  # its sweep.nc lies on the finest grid, not the declared one
     assert main(["info", str(out)]) == 0
     assert capsys.readouterr().err == ""
+
+
+def test_info_and_plot_of_a_zarr_chunk_failing_its_checksum_end_in_one_clear_line(
+    tmp_path,
+):
+    """They warned, then died with zarr's 'Stored and computed checksum do not match'
+    (plot with asyncio's 'Task was destroyed but it is pending!' after it)."""
+    import subprocess
+    import sys
+
+    store = tmp_path / "run.zarr"
+    run_sweep(as_zarr(small_sweep(tile_size=3)), store, progress=False)
+    chunk = sorted(store.glob("outcome/c/*/*/*/*"))[2]
+    _flip(chunk)
+    for command in (["info", str(store)], ["plot", str(store)]):
+        done = subprocess.run(
+            [sys.executable, "-m", "rattlesweep.cli", *command],
+            capture_output=True,
+            text=True,
+            cwd=tmp_path,
+        )
+        assert done.returncode == 2, done.stderr
+        last = done.stderr.strip().splitlines()[-1]
+        assert last.endswith(
+            f"cannot read {store}: tile 2 is damaged: chunk outcome/c/0/1/0/0 damaged "
+            f"(it fails its CRC-32C checksum); `rattlesweep resume {store}` recomputes "
+            "what is missing or damaged"
+        ), done.stderr
+        for noise in ("Stored and computed", "Traceback", "Task was destroyed", "loop"):
+            assert noise not in done.stderr, done.stderr
+
+
+def test_a_zarr_chunk_copied_over_another_tiles_is_found_and_recomputed(tmp_path):
+    """A chunk's CRC-32C covers its bytes, not its place: final_spin's chunk of tile 1
+    copied over tile 2's passed every check. Each tile's digest now finds it."""
+    import shutil
+
+    s = as_zarr(small_sweep(tile_size=3))
+    store = tmp_path / "run.zarr"
+    run_sweep(s, store, progress=False)
+    reference = tmp_path / "reference.nc"
+    export(store, reference)
+    chunks = sorted(store.glob("final_spin/c/*/*/*/*"))
+    assert chunks[1].read_bytes() != chunks[2].read_bytes()
+    shutil.copy(chunks[1], chunks[2])
+    found = verify(store)
+    assert set(found.damaged) == {2}
+    assert found.damaged[2].startswith("its values are not those written")
+    assert main(["export", str(store), str(tmp_path / "x.nc")]) == 2
+    assert not (tmp_path / "x.nc").exists()
+    run_sweep(s, store, progress=False)  # resume: tile 2 recomputed
+    assert verify(store).ok
+    export(store, tmp_path / "again.nc")
+    with xr.open_dataset(reference) as a, xr.open_dataset(tmp_path / "again.nc") as b:
+        xr.testing.assert_identical(without_history(a.load()), without_history(b.load()))

@@ -101,3 +101,84 @@ def test_an_axis_is_refused_for_what_building_the_grid_holds(monkeypatch):
             output="zarr",
         ),
     )
+
+
+def _two_axes(num, **kw):
+    return dict(
+        axes={
+            "spin": {"start": -20, "stop": 20, "num": num},
+            "delta_deg": {"start": -6, "stop": 6, "num": num},
+        },
+        fixed={"t_end": 1.0},
+        **kw,
+    )
+
+
+@pytest.mark.parametrize("output", ["netcdf", "zarr"])
+def test_a_grid_too_large_is_refused_from_its_nums_before_any_axis_is_made(output):
+    """Two axes of 10^8 values each: 10^16 points. Each axis alone fits, so their values
+    were made (1.6 GB, 27 s in all) before the grid was refused; now nothing is."""
+    import tracemalloc
+
+    tracemalloc.start()
+    try:
+        _refused(
+            r"^axes = spin \(num = 100,000,000\) × delta_deg \(num = 100,000,000\) = "
+            r"10,000,000,000,000,000 points: the list of its [\d,]+ tiles " + HUGE,
+            lambda: Sweep(**_two_axes(10**8, output=output)),
+        )
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 50e6  # no axis of 800 MB
+
+
+def test_a_grid_beyond_64_bit_indices_is_refused():
+    axes = {k: {"start": 1, "stop": 2, "num": 10**7} for k in ("spin", "mu", "damping")}
+    _refused(
+        r"^axes = spin \(num = 10,000,000\) × mu \(num = 10,000,000\) × damping "
+        r"\(num = 10,000,000\) = 1,000,000,000,000,000,000,000 points: a sweep has at "
+        r"most 2\*\*63 - 1",
+        lambda: Sweep(axes=axes, fixed={"t_end": 1.0}, tile_size=10**18),
+    )
+
+
+def test_dry_run_of_a_huge_grid_is_refused_at_once(tmp_path, capsys):
+    from rattlesweep.cli import main
+
+    config = tmp_path / "big.toml"
+    config.write_text(
+        'name = "big"\n[axes]\nspin = { start = -20, stop = 20, num = 100000000 }\n'
+        "delta_deg = { start = -6, stop = 6, num = 100000000 }\n[fixed]\nt_end = 1.0\n"
+    )
+    t0 = time.perf_counter()
+    assert main(["sweep", str(config), "--dry-run"]) == 2
+    assert time.perf_counter() - t0 < 5
+    err = capsys.readouterr().err
+    assert "spin (num = 100,000,000) × delta_deg (num = 100,000,000)" in err
+    assert "out of bounds" not in err
+
+
+def test_dry_run_says_a_refined_grid_would_be_refused(tmp_path, capsys, monkeypatch):
+    """[refine] levels = 12 on a 5 × 5 grid: the dry run said "about 57.2 GB at peak"
+    and nothing more, while the run refused it for 250 GiB."""
+    import rattlesweep._validation as validation
+    from rattlesweep.cli import main
+
+    monkeypatch.setattr(validation, "available_memory", lambda: 16 * 2**30)
+    config = tmp_path / "refined.toml"
+    config.write_text(
+        'name = "fine"\n[axes]\nspin = { start = 1, stop = 2, num = 5 }\n'
+        "mu = { start = 0.1, stop = 0.5, num = 5 }\n[fixed]\nt_end = 0.1\n"
+        "[refine]\nlevels = 12\n"
+    )
+    assert main(["sweep", str(config), "--dry-run"]) == 2
+    out = capsys.readouterr().out
+    assert "memory: about 269 GB at peak" in out
+    assert (
+        "refused: a run would stop before it starts: refine.levels = 12: the finest "
+        "grid (16385, 16385) (268,468,225 points) would need about 250 GiB, more than "
+        "the 16 GiB of memory available" in out
+    )
+    assert main(["sweep", str(config), "--out", str(tmp_path / "out")]) == 2
+    assert "would need about 250 GiB" in capsys.readouterr().err

@@ -48,6 +48,42 @@ def test_run_batch_refuses_what_is_not_a_real_number(name, value):
 
 
 @pytest.mark.parametrize(
+    "name, value",
+    [
+        ("roll_deg", np.timedelta64(1, "s")),
+        ("spin", np.timedelta64(5, "ms")),
+        ("spin", np.array([1, 2], dtype="timedelta64[s]")),
+        ("spin", np.datetime64("2020-01-01")),
+        ("mu", [0.3, np.timedelta64(1, "s")]),
+    ],
+)
+def test_run_batch_refuses_times_and_dates(name, value):
+    # timedelta64 is an integer type to NumPy: it ran as its count of units
+    kwargs = {"t_end": 0.01, name: value}
+    with pytest.raises(ValueError, match=rf"^{name} {REAL}[;,] "):
+        rs.run_batch(TOY, **kwargs)
+
+
+def test_run_batch_refuses_a_time_for_a_scalar_parameter():
+    with pytest.raises(ValueError, match=rf"^t_end {REAL}; a time or a date"):
+        rs.run_batch(TOY, spin=5.0, t_end=np.timedelta64(1, "s"))
+
+
+@pytest.mark.parametrize(
+    "value",
+    [
+        np.ma.masked_array([1.0, 2.0], mask=[0, 1]),
+        np.ma.masked_array([1.0, 2.0], mask=[0, 0]),
+        [1.0, np.ma.masked],
+    ],
+)
+def test_run_batch_refuses_masked_arrays(value):
+    # the masked entry was simulated all the same
+    with pytest.raises(ValueError, match=r"^spin (must be a plain array|" + REAL + ")"):
+        rs.run_batch(TOY, spin=value, t_end=0.01)
+
+
+@pytest.mark.parametrize(
     "value",
     [
         np.float32(2.5),

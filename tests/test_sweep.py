@@ -382,7 +382,7 @@ def test_corrupt_tile_is_recomputed_and_changed_config_refused(tmp_path):
     size = victim.stat().st_size
     with open(victim, "r+b") as f:
         f.truncate(size // 2)
-    (tiles / ".tile-000001.nc.abc.tmp").write_bytes(b"partial")
+    (tiles / ".tile-000001.nc.123.abc_1234.tmp").write_bytes(b"partial")
     before = file_stats(tiles, "*.nc")
     run_sweep(s, tmp_path, progress=False)
     after = file_stats(tiles, "*.nc")

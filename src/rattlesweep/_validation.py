@@ -44,11 +44,14 @@ def positive(name: str, value: Any) -> float:
 
 def is_real(value: Any) -> bool:
     """True for a real number: a Python or NumPy int or float, or a 0-d array of one;
-    False for bools, strings, complex numbers and anything else."""
+    False for bools, strings, complex numbers, times and dates (NumPy's ``timedelta64``
+    is an integer type to NumPy), masked values and anything else."""
+    if isinstance(value, np.ma.MaskedArray):
+        return False
     if isinstance(value, np.ndarray):
         return value.ndim == 0 and value.dtype.kind in "iuf"
     return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
-        value, (bool, np.bool_)
+        value, (bool, np.bool_, np.timedelta64)
     )
 
 
@@ -81,8 +84,20 @@ def as_float_array(name: str, value: Any) -> np.ndarray:
     (nested) lists of them, and ``None`` (which becomes NaN, for a finiteness rule to
     refuse). Raises ``ValueError("<name> must be a number or an array of numbers (real
     numbers: ...), got <value>")`` for anything else: strings (numeric or not), booleans,
-    complex numbers, ragged lists, other objects.
+    complex numbers, ragged lists, times and dates (``timedelta64``, ``datetime64``),
+    masked arrays (their masked entries would be simulated all the same), other objects.
     """
+    if isinstance(value, np.ma.MaskedArray):
+        raise ValueError(
+            f"{name} must be a plain array of numbers, not a masked array (its masked "
+            f"entries would be simulated too): pass only the values to simulate, e.g. "
+            f"the array's .compressed(); got {_shown(value)}"
+        )
+    if _is_time(value):
+        raise ValueError(
+            f"{name} {_RULE}; a time or a date (timedelta64, datetime64) is not a plain "
+            f"number: give it in the parameter's own unit, got {_shown(value)}"
+        )
     if isinstance(value, np.ndarray) and value.dtype.kind == "f":
         return value.astype(float, copy=False)
     if not _real_entries(value):
@@ -100,11 +115,20 @@ _RULE = (
 )
 
 
+def _is_time(value: Any) -> bool:
+    """True for a NumPy time or date, or an array of them."""
+    if isinstance(value, (np.timedelta64, np.datetime64)):
+        return True
+    return isinstance(value, np.ndarray) and value.dtype.kind in "mM"
+
+
 def _real_entries(value: Any) -> bool:
     """True when every entry of ``value`` (a scalar, an array or nested lists) is a real
     number or None."""
     if value is None or is_real(value):
         return True
+    if isinstance(value, np.ma.MaskedArray):
+        return False
     if isinstance(value, np.ndarray):
         if value.dtype.kind in "iuf":
             return True

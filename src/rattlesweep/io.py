@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
+import fnmatch
 import os
+import re
 import tempfile
 import threading
 from pathlib import Path
 
 import xarray as xr
 
-__all__ = ["NETCDF_LOCK", "write_netcdf"]
+__all__ = ["NETCDF_LOCK", "stale_temporaries", "write_netcdf"]
 
 NETCDF_LOCK = threading.RLock()
 """Serialises netCDF/HDF5 calls made by rattlesweep: the HDF5 library is not thread-safe
@@ -17,19 +19,25 @@ NETCDF_LOCK = threading.RLock()
 
 
 def write_netcdf(ds: xr.Dataset, path: str | os.PathLike) -> Path:
-    """Write ``ds`` to ``path`` (netCDF4, zlib-compressed) atomically.
+    """Write ``ds`` to ``path`` (netCDF4, zlib-compressed, every numeric array with HDF5's
+    fletcher32 checksums) atomically.
 
     The file is written to a temporary name in the same directory and renamed into place,
     so a crash never leaves a truncated file under ``path``. Returns the path.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
+    # fletcher32: HDF5 checksums every chunk, so a byte changed on disk fails the read
+    # instead of reading as another value (a scalar is not chunked: it has none)
     encoding = {
-        name: {"zlib": True, "complevel": 4}
-        for name in ds.data_vars
-        if ds[name].dtype.kind in "fiub"
+        str(name): {"fletcher32": True}
+        | ({"zlib": True, "complevel": 4} if name in ds.data_vars else {})
+        for name, var in ds.variables.items()
+        if var.dtype.kind in "fiub" and var.ndim
     }
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    fd, tmp = tempfile.mkstemp(
+        prefix=_temporary_prefix(path.name), suffix=".tmp", dir=path.parent
+    )
     os.close(fd)
     umask = os.umask(0)
     os.umask(umask)
@@ -43,3 +51,23 @@ def write_netcdf(ds: xr.Dataset, path: str | os.PathLike) -> Path:
             os.unlink(tmp)
         raise
     return path
+
+
+# the temporary file of ``NAME``: ``.NAME.<pid>.<tempfile's 8 random characters>.tmp``
+_TEMPORARY = re.compile(r"\.(?P<name>.+)\.[0-9]+\.[a-z0-9_]{8}\.tmp")
+
+
+def _temporary_prefix(name: str) -> str:
+    return f".{name}.{os.getpid()}."
+
+
+def stale_temporaries(directory: str | os.PathLike[str], name_glob: str) -> list[Path]:
+    """The temporary files :func:`write_netcdf` left in ``directory`` (killed before the
+    rename) for files whose names match ``name_glob``. Only names of exactly the form
+    it creates are listed, so a user's file that merely looks alike is never one."""
+    found = []
+    for path in Path(directory).glob(f".{name_glob}.*.tmp"):
+        match = _TEMPORARY.fullmatch(path.name)
+        if match and fnmatch.fnmatchcase(match["name"], name_glob) and path.is_file():
+            found.append(path)
+    return found

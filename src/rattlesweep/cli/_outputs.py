@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -20,11 +21,14 @@ def _open_netcdf(path: str) -> xr.Dataset:
     import xarray as xr
 
     try:
-        return xr.open_dataset(path)
-    except (OSError, ValueError) as exc:
+        with xr.open_dataset(path) as ds:
+            return ds.load()  # all read here: a damaged chunk fails now, not mid-plot
+    except (OSError, ValueError, RuntimeError) as exc:
         reason = str(exc).splitlines()[0] if str(exc).strip() else type(exc).__name__
         if "did not find a match" in reason:
             reason = "it is not a netCDF file"
+        if isinstance(exc, RuntimeError):  # netCDF4's report of an HDF5 read failure
+            raise ValueError(f"cannot read {path}: {_DAMAGED.format(reason)}") from None
         raise ValueError(
             f"cannot read {path}: expected a rattlesweep result file "
             f"(netCDF; a zarr store: `rattlesweep export` it first); "
@@ -32,8 +36,10 @@ def _open_netcdf(path: str) -> xr.Dataset:
         ) from None
 
 
+_DAMAGED = "it is damaged ({}: a chunk fails its checksum or cannot be read)"
+
+
 def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
-    import xarray as xr
 
     from ..plot import reversal_map, reversal_vs_growth
 
@@ -46,13 +52,26 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
             select[key] = float(value)
         except ValueError:
             select[key] = value
+    damage = {}
     for path in (*args.files, *filter(None, (args.overlay, args.versus))):
-        _warn_damaged(Path(path), "plot")
-    overlay = _open_netcdf(args.overlay) if args.overlay else None
+        damage[path] = _warn_damaged(Path(path), "plot")
+
+    def read(path: str) -> xr.Dataset:
+        found = damage.get(path)
+        if found is not None and found.unread:
+            raise ValueError(found.unreadable(path))
+        try:
+            return _open_netcdf(path)
+        except ValueError:
+            if found is None:
+                raise
+            raise ValueError(found.unreadable(path)) from None
+
+    overlay = read(args.overlay) if args.overlay else None
     for path in args.files:
-        with _open_netcdf(path) as ds:
+        with read(path) as ds:
             if args.versus:
-                with xr.open_dataset(args.versus) as sweep:
+                with read(args.versus) as sweep:
                     fig = reversal_vs_growth(ds, sweep, color_by=args.facet)
                 name = "reversal_vs_growth"
             else:
@@ -98,10 +117,29 @@ def _sweep_output(path: Path) -> Path | None:
     return None
 
 
-def _warn_damaged(path: Path, command: str) -> Path | None:
+@dataclass(frozen=True)
+class _Damage:
+    """A sweep output found damaged: ``out``, what is wrong first (``what``), and
+    whether it is a zarr store with tiles that cannot be read (``unread``: they are
+    not read at all, as zarr's reads of a store's other chunks, left pending when one
+    fails, end the process with asyncio's 'Task was destroyed' noise)."""
+
+    out: Path
+    what: str
+    unread: bool = False
+
+    def unreadable(self, path: str | Path) -> str:
+        """The line that ends a command that could not read ``path`` for this damage."""
+        return (
+            f"cannot read {path}: {self.what}; `rattlesweep resume {self.out}` "
+            "recomputes what is missing or damaged"
+        )
+
+
+def _warn_damaged(path: Path, command: str) -> _Damage | None:
     """Verify the sweep output ``path`` is or belongs to (what ``rattlesweep verify``
     does) and warn on stderr about any tile or merged file damaged or lost; tiles of an
-    unfinished output not computed yet are no damage. Returns the output warned
+    unfinished output not computed yet are no damage. Returns the damage warned
     about."""
     from ..sweep.outputs.verify import verify
 
@@ -115,7 +153,7 @@ def _warn_damaged(path: Path, command: str) -> Path | None:
             f"rattlesweep {command}: warning: {out} cannot be verified: {exc}",
             file=sys.stderr,
         )
-        return out
+        return _Damage(out, "it cannot be verified")
     if not (found.damaged or found.problems or (found.missing and found.finished)):
         return None
     head, *lines = found.report().splitlines()
@@ -126,7 +164,19 @@ def _warn_damaged(path: Path, command: str) -> Path | None:
         sep="\n",
         file=sys.stderr,
     )
-    return out
+    if found.damaged:
+        from ..sweep.outputs.zarr_store import is_zarr_store
+
+        # a chunk missing reads as not computed; one that cannot be decoded fails a read
+        failing = [t for t, w in sorted(found.damaged.items()) if " damaged (" in w]
+        tile = (failing or sorted(found.damaged))[0]
+        what = f"tile {tile} is damaged: {found.damaged[tile]}"
+        return _Damage(out, what, unread=bool(failing) and is_zarr_store(out))
+    if found.problems:
+        what = found.problems[0]
+    else:
+        what = f"tile {found.missing[0]} is missing"
+    return _Damage(out, what)
 
 
 def _info_directory(path: Path) -> Path | None:
@@ -187,7 +237,8 @@ def _open_result(path: Path) -> xr.Dataset:
     )
 
     if not is_zarr_store(path):
-        return xr.open_dataset(path)
+        with xr.open_dataset(path) as ds:
+            return ds.load()  # all read here: a damaged chunk fails now
     sweep = stored_sweep(str(path))
     done = tiles_done(str(path), sweep.n_tiles)
     if done is not None and not done.all():
@@ -195,7 +246,11 @@ def _open_result(path: Path) -> xr.Dataset:
             f"{path} (unfinished zarr store: {int(done.sum())} of {sweep.n_tiles} tiles "
             f"written; 'rattlesweep resume {path}' completes it)"
         )
-    return open_result(str(path))
+    ds = open_result(str(path))
+    for name in ("outcome", "computed", *ds.coords):  # what info reads, read here: a
+        if name in ds:  # damaged chunk fails now, where it is named
+            ds[name].load()
+    return ds
 
 
 def _cmd_info(args: argparse.Namespace, argv: list[str] | None) -> int:
@@ -203,6 +258,10 @@ def _cmd_info(args: argparse.Namespace, argv: list[str] | None) -> int:
     for name in args.files:
         path = Path(name)
         damaged = _warn_damaged(path, "info")
+        if damaged is not None and damaged.unread:
+            print(f"rattlesweep info: {damaged.unreadable(path)}", file=sys.stderr)
+            failed += 1
+            continue
         try:
             if path.is_dir():
                 result = _info_directory(path)
@@ -215,16 +274,16 @@ def _cmd_info(args: argparse.Namespace, argv: list[str] | None) -> int:
             continue
         try:
             ds = _open_result(path)
-        except (OSError, ValueError) as exc:
+        except (OSError, ValueError, RuntimeError) as exc:
             reason = str(exc).splitlines()[0]
             if "did not find a match" in reason:
                 reason = "it is not a netCDF file"
+            if isinstance(exc, RuntimeError):  # netCDF4's report of an HDF5 failure
+                reason = _DAMAGED.format(reason)
             if damaged is not None:
-                print(
-                    f"rattlesweep info: cannot read {path} ({reason}): it is damaged; "
-                    f"`rattlesweep resume {damaged}` writes it again",
-                    file=sys.stderr,
-                )
+                print(f"rattlesweep info: {damaged.unreadable(path)}", file=sys.stderr)
+            elif isinstance(exc, RuntimeError):
+                print(f"rattlesweep info: cannot read {path}: {reason}", file=sys.stderr)
             else:
                 print(
                     f"rattlesweep info: cannot read {path}: expected a rattlesweep "

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import shlex
 import sys
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Iterator
 
 
 if TYPE_CHECKING:
@@ -69,14 +70,65 @@ def _points(ds: xr.Dataset) -> str:
     return f"{n} points ({simulated} simulated, {simulated / n:.1%})"
 
 
+def _interrupted(state: str) -> int:
+    """Say that Ctrl-C stopped the command, and what state it left the output in."""
+    print(f"rattlesweep: interrupted; {state}", file=sys.stderr)
+    return 130
+
+
+def _kept(out: str | Path) -> str:
+    return f"the tiles written so far are kept: `rattlesweep resume {out}` finishes it"
+
+
+class _NotedInterrupts:
+    """A SIGINT handler that raises KeyboardInterrupt as Python's own does, and counts
+    it: netCDF4 reads attributes under a bare ``except:`` (while tiles are checked or
+    merged), and a finaliser's exception is only printed, so an interrupt raised there
+    is lost and the command went on to status 0. The sweep's runner replaces it while
+    tiles run (``raises_keyboard_interrupt`` tells it that it may)."""
+
+    raises_keyboard_interrupt = True
+
+    def __init__(self) -> None:
+        self.count = 0
+
+    def __call__(self, signum: int, frame: Any) -> None:
+        self.count += 1
+        raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def _noted_interrupts() -> Iterator[_NotedInterrupts]:
+    """:class:`_NotedInterrupts` as the SIGINT handler for the ``with``, where Python's
+    default one is (in the main thread; elsewhere its count stays 0)."""
+    import signal
+    import threading
+
+    noted = _NotedInterrupts()
+    if (
+        threading.current_thread() is not threading.main_thread()
+        or signal.getsignal(signal.SIGINT) is not signal.default_int_handler
+    ):
+        yield noted
+        return
+    signal.signal(signal.SIGINT, noted)
+    try:
+        yield noted
+    finally:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
 def _run(sweep: Sweep, out: str, args: argparse.Namespace, argv: list[str] | None) -> int:
     from ..sweep.execution.run import RESULT_NAME, run_sweep
 
-    try:
-        ds = run_sweep(sweep, out, command=_command(argv), **_sweep_args(args))
-    except KeyboardInterrupt:
-        return 130
     written = out if sweep.output == "zarr" else Path(out) / RESULT_NAME
+    with _noted_interrupts() as noted:
+        try:
+            ds = run_sweep(sweep, out, command=_command(argv), **_sweep_args(args))
+        except KeyboardInterrupt:
+            return _interrupted(_kept(out))
+    if noted.count:  # lost in a library; the merge went on to the end (atomically)
+        return _interrupted(f"the merged result was complete: {written} is written")
     print(f"wrote {written}: {_points(ds)}; {_summary(ds)}")
     return 0
 
@@ -124,8 +176,9 @@ def _dry_run(sweep: Sweep, args: argparse.Namespace) -> int:
     else:
         workers = args.workers or _cores()
         where = f"{workers} local thread{'s' if workers > 1 else ''}"
-    print(format_estimate(sweep, estimate(sweep, workers), where))
-    return 0
+    found = estimate(sweep, workers)
+    print(format_estimate(sweep, found, where))
+    return 2 if found.refused else 0  # the status of the run it stands for
 
 
 def _cmd_resume(args: argparse.Namespace, argv: list[str] | None) -> int:
@@ -163,12 +216,15 @@ def _cmd_demo(args: argparse.Namespace, argv: list[str] | None) -> int:
         return 0
     out = Path(args.out)
     t0 = time.perf_counter()
-    try:
-        ds = run_sweep(
-            Sweep.from_toml(DEMO_TOML), out, command=_command(argv), **_sweep_args(args)
-        )
-    except KeyboardInterrupt:
-        return 130
+    with _noted_interrupts() as noted:
+        try:
+            ds = run_sweep(
+                Sweep.from_toml(DEMO_TOML), out, command=_command(argv), **_sweep_args(args)
+            )
+        except KeyboardInterrupt:
+            return _interrupted(_kept(out))
+    if noted.count:
+        return _interrupted(f"the merged result was complete: {out / RESULT_NAME}")
     png = _save_map(ds, out / "reversal_map.png")
     print(
         f"{ds.attrs['sweep_name']}: {_points(ds)} in {time.perf_counter() - t0:.1f} s; "

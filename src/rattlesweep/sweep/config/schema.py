@@ -160,7 +160,7 @@ def body_from_table(d: Mapping[str, Any], where: str) -> Body:
         raise ValueError(f"{where}: {exc}") from None
 
 
-def normalise_axis(key: str, spec: Any) -> dict[str, Any]:
+def normalise_axis(key: str, spec: Any, *, check: bool = True) -> dict[str, Any]:
     """An axis as ``{"values": [...]}`` or ``{"start", "stop", "num"[, "scale"]}``, with
     ``units`` when they are not the parameter's default; every value is checked."""
     where = f"axes.{key}"
@@ -179,7 +179,8 @@ def normalise_axis(key: str, spec: Any) -> dict[str, Any]:
         out = _normalise_values(spec, where)
     else:
         out = _normalise_range(spec, where)
-    check_values(param, axis_values(out), factor, where)
+    if check or "values" in out:  # a range's values are made only to be checked
+        check_values(param, axis_values(out), factor, where)
     return {**out, **_units_entry(key, spec.get("units"))}
 
 
@@ -446,7 +447,7 @@ def normalise_config(
             raise ValueError(f"{label} must be a mapping of parameter names, got {m!r}")
     if not axes:
         raise ValueError("axes: a sweep needs at least one axis")
-    axes_n = {str(k): normalise_axis(str(k), v) for k, v in axes.items()}
+    axes_n = {str(k): normalise_axis(str(k), v, check=False) for k, v in axes.items()}
     fixed_n = {str(k): normalise_fixed(str(k), v) for k, v in fixed.items()}
     random_n = {str(k): normalise_random(str(k), v) for k, v in random.items()}
 
@@ -498,6 +499,12 @@ def normalise_config(
     config.update({"axes": axes_n, "fixed": fixed_n, "random": random_n})
     if refine is not None:
         config["refine"] = normalise_refine(refine, axes_n, output)
+    from ..execution.run import check_declared_size  # here: run.py imports this module
+
+    check_declared_size(config)  # from the declared nums, before any range is made
+    for k, v in axes.items():
+        if "num" in axes_n[str(k)]:
+            normalise_axis(str(k), v)  # the range's values checked
     return config
 
 

@@ -26,6 +26,7 @@ from ... import _run as engine
 from ..._options import check_method
 from ...rattleback.batch import MODEL, prepare
 from ..config.spec import Sweep
+from .run import check_size, size_needs
 from .tiles import result_dtypes
 
 __all__ = ["Estimate", "KERNEL_BYTES_PER_LAUNCH", "estimate", "format_estimate"]
@@ -33,9 +34,6 @@ __all__ = ["Estimate", "KERNEL_BYTES_PER_LAUNCH", "estimate", "format_estimate"]
 # working set of one launch in flight in the kernel (state, stages, packed inputs):
 # benchmarks/bench_kernel.py measured about 830 bytes per trajectory
 KERNEL_BYTES_PER_LAUNCH = 830
-# the netCDF output merges the tiles into the whole grid, holding the tiles' values and
-# the merged copy at once
-_MERGE_COPIES = 2
 # the sweep layer around the kernel, measured on a 2-core machine with tiny launches: about
 # 0.3 s to start (the tile files' first write, the lock, the merge's setup) and 15 ms per
 # tile (written by this process alone, one after another)
@@ -61,10 +59,12 @@ class Estimate:
     ``sample_seconds`` on one thread, of the ``sample_full_steps`` they take in a sweep;
     the time is scaled by the ratio.
     ``result_bytes`` is the size of the results (on the finest grid), ``held_bytes``
-    what the process holds of them (twice the results for a merged netCDF output or a
-    refined sweep, none for a zarr store), ``in_flight_bytes`` the kernel's working set of
-    the tiles running at once, ``process_bytes`` this process's size after the
-    calibration and ``peak_bytes`` the sum: the peak resident memory expected."""
+    what the process holds of them and of its tiles' list (the figures a run checks
+    against the memory available before it starts: :func:`.run.size_needs`),
+    ``in_flight_bytes`` the kernel's working set of the tiles running at once,
+    ``process_bytes`` this process's size after the calibration and ``peak_bytes`` the
+    sum: the peak resident memory expected. ``refused`` is the error a run would stop
+    with now for want of memory, or None."""
 
     points: int
     tiles: int
@@ -82,6 +82,7 @@ class Estimate:
     in_flight_bytes: int
     process_bytes: int
     peak_bytes: int
+    refused: str | None = None
 
 
 def _process_bytes() -> int:
@@ -128,7 +129,8 @@ def estimate(sweep: Sweep, workers: int) -> Estimate:
     n = sweep.size
     _calibrate(sweep, np.zeros(1, dtype=np.int64), _WARM_STEPS)  # loads the kernels
     m = min(_MAX_SAMPLE, n)
-    sample = np.unique(np.linspace(0, n - 1, m).astype(np.int64))
+    # capped: n - 1 above 2**53 rounds up to n as a float
+    sample = np.unique(np.minimum(np.linspace(0, n - 1, m).astype(np.int64), n - 1))
     sample_seconds, run, full = _calibrate(sweep, sample, max(1, int(_SAMPLE_STEPS // m)))
     per_point = sample_seconds * (full / max(run, 1)) / len(sample)
     finest = sweep.finest()
@@ -144,9 +146,13 @@ def estimate(sweep: Sweep, workers: int) -> Estimate:
     result_bytes = per_result * finest.size
     process = _process_bytes()
     in_flight = KERNEL_BYTES_PER_LAUNCH * sweep.tile_size * min(workers, sweep.n_tiles)
-    held = result_bytes * (_MERGE_COPIES if sweep.output == "netcdf" else 0)
-    if sweep.refine is not None:  # refined levels keep every level's values in memory
-        held = result_bytes * _MERGE_COPIES
+    needs = size_needs(sweep)
+    held = int(sum(need for _, _, need, _, _ in needs))
+    refused = None
+    try:
+        check_size(sweep)
+    except ValueError as exc:
+        refused = str(exc)
     return Estimate(
         points=n,
         tiles=sweep.n_tiles,
@@ -164,6 +170,7 @@ def estimate(sweep: Sweep, workers: int) -> Estimate:
         in_flight_bytes=in_flight,
         process_bytes=process,
         peak_bytes=process + in_flight + held,
+        refused=refused,
     )
 
 
@@ -230,4 +237,6 @@ def format_estimate(sweep: Sweep, e: Estimate, where: str) -> str:
         f"{_size(e.process_bytes)}, tiles in flight {_size(e.in_flight_bytes)}"
         f"{held})"
     )
+    if e.refused:
+        lines.append(f"  refused: a run would stop before it starts: {e.refused}")
     return "\n".join(lines)

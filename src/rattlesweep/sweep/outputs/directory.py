@@ -12,7 +12,7 @@ import netCDF4
 import numpy as np
 import xarray as xr
 
-from ...io import NETCDF_LOCK, write_netcdf
+from ...io import NETCDF_LOCK, stale_temporaries, write_netcdf
 from ..execution.lock import LOCK_NAME, SweepLock
 from .merge import merge_arrays
 from ..config.spec import Sweep
@@ -269,8 +269,8 @@ class TileDirectory(SweepDirectory):
         # held, so no other process writes them now
         if config.exists():
             for stale in (
-                *self.tiles_dir.glob(".*.tmp"),
-                *self.out.glob(f".{RESULT_NAME}.*.tmp"),
+                *stale_temporaries(self.tiles_dir, "tile-*.nc"),
+                *stale_temporaries(self.out, RESULT_NAME),
             ):
                 stale.unlink(missing_ok=True)
         todo, damaged, foreign = [], [], []

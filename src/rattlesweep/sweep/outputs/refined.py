@@ -18,7 +18,7 @@ import netCDF4
 import numpy as np
 import xarray as xr
 
-from ...io import NETCDF_LOCK
+from ...io import NETCDF_LOCK, stale_temporaries
 from ...rattleback import batch
 from ..config.spec import Sweep
 from ..execution.tiles import (
@@ -76,7 +76,8 @@ class RefinedDirectory(SweepDirectory):
     def _prepare(self) -> list[int]:
         config = self._check_config()
         self.make_tiles_dir()
-        for stale in self.tiles_dir.glob("level-*/.*.tmp"):
+        levels = (d for d in self.tiles_dir.glob("level-*") if d.is_dir())
+        for stale in (p for d in levels for p in stale_temporaries(d, "tile-*.nc")):
             stale.unlink(missing_ok=True)
         if not config.exists():
             write_text_atomic(config, self.sweep.to_toml())

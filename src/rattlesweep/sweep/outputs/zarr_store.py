@@ -28,6 +28,7 @@ zarr is an optional dependency (``pip install 'rattlesweep[zarr]'``), imported h
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import os
 import warnings
 from pathlib import Path
@@ -38,6 +39,7 @@ import numpy as np
 import xarray as xr
 
 from ..execution.lock import SweepLock
+from .digest import feed, finish, tile_digest
 from .merge import grid_coords, result_attrs
 from ..config.spec import Sweep
 from .store import write_failure
@@ -48,6 +50,7 @@ if TYPE_CHECKING:
     from zarr.abc.store import Store
 
 __all__ = [
+    "DIGEST_ARRAY",
     "DONE_ARRAY",
     "ZarrStore",
     "check_coords",
@@ -57,11 +60,16 @@ __all__ = [
     "damage_report",
     "open_result",
     "stored_sweep",
+    "tile_digest",
     "tiles_done",
 ]
 
 DONE_ARRAY = "rattlesweep/tile_done"
+DIGEST_ARRAY = "rattlesweep/tile_digest"
+"""A digest of each tile's values, written before its done flag: a chunk's checksum
+covers its bytes, not where it lies, so a chunk copied over another tile's passes it."""
 _DONE_CHUNK = 4096
+MOVED = "a chunk copied from another tile's place?"
 
 
 def _zarr() -> ModuleType:
@@ -163,13 +171,18 @@ def check_tiles(
     storage_options: Mapping[str, Any] | None = None,
 ) -> dict[int, str]:
     """What is wrong with each of the ``tiles`` (default: all) of the store, by tile:
-    a chunk missing, a chunk that fails its checksum or cannot be decoded, or points
-    whose ``status`` still says not computed. Tiles not named are sound. Reads every
-    chunk of the tiles."""
-    group = _group(location, storage_options)
+    a chunk missing, a chunk that fails its checksum or cannot be decoded, points whose
+    ``status`` says not computed, or values not those of the tile's digest (a chunk
+    moved). Tiles not named are sound. Reads every chunk of the tiles."""
+    group: Any = _group(location, storage_options)
     tiles = range(sweep.n_tiles) if tiles is None else [int(t) for t in tiles]
     problems: dict[int, str] = {}
-    for name in result_dtypes(sweep):
+    try:  # None: a store written before digests, or its digests unreadable
+        digests: Any = np.asarray(group[DIGEST_ARRAY][:]) if tiles else None
+    except Exception:
+        digests = None
+    hashes: dict[int, Any] = {}  # each tile's digest, fed variable by variable
+    for name, dtype in result_dtypes(sweep).items():
         try:
             array: Any = group[name]
         except KeyError:
@@ -195,12 +208,17 @@ def check_tiles(
                     problems[tile] = f"chunk {key} missing"
                 continue
             try:
-                values = array[region]
+                read = array[region]
             except Exception as exc:  # a failed checksum, zstd or a short read
                 problems[tile] = f"chunk {key} damaged ({_first_line(exc)})"
                 continue
-            if name == "status" and (np.asarray(values) == NOT_COMPUTED).any():
+            if name == "status" and (np.asarray(read) == NOT_COMPUTED).any():
                 problems[tile] = f"chunk {key} holds points not computed"
+            if digests is not None and digests[tile]:
+                feed(hashes.setdefault(tile, hashlib.blake2b(digest_size=8)), read, dtype)
+    for tile, h in hashes.items():
+        if tile not in problems and finish(h) != int(digests[tile]):
+            problems[tile] = f"its values are not those written ({MOVED})"
     return problems
 
 
@@ -472,14 +490,16 @@ class ZarrStore:
                 consolidated=False,
                 zarr_format=3,
             )
-        _group(self.location, self.options, "r+").create_array(
-            DONE_ARRAY,
-            shape=(sweep.n_tiles,),
-            dtype="uint8",
-            chunks=(min(sweep.n_tiles, _DONE_CHUNK),),
-            fill_value=0,
-            **_codecs(),
-        )
+        group = _group(self.location, self.options, "r+")
+        for name, kind in ((DONE_ARRAY, "uint8"), (DIGEST_ARRAY, "uint64")):
+            group.create_array(
+                name,
+                shape=(sweep.n_tiles,),
+                dtype=kind,
+                chunks=(min(sweep.n_tiles, _DONE_CHUNK),),
+                fill_value=0,
+                **_codecs(),
+            )
         _consolidate(self.location, self.options)
 
     def write(self, result: TileResult) -> None:
@@ -490,6 +510,9 @@ class ZarrStore:
         try:
             for name in (*(n for n in result.data if n != "status"), "status"):
                 self.arrays[name][region] = result.data[name].reshape(block)
+            if DIGEST_ARRAY in self.group:  # not in a store written before digests
+                digest = tile_digest(self.sweep, result.data)
+                self.group[DIGEST_ARRAY][result.tile] = digest
             self.group[DONE_ARRAY][result.tile] = 1
         except OSError as exc:
             raise write_failure(
