@@ -13,7 +13,7 @@ import pytest
 from rattlesweep import Sweep
 from rattlesweep.cli import main
 from rattlesweep.sweep.execution.estimate import estimate
-from rattlesweep.sweep.execution.run import MERGED_BYTES, TILE_BYTES
+from rattlesweep.sweep.config.sizes import MERGED_BYTES, TILE_BYTES
 
 CONFIG = """\
 name = "dry"

@@ -24,6 +24,7 @@ from ...rattleback.body import PRESETS, Body
 from ..._validation import check_memory, is_real
 from .grid import RandomParam
 from .params import BODY_PARAMS, DEFAULTS, PARAMS, check_values, resolve
+from .sizes import check_declared_size
 
 __all__ = [
     "CONFIG_KEYS",
@@ -499,8 +500,6 @@ def normalise_config(
     config.update({"axes": axes_n, "fixed": fixed_n, "random": random_n})
     if refine is not None:
         config["refine"] = normalise_refine(refine, axes_n, output)
-    from ..execution.run import check_declared_size  # here: run.py imports this module
-
     check_declared_size(config)  # from the declared nums, before any range is made
     for k, v in axes.items():
         if "num" in axes_n[str(k)]:
