@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import contextlib
 import fnmatch
 import os
 import re
+import signal
 import tempfile
 import threading
 from pathlib import Path
+from typing import Iterator
 
 import xarray as xr
 
@@ -23,7 +26,8 @@ def write_netcdf(ds: xr.Dataset, path: str | os.PathLike) -> Path:
     fletcher32 checksums) atomically.
 
     The file is written to a temporary name in the same directory and renamed into place,
-    so a crash never leaves a truncated file under ``path``. Returns the path.
+    so a crash never leaves a truncated file under ``path``. On the main thread a Ctrl-C
+    waits until the file is in place (:func:`_interrupts_held`). Returns the path.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -43,14 +47,37 @@ def write_netcdf(ds: xr.Dataset, path: str | os.PathLike) -> Path:
     os.umask(umask)
     os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file normal permissions
     try:
-        with NETCDF_LOCK:
+        with _interrupts_held(), NETCDF_LOCK:
             ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)
-        os.replace(tmp, path)
+            os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
     return path
+
+
+@contextlib.contextmanager
+def _interrupts_held() -> Iterator[None]:
+    """Hold back SIGINT (Ctrl-C) on the main thread while a file is written, and act on
+    it as the handler before would have once the file is in place. An interrupt raised
+    inside the netCDF library can leave one of xarray's locks held, and closing the file
+    then waits for it for ever; the file itself is written atomically, so nothing is
+    gained by stopping halfway. Other threads receive no KeyboardInterrupt anyway."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if caught:
+        if callable(previous):
+            previous(signal.SIGINT, None)
+        elif previous == signal.SIG_DFL:
+            os.kill(os.getpid(), signal.SIGINT)
 
 
 # the temporary file of ``NAME``: ``.NAME.<pid>.<tempfile's 8 random characters>.tmp``
