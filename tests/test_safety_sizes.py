@@ -2,6 +2,7 @@
 grid, a batch broadcast, and a record too large for the machine are refused naming the
 parameter, the figure and the memory available (not a MemoryError after minutes)."""
 
+import re
 import time
 
 import numpy as np
@@ -174,7 +175,8 @@ def test_dry_run_says_a_refined_grid_would_be_refused(tmp_path, capsys, monkeypa
     )
     assert main(["sweep", str(config), "--dry-run"]) == 2
     out = capsys.readouterr().out
-    assert "memory: about 269 GB at peak" in out
+    # the peak includes what the kernels' calibration measured: about 269 GB here
+    assert re.search(r"memory: about 2[67]\d GB at peak", out), out
     assert (
         "refused: a run would stop before it starts: refine.levels = 12: the finest "
         "grid (16385, 16385) (268,468,225 points) would need about 250 GiB, more than "
