@@ -10,7 +10,6 @@ Its modules: the sweep commands (``_sweeps``), the commands that read results
 from __future__ import annotations
 
 import os
-import signal
 import sys
 import warnings
 from typing import Any
@@ -98,11 +97,8 @@ def run() -> None:
     except KeyboardInterrupt:  # outside main's own handling (while it reports an error)
         print("rattlesweep: interrupted", file=sys.stderr)
         status = 130
-    sys.stdout.flush()
-    sys.stderr.flush()
     if status == 130:
+        sys.stdout.flush()
+        sys.stderr.flush()
         os._exit(status)
-    # the command's work is done and written: a Ctrl-C during the interpreter's shutdown
-    # ends it with 130 at once, instead of a death by the signal
-    signal.signal(signal.SIGINT, lambda signum, frame: os._exit(130))
     sys.exit(status)
