@@ -127,8 +127,8 @@ def kernels_compiled(
 def batch_level(prep: Prepared) -> int:
     """The friction level the launches of ``prep`` need
     (:func:`.core.workspace.friction_level`)."""
-    P = unblock(prep.P, prep.n)
-    return friction_level(P[MU_S], P[MU_SPIN], P[MU_ROLL])
+    mu_s, mu_spin, mu_roll = unblock(prep.P[:, [MU_S, MU_SPIN, MU_ROLL]], prep.n)
+    return friction_level(mu_s, mu_spin, mu_roll)
 
 
 _PARALLEL = threading.Lock()

@@ -58,6 +58,8 @@ def evaluate_state(W, model, level, slipping, forces):
 def _evaluate_state(W, model, level, slipping, forces):
     top = _literal(level, "friction level")
 
+    # each level handles its own variant and leaves the rest to the level below, by the
+    # same overload at that level's literal
     def rolling(W, model, level, slipping, forces):
         if forces:
             models.evaluate(W, model, ROLLING, STAGE_START, False, 0)
@@ -68,22 +70,15 @@ def _evaluate_state(W, model, level, slipping, forces):
         if slipping != ROLLING:
             models.evaluate(W, model, SLIDING, STAGE_START, False, 0)
             keep_directions(W)
-        elif forces:
-            models.evaluate(W, model, ROLLING, STAGE_START, False, 0)
         else:
-            models.evaluate(W, model, ROLLING, STAGE_FIRST, False, 0)
+            evaluate_state(W, model, ROLLING, slipping, forces)
 
     def couples(W, model, level, slipping, forces):
         if slipping == COUPLES:
             models.evaluate(W, model, COUPLES, STAGE_START, False, 0)
             keep_directions(W)
-        elif slipping != ROLLING:
-            models.evaluate(W, model, SLIDING, STAGE_START, False, 0)
-            keep_directions(W)
-        elif forces:
-            models.evaluate(W, model, ROLLING, STAGE_START, False, 0)
         else:
-            models.evaluate(W, model, ROLLING, STAGE_FIRST, False, 0)
+            evaluate_state(W, model, SLIDING, slipping, forces)
 
     return (rolling, sliding, couples)[top]
 
@@ -106,15 +101,13 @@ def _rk4_step(W, model, level, slipping):
         if slipping != ROLLING:
             inner_stages(W, model, SLIDING)
         else:
-            inner_stages(W, model, ROLLING)
+            rk4_step(W, model, ROLLING, slipping)
 
     def couples(W, model, level, slipping):
         if slipping == COUPLES:
             inner_stages(W, model, COUPLES)
-        elif slipping != ROLLING:
-            inner_stages(W, model, SLIDING)
         else:
-            inner_stages(W, model, ROLLING)
+            rk4_step(W, model, SLIDING, slipping)
 
     return (rolling, sliding, couples)[top]
 
