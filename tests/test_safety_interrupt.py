@@ -174,3 +174,26 @@ def test_ctrl_c_starts_no_more_tiles(tmp_path):
     # the tiles computing at the signal (one per worker) and one finished but not yet
     # written; none of the tiles queued behind them
     assert 1 <= at_signal and after <= 3, (at_signal, after)
+
+
+def test_ctrl_c_among_the_tiles_says_what_is_kept_in_one_line(tmp_path):
+    """The progress bar's own report of the interrupt, and its own hint to resume, were
+    two more lines before the command's; one line says it all, with the tiles kept."""
+    config = tmp_path / "many.toml"
+    config.write_text(MANY_TILES_TOML)
+    out = tmp_path / "out"
+    status, _, err = _interrupt(config, out, 0.01)
+    assert status == 130, err
+    kept = len(list((out / "tiles").glob("tile-*.nc")))
+    assert 0 < kept < 300
+    # the lines the bar drew before the signal (tiles done; a first run's compiling
+    # note) are no part of the report
+    report = [
+        line
+        for line in err.splitlines()
+        if not line.startswith(("[", "compiling the simulation kernels"))
+    ]
+    assert report == [
+        f"rattlesweep: interrupted; {kept} of 300 tiles kept in {out}; "
+        f"`rattlesweep resume {out}` finishes it"
+    ], err
