@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import collections
 import random
+import re
 import shutil
 import signal
 import subprocess
@@ -170,6 +171,17 @@ def main() -> None:
         f"{sum(r['merged'] for r in interrupted)}; slowest stop "
         f"{max((r['stopped_s'] for r in interrupted), default=0):.2f} s"
     )
+    stops = sorted(r["stopped_s"] for r in interrupted)
+    if stops:
+        print(
+            f"seconds from the signal to the exit: median {stops[len(stops) // 2]:.2f}, "
+            f"95th percentile {stops[int(0.95 * (len(stops) - 1))]:.2f}, "
+            f"most {stops[-1]:.2f}"
+        )
+    kinds = collections.Counter(  # the last line, less paths and counts
+        re.sub(r"\d+", "N", re.sub(r"`?\S*/\S*", "OUT", r["last_err"])) for r in interrupted
+    )
+    print("last lines:", dict(kinds))
     if achieved:
         print(
             f"achieved offsets from the last tile: {achieved[0]:+.3f} .. "
