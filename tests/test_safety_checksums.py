@@ -2,6 +2,7 @@
 byte changed on disk fails the read (named by verify, info and plot) instead of reading
 as another value; the values written are the same."""
 
+import json
 import shutil
 import subprocess
 import sys
@@ -56,9 +57,75 @@ def test_sweep_nc_and_tiles_are_checksummed_and_a_changed_byte_is_named(tmp_path
     shutil.copy(alone, merged)
     found = verify(out)
     assert not found.ok
-    assert any("sweep.nc cannot be read in full" in p for p in found.problems)
+    # in its directory, the file differs from the digest recorded when it was written
+    assert any("sweep.nc is damaged (its bytes differ" in p for p in found.problems)
     assert main(["info", str(out)]) == 2
     err = capsys.readouterr().err
     assert "warning:" in err and f"rattlesweep resume {out}" in err
     assert "Traceback" not in err
     assert not np.isnan(ds.launch_spin.values).any()
+
+
+def _flip(path, at, n=8):
+    data = bytearray(path.read_bytes())
+    data[at : at + n] = bytes(b ^ 0xFF for b in data[at : at + n])
+    path.write_bytes(bytes(data))
+
+
+# the commands in one process of their own (the libraries load once): a crash of the
+# netCDF library (a segmentation fault, an abort) ends that process, not the tests'
+_COMMANDS = """
+import contextlib, io, json, sys
+from rattlesweep.cli import main
+done = []
+for argv in json.loads(sys.argv[1]):
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        status = main(argv)
+    done.append((status, out.getvalue(), err.getvalue()))
+print(json.dumps(done))
+"""
+
+
+def _commands(*argvs):
+    """Status, stdout and stderr of each ``rattlesweep`` command line in ``argvs``."""
+    ran = subprocess.run(
+        [sys.executable, "-c", _COMMANDS, json.dumps([list(map(str, a)) for a in argvs])],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert ran.returncode == 0, (ran.returncode, ran.stderr[-2000:])
+    return json.loads(ran.stdout)
+
+
+def test_damaged_hdf5_metadata_is_named_from_the_digest_before_the_library_opens_it(
+    tmp_path,
+):
+    # bytes 2400-2407 of sweep.nc lie in its HDF5 metadata: netCDF-C crashed on opening
+    # it (verify, plot: abort on a double free; info: segmentation fault), where Python
+    # can catch nothing. The digest recorded beside each file is checked first
+    out = tmp_path / "run"
+    run_sweep(small_sweep(tile_size=3), out, progress=False)
+    merged = out / RESULT_NAME
+    assert (out / "sweep.nc.b2sum").read_text().endswith("  sweep.nc\n")
+    assert (out / "tiles" / "tile-000003.nc.b2sum").is_file()
+    _flip(merged, 2400)
+    resume = f"`rattlesweep resume {out}` recomputes what is missing or damaged"
+    (verified, *reading) = _commands(["verify", out], ["info", out], ["plot", merged])
+    assert verified[0] == 1, verified
+    assert "sweep.nc is damaged (its bytes differ from the digest" in verified[1]
+    assert resume in verified[1]
+    for status, _, err in reading:  # info, plot
+        assert status == 2, (status, err)
+        last = err.strip().splitlines()[-1]
+        assert f"cannot read {merged}: sweep.nc is damaged" in last, last
+        assert last.endswith(resume) and "Traceback" not in err
+
+    # a tile's metadata: at these bytes netCDF-C read the tile without a complaint
+    tile = out / "tiles" / "tile-000003.nc"
+    _flip(tile, 2400)
+    found = verify(out)
+    assert found.damaged == {3: "tile-000003.nc is unreadable or incomplete"}
+    assert main(["resume", str(out), "--quiet"]) == 0  # the tile and sweep.nc rewritten
+    assert verify(out).ok

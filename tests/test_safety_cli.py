@@ -95,13 +95,16 @@ def test_info_and_plot_of_a_directory_with_a_corrupt_sweep_nc_say_it_is_damaged(
     assert main(["info", str(out)]) == 2
     err = capsys.readouterr().err
     assert f"rattlesweep info: warning: {out} is damaged (4 of 4 tiles verified" in err
-    assert "sweep.nc cannot be read in full" in err
+    assert "sweep.nc is damaged (its bytes differ from the digest" in err
     assert f"`rattlesweep resume {out}` recomputes what is missing or damaged" in err
     assert "expected a rattlesweep result file" not in err  # it is one, damaged
     assert main(["plot", str(out / "sweep.nc")]) == 2
     err = capsys.readouterr().err
     assert f"rattlesweep plot: warning: {out} is damaged" in err
-    assert "sweep.nc cannot be read in full" in err and "rattlesweep resume" in err
+    assert (
+        "sweep.nc is damaged (its bytes differ from the digest" in err
+        and "rattlesweep resume" in err
+    )
 
 
 def test_info_of_a_finished_directory_names_a_deleted_tile_as_missing(

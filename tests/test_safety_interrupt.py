@@ -4,6 +4,7 @@ tiles written before are intact, and a resume completes the same result."""
 import os
 import signal
 import subprocess
+import sys
 import time
 
 import pytest
@@ -12,6 +13,7 @@ import xarray as xr
 from rattlesweep.sweep import Sweep, run_sweep
 from rattlesweep.sweep.outputs.directory import tile_path, tile_state
 from rattlesweep.sweep.execution.run import RESULT_NAME
+from rattlesweep.sweep.outputs.verify import verify
 from sweep_helpers import start_sweep, without_history
 
 MANY_TILES_TOML = """\
@@ -174,3 +176,59 @@ def test_ctrl_c_starts_no_more_tiles(tmp_path):
     # the tiles computing at the signal (one per worker) and one finished but not yet
     # written; none of the tiles queued behind them
     assert 1 <= at_signal and after <= 3, (at_signal, after)
+
+
+def test_ctrl_c_among_the_tiles_says_what_is_kept_in_one_line(tmp_path):
+    """The progress bar's own report of the interrupt, and its own hint to resume, were
+    two more lines before the command's; one line says it all, with the tiles kept."""
+    config = tmp_path / "many.toml"
+    config.write_text(MANY_TILES_TOML)
+    out = tmp_path / "out"
+    status, _, err = _interrupt(config, out, 0.01)
+    assert status == 130, err
+    kept = len(list((out / "tiles").glob("tile-*.nc")))
+    assert 0 < kept < 300
+    # the lines the bar drew before the signal (tiles done; a first run's compiling
+    # note) are no part of the report
+    report = [
+        line
+        for line in err.splitlines()
+        if not line.startswith(("[", "compiling the simulation kernels"))
+    ]
+    assert report == [
+        f"rattlesweep: interrupted; {kept} of 300 tiles kept in {out}; "
+        f"`rattlesweep resume {out}` finishes it"
+    ], err
+
+
+def test_ctrl_c_after_the_output_is_written_never_kills_the_command_by_the_signal(
+    tmp_path,
+):
+    """A Ctrl-C after 'wrote ...' came during the interpreter's shutdown (a second or
+    two of unloading the libraries, with SIGINT's default action back): the process
+    died by the signal, status -2, without a word, its output complete."""
+    config = tmp_path / "small.toml"
+    config.write_text(
+        'name = "small"\ntile_size = 8\n[axes]\n'
+        "spin = { start = -12, stop = 12, num = 4 }\n"
+        "[fixed]\nt_end = 0.5\nmu = 0.3\nroll_deg = 0.5\n"
+    )
+    for n, delay in enumerate((0.0, 0.05)):
+        out = tmp_path / f"out{n}"
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "rattlesweep.cli", "sweep", str(config)]
+            + ["--out", str(out), "--quiet"],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+        )
+        assert proc.stdout.readline().startswith(f"wrote {out / RESULT_NAME}: ")
+        time.sleep(delay)
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=EXIT_WITHIN)
+        assert proc.returncode in (0, 130), (delay, proc.returncode, err)
+        if proc.returncode == 130:
+            assert err.strip().splitlines()[-1].startswith("rattlesweep: interrupted")
+        assert "Traceback" not in err
+        assert verify(out).ok

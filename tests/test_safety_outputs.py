@@ -119,7 +119,7 @@ def test_netcdf_directory_without_config_keeps_results_it_cannot_claim(tmp_path)
     (out / RESULT_NAME).rename(tmp_path / RESULT_NAME)
     tiles = _tree(out / "tiles")
     # tiles left without their configuration: not this sweep's to delete or overwrite
-    with pytest.raises(ValueError, match=r"tiles holds 16 files .* no sweep\.toml"):
+    with pytest.raises(ValueError, match=r"tiles holds 32 files .* no sweep\.toml"):
         run_sweep(small_sweep(tile_size=4), out, progress=False)
     assert _tree(out / "tiles") == tiles
     for path in (out / "tiles").iterdir():
@@ -224,6 +224,9 @@ def test_a_wrong_coordinate_in_a_merged_sweep_nc_is_found_and_resume_rewrites_it
     reference = run_sweep(s, out, progress=False).load()
     with netCDF4.Dataset(out / RESULT_NAME, "a") as nc:
         nc.variables["delta_deg"][0] = -4.000343
+    found = verify(out)  # the file differs from the digest written with it
+    assert not found.ok and any("sweep.nc is damaged" in p for p in found.problems)
+    (out / "sweep.nc.b2sum").unlink()  # as a file with no digest: the values checked
     found = verify(out)
     assert not found.ok and any("coordinate delta_deg" in p for p in found.problems)
     assert main(["resume", str(out), "--quiet"]) == 0

@@ -10,6 +10,7 @@ Its modules: the sweep commands (``_sweeps``), the commands that read results
 from __future__ import annotations
 
 import os
+import signal
 import sys
 import warnings
 from typing import Any
@@ -84,21 +85,50 @@ def run() -> None:
     """The command's entry point: :func:`main`, then exit with its status.
 
     Ctrl-C anywhere in the command (its imports included: the package loads its heavy
-    libraries only once the command runs) ends it with status 130 and one line, and the
-    process then exits at once, without the interpreter's shutdown: a sweep stopped by
-    a second Ctrl-C does not wait for the tiles still computing (a kernel call cannot be
-    interrupted, and a tile of long launches may take hours; their threads would keep
-    the process alive for results nothing writes any more), and a library whose import
-    the interrupt cut short can turn the shutdown into a death by SIGINT. Every file
-    written is complete, as each is written atomically, and the sweep's lock is released
-    already."""
+    libraries only once the command runs) ends it with status 130 and one line. The
+    process then exits at once, without the interpreter's shutdown, whatever the
+    status: a sweep stopped by a second Ctrl-C does not wait for the tiles still
+    computing (a kernel call cannot be interrupted, and a tile of long launches may
+    take hours; their threads would keep the process alive for results nothing writes
+    any more); and the shutdown, a second or two of unloading the numerical libraries,
+    restores the default action of SIGINT, so a Ctrl-C then killed a finished command by
+    the signal. Once :func:`main` has returned, a Ctrl-C is only noted: the command
+    says that it came after the work was complete and exits 130 (the shell's "stopped by
+    Ctrl-C"; what it wrote is complete, each file written atomically). Nothing is left
+    for the shutdown to do: every file is closed, a sweep's lock released and a cluster
+    client closed by then."""
+    late: Any = None
     try:
         status = main()
-    except KeyboardInterrupt:  # outside main's own handling (while it reports an error)
+        late = _hold_interrupts()
+    except KeyboardInterrupt:  # outside main's own handling (while it reports an error,
+        late = late or _hold_interrupts()  # or just after it returned)
         print("rattlesweep: interrupted", file=sys.stderr)
         status = 130
-    if status == 130:
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os._exit(status)
-    sys.exit(status)
+    _flush()
+    if late() and status == 0:
+        print(
+            "rattlesweep: interrupted after the command had finished; what it wrote is "
+            "complete",
+            file=sys.stderr,
+        )
+        status = 130
+        _flush()
+    os._exit(status)
+
+
+def _hold_interrupts() -> Any:
+    """From now on a SIGINT is noted, never raised (a handler that records it, the
+    signal blocked in this thread); returns a function that says whether one came."""
+    caught: list[int] = []
+    signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    return lambda: bool(caught) or signal.SIGINT in signal.sigpending()
+
+
+def _flush() -> None:
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # a reader gone, a stream closed: nothing to say
+            pass

@@ -20,6 +20,7 @@ def _open_netcdf(path: str) -> xr.Dataset:
     backends)."""
     import xarray as xr
 
+    _check_digest(Path(path))
     try:
         with xr.open_dataset(path) as ds:
             return ds.load()  # all read here: a damaged chunk fails now, not mid-plot
@@ -37,6 +38,20 @@ def _open_netcdf(path: str) -> xr.Dataset:
 
 
 _DAMAGED = "it is damaged ({}: a chunk fails its checksum or cannot be read)"
+
+
+def _check_digest(path: Path) -> None:
+    """Raise DamagedFile (a ValueError) naming the file ``path`` as damaged when it
+    differs from the digest recorded when it was written; checked before the netCDF
+    library opens it, as damaged metadata can crash that library (a file with no digest
+    passes)."""
+    from ..io import DamagedFile, check_digest
+
+    if path.is_file():
+        try:
+            check_digest(path)
+        except DamagedFile as exc:
+            raise DamagedFile(f"cannot read {path}: {exc}") from None
 
 
 def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
@@ -237,6 +252,7 @@ def _open_result(path: Path) -> xr.Dataset:
     )
 
     if not is_zarr_store(path):
+        _check_digest(path)
         with xr.open_dataset(path) as ds:
             return ds.load()  # all read here: a damaged chunk fails now
     sweep = stored_sweep(str(path))
@@ -254,6 +270,8 @@ def _open_result(path: Path) -> xr.Dataset:
 
 
 def _cmd_info(args: argparse.Namespace, argv: list[str] | None) -> int:
+    from ..io import DamagedFile
+
     failed = 0
     for name in args.files:
         path = Path(name)
@@ -275,6 +293,14 @@ def _cmd_info(args: argparse.Namespace, argv: list[str] | None) -> int:
         try:
             ds = _open_result(path)
         except (OSError, ValueError, RuntimeError) as exc:
+            if isinstance(exc, DamagedFile):
+                print(
+                    "rattlesweep info: "
+                    + (damaged.unreadable(path) if damaged is not None else str(exc)),
+                    file=sys.stderr,
+                )
+                failed += 1
+                continue
             reason = str(exc).splitlines()[0]
             if "did not find a match" in reason:
                 reason = "it is not a netCDF file"

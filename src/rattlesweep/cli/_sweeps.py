@@ -76,7 +76,13 @@ def _interrupted(state: str) -> int:
     return 130
 
 
-def _kept(out: str | Path) -> str:
+def _kept(out: str | Path, interrupt: KeyboardInterrupt) -> str:
+    """What an interrupt of a sweep's tiles left in ``out``: the runner's count of the
+    tiles kept when it says (:class:`~rattlesweep.sweep.outputs.store.SweepInterrupted`)."""
+    from ..sweep.outputs.store import SweepInterrupted
+
+    if isinstance(interrupt, SweepInterrupted):
+        return str(interrupt)
     return f"the tiles written so far are kept: `rattlesweep resume {out}` finishes it"
 
 
@@ -125,8 +131,8 @@ def _run(sweep: Sweep, out: str, args: argparse.Namespace, argv: list[str] | Non
     with _noted_interrupts() as noted:
         try:
             ds = run_sweep(sweep, out, command=_command(argv), **_sweep_args(args))
-        except KeyboardInterrupt:
-            return _interrupted(_kept(out))
+        except KeyboardInterrupt as interrupt:
+            return _interrupted(_kept(out, interrupt))
     if noted.count:  # lost in a library; the merge went on to the end (atomically)
         return _interrupted(f"the merged result was complete: {written} is written")
     print(f"wrote {written}: {_points(ds)}; {_summary(ds)}")
@@ -221,8 +227,8 @@ def _cmd_demo(args: argparse.Namespace, argv: list[str] | None) -> int:
             ds = run_sweep(
                 Sweep.from_toml(DEMO_TOML), out, command=_command(argv), **_sweep_args(args)
             )
-        except KeyboardInterrupt:
-            return _interrupted(_kept(out))
+        except KeyboardInterrupt as interrupt:
+            return _interrupted(_kept(out, interrupt))
     if noted.count:
         return _interrupted(f"the merged result was complete: {out / RESULT_NAME}")
     png = _save_map(ds, out / "reversal_map.png")

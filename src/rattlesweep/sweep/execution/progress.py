@@ -116,14 +116,11 @@ class Progress:
             f"in {elapsed:.1f} s ({self.rate:,.0f} traj/s)\n"
         )
 
-    def interrupted(self, location: str) -> None:
-        """Close on Ctrl-C, saying how to continue the sweep in ``location``."""
-        self.close("interrupted")
-        if self.enabled:
-            self._write(
-                f"stopped; finished tiles are kept. Continue with: rattlesweep "
-                f"resume {location}\n"
-            )
+    def interrupted(self) -> None:
+        """Close on Ctrl-C: end the bar's line on a terminal, and say nothing more (the
+        caller's message says what is kept)."""
+        if self.enabled and self._tty and self.done_tiles > self.reused:
+            self._write("\n")
 
     def _write(self, text: str) -> None:
         self.stream.write(text)

@@ -25,7 +25,7 @@ from ..config.sizes import check_size
 from .execute import run_tiles
 from .progress import Progress
 from ..config.spec import Sweep
-from ..outputs.store import TileStore
+from ..outputs.store import SweepInterrupted, TileStore
 from .tiles import TileResult
 
 if TYPE_CHECKING:
@@ -190,8 +190,10 @@ def run_sweep(
                 on_wait=bar.tick,
             )
         except KeyboardInterrupt:
-            bar.interrupted(store.location)
-            raise
+            bar.interrupted()
+            raise SweepInterrupted(
+                bar.done_tiles, bar.total_tiles, store.location
+            ) from None
         bar.close()
         return store.finish()
     finally:

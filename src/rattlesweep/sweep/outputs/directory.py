@@ -12,7 +12,13 @@ import netCDF4
 import numpy as np
 import xarray as xr
 
-from ...io import NETCDF_LOCK, stale_temporaries, write_netcdf
+from ...io import (
+    DIGEST_SUFFIX,
+    NETCDF_LOCK,
+    recorded_digest_matches,
+    stale_temporaries,
+    write_netcdf,
+)
 from ..execution.lock import LOCK_NAME, SweepLock
 from .merge import merge_arrays
 from ..config.spec import Sweep
@@ -56,8 +62,12 @@ def read_config(path: Path) -> Sweep:
 
 def tile_state(path: Path, sweep: Sweep, tile: int) -> str:
     """ "valid" for a complete tile file of this sweep, "foreign" for a complete tile of
-    another configuration, "damaged" for anything unreadable (truncated, corrupt)."""
+    another configuration, "damaged" for anything unreadable (truncated, corrupt) or
+    differing from the digest recorded when it was written (checked first: damaged HDF5
+    metadata can crash the netCDF library)."""
     start, stop = sweep.tile_range(tile)
+    if recorded_digest_matches(path) is False:
+        return "damaged"
     try:
         with NETCDF_LOCK, netCDF4.Dataset(path) as nc:
             if nc.getncattr("config_hash") != sweep.config_hash():
@@ -174,6 +184,7 @@ class SweepDirectory:
         return name in (
             CONFIG_NAME,
             RESULT_NAME,
+            RESULT_NAME + DIGEST_SUFFIX,
             TILES_DIR,
             self.tiles_dir.name,
         ) or name.startswith((LOCK_NAME, f".{CONFIG_NAME}.", f".{RESULT_NAME}."))
@@ -185,6 +196,8 @@ class SweepDirectory:
         result = self.out / RESULT_NAME
         if result.exists():
             try:
+                if recorded_digest_matches(result) is False:
+                    raise ValueError("damaged")
                 with NETCDF_LOCK, netCDF4.Dataset(result) as nc:
                     ours = nc.getncattr("sweep_config_hash") == self.sweep.config_hash()
             except Exception:  # unreadable, or no rattlesweep result
@@ -244,7 +257,7 @@ class SweepDirectory:
         the file, the cause and how to resume."""
         try:
             path.parent.mkdir(exist_ok=True)
-            write_netcdf(ds, path)
+            write_netcdf(ds, path, digest=True)
         except (
             OSError,
             RuntimeError,
@@ -270,7 +283,9 @@ class TileDirectory(SweepDirectory):
         if config.exists():
             for stale in (
                 *stale_temporaries(self.tiles_dir, "tile-*.nc"),
+                *stale_temporaries(self.tiles_dir, "tile-*.nc" + DIGEST_SUFFIX),
                 *stale_temporaries(self.out, RESULT_NAME),
+                *stale_temporaries(self.out, RESULT_NAME + DIGEST_SUFFIX),
             ):
                 stale.unlink(missing_ok=True)
         todo, damaged, foreign = [], [], []

@@ -18,7 +18,7 @@ import netCDF4
 import numpy as np
 import xarray as xr
 
-from ...io import NETCDF_LOCK, stale_temporaries
+from ...io import DIGEST_SUFFIX, NETCDF_LOCK, recorded_digest_matches, stale_temporaries
 from ...rattleback import batch
 from ..config.spec import Sweep
 from ..execution.tiles import (
@@ -77,8 +77,16 @@ class RefinedDirectory(SweepDirectory):
         config = self._check_config()
         self.make_tiles_dir()
         levels = (d for d in self.tiles_dir.glob("level-*") if d.is_dir())
-        for stale in (p for d in levels for p in stale_temporaries(d, "tile-*.nc")):
-            stale.unlink(missing_ok=True)
+        for level in levels:
+            for stale in (
+                *stale_temporaries(level, "tile-*.nc"),
+                *stale_temporaries(level, "tile-*.nc" + DIGEST_SUFFIX),
+            ):
+                stale.unlink(missing_ok=True)
+        if config.exists():  # a merge of this sweep killed before its rename
+            for name in (RESULT_NAME, RESULT_NAME + DIGEST_SUFFIX):
+                for stale in stale_temporaries(self.out, name):
+                    stale.unlink(missing_ok=True)
         if not config.exists():
             write_text_atomic(config, self.sweep.to_toml())
         self.written = len(list(self.tiles_dir.glob("level-*/tile-*.nc")))
@@ -111,6 +119,8 @@ class RefinedDirectory(SweepDirectory):
 
     def _read(self, path: Path, item: LevelTile) -> LevelTileResult | str:
         names = result_names(self.fine)
+        if recorded_digest_matches(path) is False:  # before the netCDF library opens it
+            return "damaged"
         try:
             with NETCDF_LOCK, netCDF4.Dataset(path) as nc:
                 if nc.getncattr("config_hash") != self.sweep.config_hash():

@@ -18,12 +18,24 @@ from typing import Protocol, TypeVar
 
 import xarray as xr
 
-__all__ = ["SweepWriteError", "TileStore", "write_failure"]
+__all__ = ["SweepInterrupted", "SweepWriteError", "TileStore", "write_failure"]
 
 
 class SweepWriteError(OSError):
     """Writing a sweep's output failed (disk full, no permission, a lost connection...).
     What was written before is intact, and a resume continues from there."""
+
+
+class SweepInterrupted(KeyboardInterrupt):
+    """Ctrl-C stopped a sweep while its tiles ran; the message says how many tiles are
+    kept in the output and how to finish it (the command line's one line about it)."""
+
+    def __init__(self, kept: int, total: int, location: str, what: str = "") -> None:
+        super().__init__(
+            f"{kept} of {total} tiles{what} kept in {location}; "
+            f"`rattlesweep resume {location}` finishes it"
+        )
+        self.kept, self.total, self.location = kept, total, location
 
 
 Result = TypeVar("Result", contravariant=True)

@@ -139,11 +139,15 @@ def _check_merged(
     ``required``."""
     import netCDF4
 
-    from ...io import NETCDF_LOCK
+    from ...io import NETCDF_LOCK, DamagedFile, check_digest
     from .merge import grid_coords
 
     if not path.exists():
         return (f"{path.name} is missing: resume writes it",) if required else ()
+    try:
+        check_digest(path)  # before the netCDF library opens it: damaged metadata can
+    except DamagedFile as exc:  # crash it
+        return (f"{exc}; resume writes it again",)
     try:
         with NETCDF_LOCK, netCDF4.Dataset(path) as nc:
             if nc.getncattr("sweep_config_hash") != sweep.config_hash():

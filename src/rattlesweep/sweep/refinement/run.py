@@ -14,7 +14,7 @@ from ..execution.execute import run_tiles
 from ..execution.progress import Progress
 from ..execution.tiles import LevelTile, LevelTileResult, compute_level_tile
 from ..outputs.refined import RefinedDirectory
-from ..outputs.store import TileStore
+from ..outputs.store import SweepInterrupted, TileStore
 from .plan import Levels, plan_level
 
 __all__ = ["run_refined"]
@@ -88,8 +88,13 @@ def run_refined(
                     on_wait=bar.tick,
                 )
             except KeyboardInterrupt:
-                bar.interrupted(store.location)
-                raise
+                bar.interrupted()
+                raise SweepInterrupted(
+                    bar.done_tiles,
+                    bar.total_tiles,
+                    store.location,
+                    f" of level {level} of {levels.levels}",
+                ) from None
             bar.close(f"level {level} of {levels.levels}")
         return store.finish()
     finally:
