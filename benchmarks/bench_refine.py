@@ -57,7 +57,7 @@ from rattlesweep.sweep import Sweep, run_sweep
 from rattlesweep.sweep.outputs.compare import compare_with_full
 from rattlesweep.sweep.config.demo import DEMO_TOML
 from rattlesweep.sweep.outputs.outcomes import at_first_reversal
-from rattlesweep.core.workspace import BLOCK
+from rattlesweep._core.workspace import BLOCK
 
 THIN_TOML = """\
 name = "thin: spin x friction at 6 degrees misalignment"

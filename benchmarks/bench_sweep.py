@@ -40,7 +40,7 @@ import time
 from rattlesweep.rattleback.batch import prepare
 from rattlesweep._run import execute
 from rattlesweep.sweep import Sweep, run_sweep
-from rattlesweep.core.workspace import RK4
+from rattlesweep._core.workspace import RK4
 
 
 def grid_sweep(n_target: int, t_end: float, tile_size: int | None = None) -> Sweep:

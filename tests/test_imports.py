@@ -77,7 +77,7 @@ def test_making_a_sweep_runs_no_kernel():
     kernel: no numba kernel is compiled or loaded to build a configuration."""
     probe = textwrap.dedent("""
         from rattlesweep import Sweep
-        from rattlesweep.core import stepper
+        from rattlesweep._core import stepper
         s = Sweep(axes={"spin": [1.0, 2.0], "mu": [0.3, float("inf")]},
                   fixed={"t_end": 1.0, "roll_deg": 0.5})
         assert s.tile_size > 0

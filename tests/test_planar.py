@@ -9,8 +9,8 @@ import warnings
 import numpy as np
 import pytest
 
-from rattlesweep.core.planar.dynamics import contact_impulse
-from rattlesweep.core.workspace import BLOCK, STATUS_NAMES
+from rattlesweep._core.planar.dynamics import contact_impulse
+from rattlesweep._core.workspace import BLOCK, STATUS_NAMES
 from rattlesweep.planar import PlanarBody, run_planar_batch, simulate_planar
 
 G = 9.81

@@ -28,7 +28,7 @@ from hypothesis.extra import numpy as hnp
 
 import rattlesweep as rs
 from rattlesweep.rattleback import batch
-from rattlesweep.core.workspace import NON_FINITE, OK
+from rattlesweep._core.workspace import NON_FINITE, OK
 from rattlesweep import CoarseStepWarning
 from rattlesweep.rattleback.launch import quaternion_from_angles
 from rattlesweep.planar.batch import prepare as prepare_planar

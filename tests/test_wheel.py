@@ -277,7 +277,7 @@ def _make_read_only(installed: Installed) -> None:
                 str(installed.python),
                 "-c",
                 READ_ONLY_PROBE,
-                str(package / "core" / "__pycache__"),
+                str(package / "_core" / "__pycache__"),
             ],
             capture_output=True,
             text=True,
@@ -346,7 +346,7 @@ def test_installed_wheel_runs_the_demo_and_caches_its_kernels_in_the_package(ins
     assert {p.parent.name for p in first["saved to"]} == {"__pycache__"}
     assert not installed.user_cache.exists()
     # the stamp of drop_stale_cache: the next import keeps these files
-    assert (package / "core" / "__pycache__" / "kernel-sources.sha256").is_file()
+    assert (package / "_core" / "__pycache__" / "kernel-sources.sha256").is_file()
 
     second, summary_again = installed.demo("second")
     assert not second["saved to"], second["saved to"][:3]

@@ -7,7 +7,7 @@ that results carry for each input (:mod:`rattlesweep.rattleback.metadata`,
 (:mod:`rattlesweep.sweep.config.params`), the rules the batch layer checks for every model
 (:func:`rattlesweep._launches.check_common`), the inputs a batch keeps as coordinates, the
 command line's friction options and the documentation's tables of inputs
-(``docs/generate.py``). The kernel's parameter rows (:mod:`rattlesweep.core`) pack an
+(``docs/generate.py``). The kernel's parameter rows (:mod:`rattlesweep._core`) pack an
 input by the name it has here, in the units it has here.
 
 Values are in SI units (angles in radians); results show an angle in degrees under a

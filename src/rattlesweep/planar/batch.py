@@ -24,8 +24,8 @@ from .._pack import prepared
 from .._run import execute
 from .._steps import step_counts, time_steps
 from .._validation import fail_where
-from ..core.models import PLANAR
-from ..core.planar import layout
+from .._core.models import PLANAR
+from .._core.planar import layout
 from ..inputs import PLANAR as INPUTS
 from .body import PlanarBodies, PlanarBody
 from .metadata import attrs_for

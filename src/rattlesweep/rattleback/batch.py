@@ -35,8 +35,8 @@ from .._pack import blocked, prepared
 from .._run import contact_slip_velocity, execute
 from .._steps import step_counts, time_steps
 from .._validation import as_float_array, fail_where
-from ..core.models import RATTLEBACK
-from ..core.rattleback import layout
+from .._core.models import RATTLEBACK
+from .._core.rattleback import layout
 from ..inputs import RATTLEBACK as INPUTS
 from .body import Bodies, Body
 from .launch import (

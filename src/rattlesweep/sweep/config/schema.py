@@ -18,7 +18,7 @@ from typing import Any, Mapping, TypeGuard
 
 import numpy as np
 
-from ...core.workspace import METHODS
+from ..._core.workspace import METHODS
 from ..._options import check_band
 from ...rattleback.body import PRESETS, Body
 from ..._validation import check_memory, is_real

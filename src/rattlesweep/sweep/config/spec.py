@@ -47,7 +47,7 @@ from typing import Any, Iterator, Mapping
 import numpy as np
 
 from ...rattleback.body import Body
-from ...core.workspace import friction_level
+from ..._core.workspace import friction_level
 from .corners import check_corners, choose_tile_size, tile_block
 from .grid import Axis, RandomParam, batch_inputs
 from .params import resolve
@@ -300,7 +300,7 @@ class Sweep:
 
     @property
     def friction_level(self) -> int:
-        """The kernel's friction level (:func:`rattlesweep.core.workspace.friction_level`)
+        """The kernel's friction level (:func:`rattlesweep._core.workspace.friction_level`)
         that the sweep's launches can need, from every value its friction coefficients
         take (a random one: any value)."""
         values: dict[str, list[float]] = {

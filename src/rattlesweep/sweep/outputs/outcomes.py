@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...core import workspace as _status
+from ..._core import workspace as _status
 from ..._metadata import flag_attrs
 
 __all__ = [

@@ -1,4 +1,4 @@
-"""Numba compile policy for every kernel in :mod:`rattlesweep.core`.
+"""Numba compile policy for every kernel in :mod:`rattlesweep._core`.
 
 All kernels are compiled with the same options so that the whole engine has one
 behaviour:
@@ -33,7 +33,7 @@ Numba's on-disk cache is keyed on each kernel's own source file only, but the st
 cached machine code contains every model hook it calls from other files: after an edit
 of a model, numba would load a stepper compiled with the old one. So
 :func:`drop_stale_cache` runs when this package is imported: when any source file of
-``rattlesweep.core`` changed since the cache was written, it deletes the package's
+``rattlesweep._core`` changed since the cache was written, it deletes the package's
 cached kernels, and they are compiled afresh. It looks for them where numba keeps them:
 next to the sources, or outside the package (``NUMBA_CACHE_DIR``, or the user's cache
 directory when the package is read-only, where an upgrade in place would otherwise
