@@ -12,7 +12,7 @@ tasks, tile files, the result file):
 
 1. "full": the map simulated at every point of the finest grid;
 2. "adaptive": the declared grid refined ``levels`` times
-   (:mod:`rattlesweep.sweep.refinement.plan`);
+   (:mod:`rattlesweep.sweep._refinement.plan`);
 3. "adaptive+stop": the same with ``stop = "first_reversal"``;
 4. "full+stop": every point of the finest grid with the stop (skipped with --no-full-stop).
 
@@ -53,10 +53,13 @@ import numpy as np
 import xarray as xr
 
 from rattlesweep import Body, run_batch
-from rattlesweep.sweep import Sweep, run_sweep
-from rattlesweep.sweep.outputs.compare import compare_with_full
-from rattlesweep.sweep.config.demo import DEMO_TOML
-from rattlesweep.sweep.outputs.outcomes import at_first_reversal
+from rattlesweep.sweep import (
+    DEMO_TOML,
+    Sweep,
+    at_first_reversal,
+    compare_with_full,
+    run_sweep,
+)
 from rattlesweep._core.workspace import BLOCK
 
 THIN_TOML = """\

@@ -4,7 +4,7 @@ whether a sweep can vary it, and one line of documentation.
 What is generated from these descriptions: the CF attributes (``units``, ``long_name``)
 that results carry for each input (:mod:`rattlesweep.rattleback.metadata`,
 :mod:`rattlesweep.planar.metadata`), the parameters a sweep can vary
-(:mod:`rattlesweep.sweep.config.params`), the rules the batch layer checks for every model
+(:mod:`rattlesweep.sweep._config.params`), the rules the batch layer checks for every model
 (:func:`rattlesweep._launches.check_common`), the inputs a batch keeps as coordinates, the
 command line's friction options and the documentation's tables of inputs
 (``docs/generate.py``). The kernel's parameter rows (:mod:`rattlesweep._core`) pack an

@@ -291,7 +291,7 @@ def stability_dataset(
     parameters, spin, g or damping are honoured per repeat.
     """
     from .sweep import Sweep
-    from .sweep.outputs.merge import grid_coords, sweep_attrs
+    from .sweep._outputs.merge import grid_coords, sweep_attrs
 
     if not isinstance(sweep, Sweep):
         sweep = Sweep.from_toml(sweep)

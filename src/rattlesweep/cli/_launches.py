@@ -36,11 +36,11 @@ def _body_from_args(args: argparse.Namespace) -> Body:
     if len(given) > 1:
         raise ValueError(f"{' and '.join(given)} each choose the body; give one of them")
     if args.body is not None:
-        from ..sweep.config.body_file import body_from_toml
+        from ..sweep._config.body_file import body_from_toml
 
         return body_from_toml(args.body)
     if shape:
-        from ..sweep.config.grid import semi_ellipsoid_defaults
+        from ..sweep._config.grid import semi_ellipsoid_defaults
 
         si = {
             **semi_ellipsoid_defaults(),

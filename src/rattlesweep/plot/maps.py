@@ -304,7 +304,7 @@ def mpl_cmap(name: str) -> Colormap:
 def reversed_fraction(sweep: xr.Dataset) -> xr.DataArray:
     """Fraction (0 or 1 per launch; averaged by callers) of launches that reversed at
     least once, from a sweep's ``outcome``."""
-    from ..sweep.outputs.outcomes import REVERSED, SEVERAL
+    from ..sweep._outputs.outcomes import REVERSED, SEVERAL
 
     return sweep.outcome.isin([REVERSED, SEVERAL]).astype(float)
 

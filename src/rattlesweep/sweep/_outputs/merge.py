@@ -16,9 +16,9 @@ import xarray as xr
 
 from ... import __version__
 from ..._results import run_attrs
-from ..config.params import resolve, result_name, result_values
-from ..config.spec import Sweep, fixed_value
-from ..execution.tiles import variable_attrs
+from .._config.params import resolve, result_name, result_values
+from .._config.spec import Sweep, fixed_value
+from .._execution.tiles import variable_attrs
 
 __all__ = ["grid_coords", "merge_arrays", "result_attrs", "sweep_attrs", "versions"]
 
@@ -57,7 +57,7 @@ def grid_coords(sweep: Sweep) -> dict[str, Any]:
     """Coordinates of a result on the sweep's grid: the axes (in the user's units, angles
     in degrees), the ``repeat`` index when there are random draws, and the fixed values
     as scalars, each named as in :func:`rattlesweep.run_batch` results
-    (:func:`~rattlesweep.sweep.config.params.result_name`)."""
+    (:func:`~rattlesweep.sweep._config.params.result_name`)."""
     coords: dict[str, Any] = {}
     for ax in sweep.grid_axes:
         attrs = {"long_name": ax.long_name}

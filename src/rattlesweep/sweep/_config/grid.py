@@ -53,7 +53,7 @@ class Axis:
     @property
     def name(self) -> str:
         """The dimension's name in results
-        (:func:`~rattlesweep.sweep.config.params.result_name`)."""
+        (:func:`~rattlesweep.sweep._config.params.result_name`)."""
         return result_name(self.key)
 
     def coordinate(self) -> tuple[np.ndarray, str]:

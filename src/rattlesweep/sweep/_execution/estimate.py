@@ -25,8 +25,8 @@ from ... import _results as results
 from ... import _run as engine
 from ..._options import check_method
 from ...rattleback.batch import MODEL, prepare
-from ..config.sizes import check_size, size_needs
-from ..config.spec import Sweep
+from .._config.sizes import check_size, size_needs
+from .._config.spec import Sweep
 from .tiles import result_dtypes
 
 __all__ = ["Estimate", "KERNEL_BYTES_PER_LAUNCH", "estimate", "format_estimate"]
@@ -60,7 +60,7 @@ class Estimate:
     the time is scaled by the ratio.
     ``result_bytes`` is the size of the results (on the finest grid), ``held_bytes``
     what the process holds of them and of its tiles' list (the figures a run checks
-    against the memory available before it starts: :func:`~rattlesweep.sweep.config.sizes.size_needs`),
+    against the memory available before it starts: :func:`~rattlesweep.sweep._config.sizes.size_needs`),
     ``in_flight_bytes`` the kernel's working set of the tiles running at once,
     ``process_bytes`` this process's size after the calibration and ``peak_bytes`` the
     sum: the peak resident memory expected. ``refused`` is the error a run would stop
@@ -93,7 +93,7 @@ def _process_bytes() -> int:
 
 def _calibrate(sweep: Sweep, index: np.ndarray, most: int) -> tuple[float, int, int]:
     """Run the points at flat indices ``index`` through the kernel on this thread, as
-    :func:`~rattlesweep.sweep.execution.tiles.compute_points` does, each for at most ``most``
+    :func:`~rattlesweep.sweep._execution.tiles.compute_points` does, each for at most ``most``
     steps. Returns the seconds taken, the steps run and the steps the launches take in
     a sweep: a launch that ended before ``most`` (its stop rule, a capsize) takes the
     steps it ran, one stopped at ``most`` all of its own."""

@@ -9,8 +9,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..config.spec import Sweep
-from ..execution.tiles import result_dtypes
+from .._config.spec import Sweep
+from .._execution.tiles import result_dtypes
 
 __all__ = ["feed", "finish", "tile_digest"]
 

@@ -68,7 +68,7 @@ def verify(
     """Read back every tile of the sweep output ``out`` (a sweep directory or a zarr
     store, local or a URL) and say what is missing or damaged. Writes nothing; a
     ValueError when ``out`` holds no sweep."""
-    from ..execution.run import stored_sweep
+    from .._execution.run import stored_sweep
     from .zarr_store import is_zarr_store
 
     sweep = stored_sweep(out, storage_options)

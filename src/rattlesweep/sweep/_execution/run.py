@@ -1,8 +1,8 @@
 """Running a sweep: tiles on local threads or a dask.distributed cluster, results written
 by this process only (workers send them back through dask), into a resumable output: a
 directory of netCDF tiles merged into ``sweep.nc``
-(:mod:`~rattlesweep.sweep.outputs.directory`) or a zarr store
-(:mod:`~rattlesweep.sweep.outputs.zarr_store`)."""
+(:mod:`~rattlesweep.sweep._outputs.directory`) or a zarr store
+(:mod:`~rattlesweep.sweep._outputs.zarr_store`)."""
 
 from __future__ import annotations
 
@@ -14,18 +14,18 @@ from typing import TYPE_CHECKING, Any, Iterator, Mapping
 import xarray as xr
 
 from ..._run import kernels_compiled
-from ..outputs.directory import (
+from .._outputs.directory import (
     CONFIG_NAME,
     RESULT_NAME,
     TILES_DIR,
     TileDirectory,
     read_config,
 )
-from ..config.sizes import check_size
+from .._config.sizes import check_size
 from .execute import run_tiles
 from .progress import Progress
-from ..config.spec import Sweep
-from ..outputs.store import TileStore
+from .._config.spec import Sweep
+from .._outputs.store import TileStore
 from .tiles import TileResult
 
 if TYPE_CHECKING:
@@ -59,7 +59,7 @@ def open_output(
 ) -> TileStore[TileResult]:
     """The output ``sweep.output`` names, at ``out`` (not opened yet)."""
     if sweep.output == "zarr":
-        from ..outputs.zarr_store import ZarrStore
+        from .._outputs.zarr_store import ZarrStore
 
         return ZarrStore(sweep, out, storage_options=storage_options, command=command)
     if storage_options or "://" in str(out):
@@ -103,7 +103,7 @@ def run_sweep(
       tile by tile; a lazy dataset over it (``xarray.open_zarr``) is returned.
 
     A sweep with ``refine`` runs level by level
-    (:mod:`~rattlesweep.sweep.refinement.run`) into a local directory and returns its
+    (:mod:`~rattlesweep.sweep._refinement.run`) into a local directory and returns its
     result on the finest grid.
 
     Rerunning the same sweep into the same output computes only the tiles not written
@@ -138,7 +138,7 @@ def run_sweep(
     check_size(sweep)
     announce(sweep)
     if sweep.refine is not None:
-        from ..refinement.run import run_refined
+        from .._refinement.run import run_refined
 
         if storage_options or "://" in str(out):
             raise ValueError(
@@ -250,10 +250,10 @@ def stored_sweep(
     out: str | os.PathLike, storage_options: Mapping[str, Any] | None = None
 ) -> Sweep:
     """The sweep whose results ``out`` (a sweep directory or zarr store) holds."""
-    from ..outputs.zarr_store import is_zarr_store
+    from .._outputs.zarr_store import is_zarr_store
 
     if is_zarr_store(out):
-        from ..outputs.zarr_store import stored_sweep as from_store
+        from .._outputs.zarr_store import stored_sweep as from_store
 
         return from_store(str(out), storage_options)
     config = Path(out) / CONFIG_NAME
@@ -277,6 +277,6 @@ def export(
 ) -> Path:
     """Write the finished zarr store ``store`` as one netCDF file ``out`` (the file a
     netCDF sweep writes as ``sweep.nc``)."""
-    from ..outputs.zarr_store import export_netcdf
+    from .._outputs.zarr_store import export_netcdf
 
     return export_netcdf(str(store), out, storage_options)

@@ -4,11 +4,11 @@ form.
 The normal form is plain data (numbers, strings, lists, tables) in which equal sweeps
 look equal: axis values are floats, units equal to a parameter's default are left out, a
 body is a preset name or a :meth:`rattlesweep.Body.describe` table, and the defaults
-(the ``toy`` body, :data:`~rattlesweep.sweep.config.params.DEFAULTS`) are filled in. Every
+(the ``toy`` body, :data:`~rattlesweep.sweep._config.params.DEFAULTS`) are filled in. Every
 error is a ValueError naming the key (``axes.spin``, ``fixed.body``, ``repeats``).
 
 These checks look at one value at a time; the combinations of values a grid reaches are
-checked by :mod:`rattlesweep.sweep.config.corners`.
+checked by :mod:`rattlesweep.sweep._config.corners`.
 """
 
 from __future__ import annotations
@@ -60,7 +60,7 @@ CONFIG_KEYS = (
 
 OUTPUTS = ("netcdf", "zarr")
 """Output formats of a sweep: a directory of netCDF tiles merged into one file, or a
-zarr store written tile by tile (:mod:`rattlesweep.sweep.outputs.zarr_store`)."""
+zarr store written tile by tile (:mod:`rattlesweep.sweep._outputs.zarr_store`)."""
 
 STOPS = ("first_reversal",)
 """Stop rules a sweep may name (:func:`rattlesweep.run_batch`'s ``stop``); without one,
@@ -436,12 +436,12 @@ def normalise_config(
 ) -> dict[str, Any]:
     """The normal form of a configuration: a dict with the keys of :data:`CONFIG_KEYS`,
     scalars first (the order of the TOML file). ``tile_size`` stays None when not given
-    (:func:`rattlesweep.sweep.config.corners.choose_tile_size` chooses it); ``stop`` and
+    (:func:`rattlesweep.sweep._config.corners.choose_tile_size` chooses it); ``stop`` and
     ``refine`` are there only when given, so that the configurations (and hashes) of
     sweeps without them do not change.
 
     ``fixed`` gains the parameters left out: the ``toy`` body when neither a body nor a
-    semi-ellipsoid parameter is given, and :data:`~rattlesweep.sweep.config.params.DEFAULTS`.
+    semi-ellipsoid parameter is given, and :data:`~rattlesweep.sweep._config.params.DEFAULTS`.
     """
     for label, m in (("axes", axes), ("fixed", fixed), ("random", random)):
         if not isinstance(m, Mapping):

@@ -1,9 +1,9 @@
 """What the two outputs of a sweep share: the interface the runner writes through, and the
 error a failed write becomes.
 
-An output (:class:`~rattlesweep.sweep.outputs.directory.TileDirectory` for netCDF,
-:class:`~rattlesweep.sweep.outputs.zarr_store.ZarrStore`, and
-:class:`~rattlesweep.sweep.outputs.refined.RefinedDirectory` for a refined sweep) is
+An output (:class:`~rattlesweep.sweep._outputs.directory.TileDirectory` for netCDF,
+:class:`~rattlesweep.sweep._outputs.zarr_store.ZarrStore`, and
+:class:`~rattlesweep.sweep._outputs.refined.RefinedDirectory` for a refined sweep) is
 opened for one sweep, says which tiles are still to compute, takes each finished tile's
 results from the runner (only the process that runs the sweep writes), and finishes
 into the result dataset.
@@ -28,8 +28,8 @@ class SweepWriteError(OSError):
 
 Result = TypeVar("Result", contravariant=True)
 """What a tile task returns and the output writes: a
-:class:`~rattlesweep.sweep.execution.tiles.TileResult`, or a
-:class:`~rattlesweep.sweep.execution.tiles.LevelTileResult` in a refined sweep."""
+:class:`~rattlesweep.sweep._execution.tiles.TileResult`, or a
+:class:`~rattlesweep.sweep._execution.tiles.LevelTileResult` in a refined sweep."""
 
 
 class TileStore(Protocol[Result]):

@@ -6,7 +6,7 @@ the configuration and versions as global attributes) whose chunks are the sweep'
 (:attr:`~rattlesweep.sweep.Sweep.tile_shape`), so each finished tile is written into
 its own chunks and nothing is merged at the end. A point not computed yet reads as NaN
 (-1 for integers), with ``status`` and ``outcome`` equal to
-:data:`~rattlesweep.sweep.execution.tiles.NOT_COMPUTED`; ``status`` is written after the point's
+:data:`~rattlesweep.sweep._execution.tiles.NOT_COMPUTED`; ``status`` is written after the point's
 other variables, so ``xarray.open_zarr`` on a store being written shows every point
 either complete or flagged. The group ``rattlesweep`` holds ``tile_done``, one byte per
 tile set after the tile's data: a resume reads from it which tiles are complete.
@@ -19,7 +19,7 @@ deleted, truncated or changed is found, and ``resume`` recomputes its tile, whil
 
 The location is a local path or any fsspec URL (``s3://bucket/run.zarr``, with
 ``storage_options`` for credentials). Only local stores are locked against a second
-sweep (:mod:`~rattlesweep.sweep.execution.lock`; the lock file ``STORE.lock`` lies beside
+sweep (:mod:`~rattlesweep.sweep._execution.lock`; the lock file ``STORE.lock`` lies beside
 the store).
 
 zarr is an optional dependency (``pip install 'rattlesweep[zarr]'``), imported here only.
@@ -38,12 +38,12 @@ from typing import TYPE_CHECKING, Any, Iterator, Mapping
 import numpy as np
 import xarray as xr
 
-from ..execution.lock import SweepLock
+from .._execution.lock import SweepLock
 from .digest import feed, finish, tile_digest
 from .merge import grid_coords, result_attrs
-from ..config.spec import Sweep
+from .._config.spec import Sweep
 from .store import write_failure
-from ..execution.tiles import NOT_COMPUTED, TileResult, result_dtypes, variable_attrs
+from .._execution.tiles import NOT_COMPUTED, TileResult, result_dtypes, variable_attrs
 
 if TYPE_CHECKING:
     from zarr import Group

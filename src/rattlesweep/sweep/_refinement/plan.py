@@ -25,8 +25,8 @@ is a separate map):
   cell.
 
 Everything here is plain NumPy on arrays over the finest grid; running the levels is
-:mod:`~rattlesweep.sweep.refinement.run`, storing them
-:mod:`~rattlesweep.sweep.outputs.refined`.
+:mod:`~rattlesweep.sweep._refinement.run`, storing them
+:mod:`~rattlesweep.sweep._outputs.refined`.
 """
 
 from __future__ import annotations

@@ -16,8 +16,8 @@ from ... import _run as engine
 from ...rattleback.batch import MODEL, prepare
 from ..._options import check_method
 from ...inputs import RATTLEBACK
-from ..outputs.outcomes import OUTCOME_ATTRS, classify
-from ..config.spec import Sweep
+from .._outputs.outcomes import OUTCOME_ATTRS, classify
+from .._config.spec import Sweep
 
 __all__ = [
     "NOT_COMPUTED",

@@ -45,7 +45,7 @@ def check_size(sweep: Sweep) -> None:
 def size_needs(sweep: Sweep) -> list[tuple[str, str, int, str, str]]:
     """What :func:`check_size` checks: ``(name, value, bytes, what, advice)`` for each
     part of the sweep held in memory at once (the arguments of ``check_memory``)."""
-    from ..execution.tiles import result_dtypes
+    from .._execution.tiles import result_dtypes
 
     per_point = sum(d.itemsize for d in result_dtypes(sweep).values())
     fine = sweep.finest().shape if sweep.refine is not None else None

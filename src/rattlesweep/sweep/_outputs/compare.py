@@ -17,7 +17,7 @@ def compare_with_full(refined: xr.Dataset, full: xr.Dataset) -> dict[str, Any]:
 
     When ``refined`` was run with ``stop = "first_reversal"`` and ``full`` was not,
     ``full``'s outcomes are first brought to what they would have been with the stop
-    (:func:`~rattlesweep.sweep.outputs.outcomes.at_first_reversal`).
+    (:func:`~rattlesweep.sweep._outputs.outcomes.at_first_reversal`).
 
     Returns a dict: ``points``, ``simulated`` (fraction of points simulated),
     ``mismatch`` (fraction of points whose outcome differs), ``mismatch_filled``

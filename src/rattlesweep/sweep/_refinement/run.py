@@ -1,5 +1,5 @@
 """Running a refined sweep (:mod:`.plan`) level by level into its output
-(:class:`~rattlesweep.sweep.outputs.refined.RefinedDirectory`)."""
+(:class:`~rattlesweep.sweep._outputs.refined.RefinedDirectory`)."""
 
 from __future__ import annotations
 
@@ -9,12 +9,12 @@ from typing import Any
 import xarray as xr
 
 from ..._run import kernels_compiled
-from ..config.spec import Sweep
-from ..execution.execute import run_tiles
-from ..execution.progress import Progress
-from ..execution.tiles import LevelTile, LevelTileResult, compute_level_tile
-from ..outputs.refined import RefinedDirectory
-from ..outputs.store import TileStore
+from .._config.spec import Sweep
+from .._execution.execute import run_tiles
+from .._execution.progress import Progress
+from .._execution.tiles import LevelTile, LevelTileResult, compute_level_tile
+from .._outputs.refined import RefinedDirectory
+from .._outputs.store import TileStore
 from .plan import Levels, plan_level
 
 __all__ = ["run_refined"]

@@ -13,11 +13,11 @@ import numpy as np
 import xarray as xr
 
 from ...io import NETCDF_LOCK, stale_temporaries, write_netcdf
-from ..execution.lock import LOCK_NAME, SweepLock
+from .._execution.lock import LOCK_NAME, SweepLock
 from .merge import merge_arrays
-from ..config.spec import Sweep
+from .._config.spec import Sweep
 from .store import write_failure
-from ..execution.tiles import TileResult, result_names, variable_attrs
+from .._execution.tiles import TileResult, result_names, variable_attrs
 
 __all__ = [
     "CONFIG_NAME",

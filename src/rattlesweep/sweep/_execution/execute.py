@@ -10,7 +10,7 @@ import threading
 from concurrent.futures import FIRST_COMPLETED, Future, ThreadPoolExecutor, wait
 from typing import Any, Callable
 
-from ..config.spec import Sweep
+from .._config.spec import Sweep
 from .tiles import compute_tile
 
 __all__ = ["run_tiles"]

@@ -1,4 +1,4 @@
-"""The output of a refined sweep (:mod:`~rattlesweep.sweep.refinement`): a resumable
+"""The output of a refined sweep (:mod:`~rattlesweep.sweep._refinement`): a resumable
 directory.
 
 The directory holds ``sweep.toml``, ``levels/level-K/tile-NNNNNN.nc`` (the simulated
@@ -20,8 +20,8 @@ import xarray as xr
 
 from ...io import NETCDF_LOCK, stale_temporaries
 from ...rattleback import batch
-from ..config.spec import Sweep
-from ..execution.tiles import (
+from .._config.spec import Sweep
+from .._execution.tiles import (
     NOT_COMPUTED,
     LevelTile,
     LevelTileResult,

@@ -80,7 +80,7 @@ class Sweep:
     ----------
     axes : mapping of parameter name to a list of values, ``{"values": [...], "units": u}``
         or a range ``{"start", "stop", "num"[, "units"][, "scale": "log"]}`` (inclusive,
-        like :func:`numpy.linspace`). Names: see :data:`rattlesweep.sweep.config.params.PARAMS`;
+        like :func:`numpy.linspace`). Names: see :data:`rattlesweep.sweep._config.params.PARAMS`;
         angles take a ``_deg`` suffix for degrees. Axis order is dimension order.
     fixed : mapping of parameter name to a number or ``{"value", "units"}``; ``body`` to
         a preset name, a :class:`~rattlesweep.Body` or a body table. Launch, friction and
@@ -96,11 +96,11 @@ class Sweep:
     reversal_band : hysteresis of the reversal detector, a fraction of the initial spin's magnitude.
     tile_size : the most points in a tile (one dask task; one tile file, or one chunk of
         a zarr store). Default: chosen from the configuration so that a tile is about
-        :data:`~rattlesweep.sweep.config.corners.TILE_STEPS` trajectory-steps (about 2 s on one
+        :data:`~rattlesweep.sweep._config.corners.TILE_STEPS` trajectory-steps (about 2 s on one
         core) and the grid has at least 16 tiles (a refined sweep: the grid one level
         finer than declared), in multiples of 32 from 256 to 65536; the chosen number is
         part of the stored configuration. A tile is a block of the grid
-        (:func:`~rattlesweep.sweep.config.corners.tile_block`), so tiles can hold fewer points
+        (:func:`~rattlesweep.sweep._config.corners.tile_block`), so tiles can hold fewer points
         than this; a refined sweep cuts each level's points into tiles of this size.
     output : "netcdf" (a directory of tile files merged into ``sweep.nc``) or "zarr" (a
         zarr store written tile by tile); see :func:`rattlesweep.sweep.run_sweep`.
@@ -108,7 +108,7 @@ class Sweep:
     stop : None (every launch runs to ``t_end``) or ``"first_reversal"``: a launch ends at
         its first reversal, or when it capsizes or lifts off (see
         :func:`rattlesweep.run_batch`).
-    refine : adaptive refinement (:mod:`rattlesweep.sweep.refinement.plan`): a number of levels or
+    refine : adaptive refinement (:mod:`rattlesweep.sweep._refinement.plan`): a number of levels or
         a table ``{"levels": L, "axes": [...], "reversal_time_jump": s}``. Each level
         halves the spacing of the refined axes (default: every range axis), and only the
         cells where neighbouring outcomes differ (or, with ``reversal_time_jump``, first
@@ -289,12 +289,12 @@ class Sweep:
     # --- structure ----------------------------------------------------------------------
     @property
     def grid_axes(self) -> tuple[Axis, ...]:
-        """The axes as :class:`~rattlesweep.sweep.config.grid.Axis` objects, in order."""
+        """The axes as :class:`~rattlesweep.sweep._config.grid.Axis` objects, in order."""
         return self._grid_axes
 
     @property
     def random_params(self) -> tuple[RandomParam, ...]:
-        """The random parameters as :class:`~rattlesweep.sweep.config.grid.RandomParam`
+        """The random parameters as :class:`~rattlesweep.sweep._config.grid.RandomParam`
         objects."""
         return self._random_params
 
@@ -339,7 +339,7 @@ class Sweep:
     @property
     def dims(self) -> tuple[str, ...]:
         """The result's dimensions: the axes as results name them (``launch_spin``,
-        ``roll_deg``: :func:`~rattlesweep.sweep.config.params.result_name`), then ``repeat``
+        ``roll_deg``: :func:`~rattlesweep.sweep._config.params.result_name`), then ``repeat``
         when there are random draws."""
         return tuple(ax.name for ax in self.grid_axes) + (
             ("repeat",) if self.random else ()
