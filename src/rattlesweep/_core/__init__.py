@@ -22,6 +22,7 @@ Where things live:
   ``eval_block``) with its phases ``contact`` (kinematics, slip velocity), ``slip`` (the
   friction direction), ``accelerations`` (with the couples) and ``derivative`` (friction
   force, stage arithmetic), ``model`` (what it supplies to the stepper);
-* ``planar/`` – the rocking semi-ellipse of docs/model.md: the planar rocking semi-ellipse, with the same modules;
+* ``planar/`` – the rocking semi-ellipse of docs/model.md: the planar rocking semi-ellipse,
+  with the same modules;
 * ``jit`` – the compile policy every kernel uses.
 """

@@ -7,9 +7,9 @@ The vector RK4 step holds every lane's mode through the step; afterwards
 (region B), locating every switch:
 
 * scalar events: a sticking contact's friction leaving the cone, and each couple's
-  switch (docs/model.md: dynamics, the couples: a slipping couple's held sense times its rate reaching
-  zero, a stuck couple's demand reaching its bound). Each motion is smooth through its
-  switching instant, so a piece of the step integrated in the present modes is a
+  switch (docs/model.md: dynamics, the couples: a slipping couple's held sense times its
+  rate reaching zero, a stuck couple's demand reaching its bound). Each motion is smooth
+  through its switching instant, so a piece of the step integrated in the present modes is a
   smooth continuation of it. The cubic Hermite interpolant of the piece (its end
   states and derivatives) is accurate to O(h⁴), one order below RK4's local error; the
   first root of the smallest switching function along it (:func:`event_margin`),

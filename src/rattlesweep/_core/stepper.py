@@ -290,9 +290,9 @@ def advance_block(model, level, P, Y, nsteps, method, record_every, band, O, REC
 
     ``model`` a literal model number; ``level`` a literal friction level, at least the
     one the block's parameters need (:func:`.workspace.friction_level`): the work of
-    higher levels is not compiled into its copy; P (n_param, BLOCK) parameters; Y (n_state, BLOCK)
-    initial state, overwritten with the final state; nsteps (BLOCK,) int64; method RK4
-    or EULER; REC (n_rec, n_record, BLOCK) receives every ``record_every``-th step (NaN
+    higher levels is not compiled into its copy; P (n_param, BLOCK) parameters; Y (n_state,
+    BLOCK) initial state, overwritten with the final state; nsteps (BLOCK,) int64; method
+    RK4 or EULER; REC (n_rec, n_record, BLOCK) receives every ``record_every``-th step (NaN
     after a lane stopped); ``band`` is the spin-reversal hysteresis as a fraction of
     |spin(0)|; O (n_obs, BLOCK) receives the observables.
     """

@@ -1,4 +1,5 @@
-"""Kernel for the planar rocking semi-ellipse (docs/model.md: the planar rocking semi-ellipse), on the 3-D engine's plan.
+"""Kernel for the planar rocking semi-ellipse (docs/model.md: the planar rocking
+semi-ellipse), on the 3-D engine's plan.
 
 The lamina x²/a² + y²/b² ≤ 1, y ≤ 0 (body frame, y up, origin C at the centre of the flat
 edge) rocks on the line Y = 0 by the angle θ (counter-clockwise, rad). G lies d below C.
@@ -137,8 +138,8 @@ def eval_block(W, slip_possible, stage, one_lane, lane):
     """Time derivative of every lane, used as ``stage`` asks (:mod:`..stages`), with the
     contact outputs N, F and u (region X) at the first stages; reads each lane's mode and
     held slip direction (region S). ``slip_possible`` matters only as ``COUPLES``, which
-    adds the rolling couple (docs/model.md: dynamics, the couples): this model's loop is short and computes
-    both sliding modes' terms anyway.
+    adds the rolling couple (docs/model.md: dynamics, the couples): this model's loop is
+    short and computes both sliding modes' terms anyway.
 
     Stick: θ̈ = −m h′(g + (h + h″)θ̇²)/(I + m(h² + h′²)), F = −m(h θ̈ + h′θ̇²).
     Slip:  θ̈ = −k N₀/(I + m h′ k), k = h′ + μ_k s h, N₀ = m(g + h″θ̇²), F = −μ_k s N.

@@ -1,5 +1,6 @@
-"""Rows of the planar rocking semi-ellipse (docs/model.md: the planar rocking semi-ellipse): its parameters, state,
-recorded series and observables, and where its regions sit in the block workspace.
+"""Rows of the planar rocking semi-ellipse (docs/model.md: the planar rocking semi-ellipse):
+its parameters, state, recorded series and observables, and where its regions sit in the
+block workspace.
 
 Each table is the single source of truth for its rows, as in :mod:`..rattleback.layout`.
 """

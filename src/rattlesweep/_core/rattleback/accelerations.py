@@ -1,6 +1,6 @@
 """The angular acceleration of the rattleback in either contact mode, with the spin and
-rolling couples (docs/model.md: dynamics, with the couples), and the normal force: phases 2 and 3 of
-:func:`.dynamics.eval_block`.
+rolling couples (docs/model.md: dynamics, with the couples), and the normal force:
+phases 2 and 3 of :func:`.dynamics.eval_block`.
 """
 
 from __future__ import annotations

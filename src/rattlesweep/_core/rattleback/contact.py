@@ -73,9 +73,9 @@ def contact_kinematics(W, slip_velocity, state, one_lane, lane):
     The rotation body -> world is R = R̃/|q|² with R̃ quadratic in q (stage quaternions
     are not unit), and the world up-vector in body components n̂ = ũ/|q|², ũ the last
     row of R̃. The contact point s_P = −A n̂/σ, σ = √(n̂ᵀA n̂), A = diag(a², b², c²), and
-    its rate ṡ_P = −(A ṅ + s_P (An̂·ṅ)/σ)/σ with ṅ = n̂ × ω (docs/model.md: contact geometry) are
-    unchanged when n̂ is replaced by ũ and σ by σ̃ = √(ũᵀAũ) = |q|² σ, so the only
-    divisions are 1/|q|² and 1/σ̃, taken together as one. ``slip_velocity`` (a literal)
+    its rate ṡ_P = −(A ṅ + s_P (An̂·ṅ)/σ)/σ with ṅ = n̂ × ω (docs/model.md: contact
+    geometry) are unchanged when n̂ is replaced by ũ and σ by σ̃ = √(ũᵀAũ) = |q|² σ, so the
+    only divisions are 1/|q|² and 1/σ̃, taken together as one. ``slip_velocity`` (a literal)
     asks for the slip velocity too; ``state`` (a literal) is the region of the state.
     """
     numba.literally(slip_velocity)

@@ -89,9 +89,9 @@ def friction_lane(W, j, slip_possible, stage, q0, q1, q2, q3):
     """Friction force per unit mass on lane j, world horizontal (m/s²), for
     :func:`store_derivative`, which passes the state's quaternion; writes the outputs
     of region X at STAGE_START and STAGE_FIRST (at STAGE_START with the time until the
-    slip stops at its present deceleration, from the slip acceleration u̇). Inlined into the derivative loop,
-    which is bound by its loads and stores: the friction's arithmetic fits in beside
-    them, and its result never goes to memory."""
+    slip stops at its present deceleration, from the slip acceleration u̇). Inlined into the
+    derivative loop, which is bound by its loads and stores: the friction's arithmetic fits
+    in beside them, and its result never goes to memory."""
     outputs = stage == STAGE_START
     normal_output = outputs or stage == STAGE_FIRST
     nm = W[at(OFF_G, NORMAL_PM, j)]  # N/m, after divide_out

@@ -1,4 +1,5 @@
-"""Right-hand side of the rattleback with Coulomb stick/slip contact (docs/model.md: dynamics).
+"""Right-hand side of the rattleback with Coulomb stick/slip contact (docs/model.md:
+dynamics).
 
 One function, :func:`eval_block`, evaluates the time derivative of every lane of a block
 in a few short straight loops over the lanes. The contact mode of each lane (stick or
@@ -50,8 +51,8 @@ def eval_block(W, slip_possible, stage, one_lane, lane):
     * ``STAGE_MID``: A += 2d and T = Y + c d (c = h/2 in the second stage, h in the
       third: :func:`.stages.set_mid_stage`);
     * ``STAGE_4``: Y = Y + (h/6)(A + d), the new state, in place, and B = the old Y,
-      for a lane whose step fails or whose contact mode changed inside it. Forces, which nobody reads in these inner stages,
-      are not written.
+      for a lane whose step fails or whose contact mode changed inside it. Forces, which
+      nobody reads in these inner stages, are not written.
 
     ``one_lane`` (a literal) restricts the evaluation to lane ``lane``.
 

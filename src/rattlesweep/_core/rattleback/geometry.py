@@ -1,4 +1,5 @@
-"""Closed-form contact geometry of a semi-ellipsoid on a floor (docs/model.md: contact geometry).
+"""Closed-form contact geometry of a semi-ellipsoid on a floor (docs/model.md: contact
+geometry).
 
 Scalar functions of plain floats, returning tuples, so they inline into the lane loops.
 Body frame: origin C at the centre of the flat face, z out of the flat face; the curved
