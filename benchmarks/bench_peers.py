@@ -1,4 +1,5 @@
-"""rattlesweep against its peers: MuJoCo, JAX (jax.vmap + jit, diffrax) and scipy's solve_ivp.
+"""rattlesweep against its peers: MuJoCo, JAX (jax.vmap + jit, diffrax) and scipy's
+solve_ivp.
 
     pip install -e '.[peers]'
     python benchmarks/bench_peers.py [--quick] [--plot docs/peers/spin_history.png]

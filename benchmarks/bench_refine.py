@@ -2,7 +2,7 @@
 
 Run from the repository root::
 
-    .venv/bin/python benchmarks/bench_refine.py                  # both problems: ~15 min on 2 cores
+    .venv/bin/python benchmarks/bench_refine.py                  # both: ~15 min, 2 cores
     .venv/bin/python benchmarks/bench_refine.py --problem demo   # the demo map only
     .venv/bin/python benchmarks/bench_refine.py --keep runs/bench   # keep the outputs
 
@@ -179,8 +179,10 @@ def run_problem(name: str, root: Path, workers: int, full_stop: bool) -> None:
     for label in ("adaptive", "adaptive+stop"):
         c = compare_with_full(results[label], full)
         print(
-            f"{label}: outcome mismatch {c['mismatch']:.3%} ({round(c['mismatch'] * c['points'])}"
-            f" points, {c['mismatch_filled']} of them filled), simulated {c['simulated']:.1%}"
+            f"{label}: outcome mismatch {c['mismatch']:.3%} "
+            f"({round(c['mismatch'] * c['points'])}"
+            f" points, {c['mismatch_filled']} of them filled), simulated "
+            f"{c['simulated']:.1%}"
         )
         for (a, b), n in c["misses"].items():
             print(f"    full {a} -> adaptive {b}: {n}")

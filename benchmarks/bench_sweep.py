@@ -156,12 +156,14 @@ def main() -> None:
             print(
                 f"{r['n']:>8} {r['tiles']:>5} {w:>7} {r['prepare']:>9.2f} "
                 f"{r['kernel']:>9.2f} {r['sweep']:>8.2f} "
-                f"{r['sweep'] / r['kernel'] - 1:>8.1%} {r['steps'] / r['kernel'] / 1e6:>15.2f} "
+                f"{r['sweep'] / r['kernel'] - 1:>8.1%} "
+                f"{r['steps'] / r['kernel'] / 1e6:>15.2f} "
                 f"{r['steps'] / r['sweep'] / 1e6:>14.2f}"
             )
         if 2 in by_workers:
             print(
-                f"{'':>8} scaling 1 -> 2 workers: sweep {by_workers[1]['sweep'] / by_workers[2]['sweep']:.2f}x, "
+                f"{'':>8} scaling 1 -> 2 workers: sweep "
+                f"{by_workers[1]['sweep'] / by_workers[2]['sweep']:.2f}x, "
                 f"kernel {by_workers[1]['kernel'] / by_workers[2]['kernel']:.2f}x"
             )
 

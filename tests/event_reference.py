@@ -1,4 +1,5 @@
-"""An independent event-driven reference solver for Coulomb stick/slip (MODEL.md 3, 4, 6, 8).
+"""An independent event-driven reference solver for Coulomb stick/slip
+(MODEL.md 3, 4, 6, 8).
 
 Written from MODEL.md's equations, not from the kernel, so that the kernel's fixed-step
 Coulomb switching can be checked against it (``tests/test_event_reference.py``,

@@ -69,7 +69,8 @@ def _run(cmd, **kwargs) -> subprocess.CompletedProcess:
         [str(c) for c in cmd], capture_output=True, text=True, timeout=600, **kwargs
     )
     assert proc.returncode == 0, (
-        f"{cmd} exited with {proc.returncode}:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
+        f"{cmd} exited with "
+        f"{proc.returncode}:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
     )
     return proc
 

@@ -210,7 +210,8 @@ def _info_directory(path: Path) -> Path | None:
             + ", ".join(f"{d} ({n})" for d, n in zip(fine.dims, fine.shape))
         )
         print(
-            f"  levels started: {len(levels)} of {sweep.refine['levels'] + 1}, {done} tiles "
+            f"  levels started: {len(levels)} of {sweep.refine['levels'] + 1}, {done} "
+            "tiles "
             f"written; 'rattlesweep resume {path}' completes it"
         )
         return None

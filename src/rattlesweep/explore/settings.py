@@ -131,8 +131,9 @@ _PRESET_NAMES = {
 
 def map_axes() -> dict[str, dict[str, Any]]:
     """Each map axis: its label and units (the control's), the library's description
-    (:data:`rattlesweep.sweep._config.params.PARAMS`) and a default range (``start``, ``stop``;
-    ``relative``: a factor range about the control's current value, for body sizes)."""
+    (:data:`rattlesweep.sweep._config.params.PARAMS`) and a default range (``start``,
+    ``stop``; ``relative``: a factor range about the control's current value, for body
+    sizes)."""
     from ..sweep._config.params import PARAMS
 
     out: dict[str, dict[str, Any]] = {}

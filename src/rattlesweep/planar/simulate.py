@@ -36,9 +36,9 @@ def simulate_planar(
     """Simulate one launch of a rocking semi-ellipse and return its time series.
 
     Arguments are those of :func:`run_planar_batch`, as scalars: ``theta`` (rad, initial
-    angle, ``abs(theta) < pi/2``), ``rate`` (rad/s), ``velocity`` (m/s, initial ẋ_G; default the
-    rolling one, −rate·h(θ)), ``mu``/``mu_static`` (``inf`` rolling, ``0`` frictionless),
-    ``mu_roll`` (m, rolling resistance),
+    angle, ``abs(theta) < pi/2``), ``rate`` (rad/s), ``velocity`` (m/s, initial ẋ_G; default
+    the rolling one, −rate·h(θ)), ``mu``/``mu_static`` (``inf`` rolling, ``0``
+    frictionless), ``mu_roll`` (m, rolling resistance),
     ``g`` (m/s²), ``dt`` (s, default :meth:`PlanarBody.default_dt`), ``t_end`` (s),
     ``method`` ("rk4" or "euler"). ``record_every`` defaults to the smallest stride that
     keeps at most 10 000 samples.

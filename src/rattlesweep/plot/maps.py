@@ -377,8 +377,8 @@ def reversal_vs_growth(
 ) -> Figure:
     """Predicted against simulated: first reversal time (s) of each launch that reversed
     against the linear e-folding time 1/growth_rate (s) at the same grid point, log-log,
-    coloured by ``color_by`` (a dimension) when given: a legend when the dimension has up to 8
-    values, a colour bar when it has more."""
+    coloured by ``color_by`` (a dimension) when given: a legend when the dimension has up to
+    8 values, a colour bar when it has more."""
     import numpy as np
 
     t_rev = sweep.first_reversal_time

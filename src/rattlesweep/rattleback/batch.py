@@ -234,7 +234,8 @@ def launch_inputs(
 def radian_angles(body: Bodies, given: dict[str, Any]) -> dict[str, Any]:
     """roll, pitch, yaw (rad) from the radian or degree keyword arguments of
     :func:`run_batch` or :func:`rattlesweep.simulate` (see
-    :func:`rattlesweep.rattleback.launch.angles_in_radians`; warns at the caller's caller)."""
+    :func:`rattlesweep.rattleback.launch.angles_in_radians`; warns at the caller's
+    caller)."""
     bodies = as_bodies(body, Body)
     full = all(b.full_ellipsoid for b in bodies.flat)
     return angles_in_radians(given, full_ellipsoid=full, stacklevel=4)
@@ -456,9 +457,9 @@ def run_batch(
         Over ``trajectory``: ``first_reversal_time`` (s, NaN when none; the spin's
         first crossing beyond the band), ``n_reversals`` (reversals of the heading, the
         long axis seen from above: each time it turns back by more than 0.1 rad from
-        the furthest it had turned), ``initial_spin``, ``final_spin``, ``mean_final_spin`` (rad/s),
-        ``max_tilt`` (rad), ``energy_initial``, ``energy_final``, ``energy_lost`` (J),
-        ``slip_fraction``, ``t_final`` (s), ``steps`` and ``status`` (CF flags: ok,
+        the furthest it had turned), ``initial_spin``, ``final_spin``, ``mean_final_spin``
+        (rad/s), ``max_tilt`` (rad), ``energy_initial``, ``energy_final``, ``energy_lost``
+        (J), ``slip_fraction``, ``t_final`` (s), ``steps`` and ``status`` (CF flags: ok,
         capsized, lifted_off, non_finite), with every input as a coordinate.
 
     Raises

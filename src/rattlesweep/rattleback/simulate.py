@@ -62,8 +62,8 @@ def simulate(
         the previous sample), ``slip_velocity`` and ``slip_speed`` (m/s),
         ``quaternion``, ``omega`` (rad/s), ``position`` (m) and ``velocity`` (m/s) of G;
         the per-run observables of :func:`run_batch` as scalar variables; every input as
-        an attribute (units in ``<name>_units``, long name in ``<name>_long_name``), named as the coordinates of
-        :func:`run_batch` (``launch_spin``, ``roll_deg`` ...).
+        an attribute (units in ``<name>_units``, long name in ``<name>_long_name``), named
+        as the coordinates of :func:`run_batch` (``launch_spin``, ``roll_deg`` ...).
 
     Raises
     ------

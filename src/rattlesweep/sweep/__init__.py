@@ -13,7 +13,8 @@ lock), ``_outputs`` (where the tiles go, merging, verifying, outcomes) and
 ``_refinement`` (the adaptive refinement of a sweep's grid).
 
 :func:`run_sweep`, :func:`resume`, :func:`estimate` and :func:`compare_with_full` are
-imported on first use, so making or reading a :class:`Sweep` does not import dask or netCDF4.
+imported on first use, so making or reading a :class:`Sweep` does not import dask or
+netCDF4.
 """
 
 from __future__ import annotations

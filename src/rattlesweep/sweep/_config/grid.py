@@ -1,5 +1,6 @@
 """The points of a sweep: parameter values at flat grid indices, seeded random draws, and
-the bodies they describe, packed as keyword arguments for :func:`rattlesweep.rattleback.batch.prepare`.
+the bodies they describe, packed as keyword arguments for
+:func:`rattlesweep.rattleback.batch.prepare`.
 
 Random draws are a counter-based hash of (seed, parameter name, flat point index), so a
 point's draw does not depend on how the grid is cut into tiles, on the order tiles run, or

@@ -441,7 +441,8 @@ def normalise_config(
     sweeps without them do not change.
 
     ``fixed`` gains the parameters left out: the ``toy`` body when neither a body nor a
-    semi-ellipsoid parameter is given, and :data:`~rattlesweep.sweep._config.params.DEFAULTS`.
+    semi-ellipsoid parameter is given, and
+    :data:`~rattlesweep.sweep._config.params.DEFAULTS`.
     """
     for label, m in (("axes", axes), ("fixed", fixed), ("random", random)):
         if not isinstance(m, Mapping):

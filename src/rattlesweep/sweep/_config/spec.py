@@ -80,8 +80,9 @@ class Sweep:
     ----------
     axes : mapping of parameter name to a list of values, ``{"values": [...], "units": u}``
         or a range ``{"start", "stop", "num"[, "units"][, "scale": "log"]}`` (inclusive,
-        like :func:`numpy.linspace`). Names: see :data:`rattlesweep.sweep._config.params.PARAMS`;
-        angles take a ``_deg`` suffix for degrees. Axis order is dimension order.
+        like :func:`numpy.linspace`). Names: see
+        :data:`rattlesweep.sweep._config.params.PARAMS`; angles take a ``_deg`` suffix for
+        degrees. Axis order is dimension order.
     fixed : mapping of parameter name to a number or ``{"value", "units"}``; ``body`` to
         a preset name, a :class:`~rattlesweep.Body` or a body table. Launch, friction and
         numerics parameters left out take the :func:`rattlesweep.run_batch` defaults;
@@ -93,25 +94,26 @@ class Sweep:
     repeats : int, repeats per grid cell (a ``repeat`` dimension when ``random`` is given).
     seed : int >= 0, seed of the random draws.
     method : "rk4" or "euler".
-    reversal_band : hysteresis of the reversal detector, a fraction of the initial spin's magnitude.
+    reversal_band : hysteresis of the reversal detector, a fraction of the initial spin's
+        magnitude.
     tile_size : the most points in a tile (one dask task; one tile file, or one chunk of
         a zarr store). Default: chosen from the configuration so that a tile is about
-        :data:`~rattlesweep.sweep._config.corners.TILE_STEPS` trajectory-steps (about 2 s on one
-        core) and the grid has at least 16 tiles (a refined sweep: the grid one level
+        :data:`~rattlesweep.sweep._config.corners.TILE_STEPS` trajectory-steps (about 2 s on
+        one core) and the grid has at least 16 tiles (a refined sweep: the grid one level
         finer than declared), in multiples of 32 from 256 to 65536; the chosen number is
         part of the stored configuration. A tile is a block of the grid
-        (:func:`~rattlesweep.sweep._config.corners.tile_block`), so tiles can hold fewer points
-        than this; a refined sweep cuts each level's points into tiles of this size.
+        (:func:`~rattlesweep.sweep._config.corners.tile_block`), so tiles can hold fewer
+        points than this; a refined sweep cuts each level's points into tiles of this size.
     output : "netcdf" (a directory of tile files merged into ``sweep.nc``) or "zarr" (a
         zarr store written tile by tile); see :func:`rattlesweep.sweep.run_sweep`.
     name : a label stored with the results.
     stop : None (every launch runs to ``t_end``) or ``"first_reversal"``: a launch ends at
         its first reversal, or when it capsizes or lifts off (see
         :func:`rattlesweep.run_batch`).
-    refine : adaptive refinement (:mod:`rattlesweep.sweep._refinement.plan`): a number of levels or
-        a table ``{"levels": L, "axes": [...], "reversal_time_jump": s}``. Each level
-        halves the spacing of the refined axes (default: every range axis), and only the
-        cells where neighbouring outcomes differ (or, with ``reversal_time_jump``, first
+    refine : adaptive refinement (:mod:`rattlesweep.sweep._refinement.plan`): a number of
+        levels or a table ``{"levels": L, "axes": [...], "reversal_time_jump": s}``. Each
+        level halves the spacing of the refined axes (default: every range axis), and only
+        the cells where neighbouring outcomes differ (or, with ``reversal_time_jump``, first
         reversal times jump by more than that many seconds), with a margin of one cell,
         are simulated; the rest is filled from the cells' corners. The result lies on the
         finest grid (:meth:`finest`). Needs ``output = "netcdf"``.
@@ -339,8 +341,8 @@ class Sweep:
     @property
     def dims(self) -> tuple[str, ...]:
         """The result's dimensions: the axes as results name them (``launch_spin``,
-        ``roll_deg``: :func:`~rattlesweep.sweep._config.params.result_name`), then ``repeat``
-        when there are random draws."""
+        ``roll_deg``: :func:`~rattlesweep.sweep._config.params.result_name`), then
+        ``repeat`` when there are random draws."""
         return tuple(ax.name for ax in self.grid_axes) + (
             ("repeat",) if self.random else ()
         )
@@ -382,8 +384,8 @@ class Sweep:
         return start, start + _size(tuple(r.stop - r.start for r in region))
 
     def points(self, start: int, stop: int) -> tuple[np.ndarray, dict[str, Any]]:
-        """Bodies and :func:`rattlesweep.rattleback.batch.prepare` keyword arguments (SI) for the
-        flat point indices [start, stop)."""
+        """Bodies and :func:`rattlesweep.rattleback.batch.prepare` keyword arguments (SI)
+        for the flat point indices [start, stop)."""
         return self.points_at(np.arange(start, stop, dtype=np.int64))
 
     def points_at(self, index: np.ndarray) -> tuple[np.ndarray, dict[str, Any]]:

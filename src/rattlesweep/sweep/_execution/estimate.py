@@ -60,11 +60,11 @@ class Estimate:
     the time is scaled by the ratio.
     ``result_bytes`` is the size of the results (on the finest grid), ``held_bytes``
     what the process holds of them and of its tiles' list (the figures a run checks
-    against the memory available before it starts: :func:`~rattlesweep.sweep._config.sizes.size_needs`),
-    ``in_flight_bytes`` the kernel's working set of the tiles running at once,
-    ``process_bytes`` this process's size after the calibration and ``peak_bytes`` the
-    sum: the peak resident memory expected. ``refused`` is the error a run would stop
-    with now for want of memory, or None."""
+    against the memory available before it starts:
+    :func:`~rattlesweep.sweep._config.sizes.size_needs`), ``in_flight_bytes`` the kernel's
+    working set of the tiles running at once, ``process_bytes`` this process's size after
+    the calibration and ``peak_bytes`` the sum: the peak resident memory expected.
+    ``refused`` is the error a run would stop with now for want of memory, or None."""
 
     points: int
     tiles: int
@@ -93,9 +93,9 @@ def _process_bytes() -> int:
 
 def _calibrate(sweep: Sweep, index: np.ndarray, most: int) -> tuple[float, int, int]:
     """Run the points at flat indices ``index`` through the kernel on this thread, as
-    :func:`~rattlesweep.sweep._execution.tiles.compute_points` does, each for at most ``most``
-    steps. Returns the seconds taken, the steps run and the steps the launches take in
-    a sweep: a launch that ended before ``most`` (its stop rule, a capsize) takes the
+    :func:`~rattlesweep.sweep._execution.tiles.compute_points` does, each for at most
+    ``most`` steps. Returns the seconds taken, the steps run and the steps the launches take
+    in a sweep: a launch that ended before ``most`` (its stop rule, a capsize) takes the
     steps it ran, one stopped at ``most`` all of its own."""
     bodies, kwargs = sweep.points_at(index)
     prep = prepare(bodies, stop=sweep.stop, announce=False, **kwargs)

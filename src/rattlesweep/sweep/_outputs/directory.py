@@ -191,7 +191,8 @@ class SweepDirectory:
                 ours = False
             if not ours:
                 raise ValueError(
-                    f"{self.out} holds {RESULT_NAME} but no {CONFIG_NAME}, and that file is "
+                    f"{self.out} holds {RESULT_NAME} but no {CONFIG_NAME}, and that file "
+                    "is "
                     "not this sweep's result (another configuration, or unreadable): not "
                     "overwriting it. Move it away, or use a new directory"
                 )
@@ -199,7 +200,8 @@ class SweepDirectory:
             files = sorted(p for p in self.tiles_dir.rglob("*") if p.is_file())
             if files:
                 raise ValueError(
-                    f"{self.tiles_dir} holds {len(files)} files (the first: {files[0].name}) "
+                    f"{self.tiles_dir} holds {len(files)} files (the first: "
+                    f"{files[0].name}) "
                     f"but {self.out} has no {CONFIG_NAME}, so they cannot be shown to be "
                     "this sweep's: not touching them. Restore the configuration, or use a "
                     "new directory"

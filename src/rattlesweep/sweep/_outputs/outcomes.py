@@ -37,7 +37,8 @@ OUTCOME_ATTRS = flag_attrs(
     OUTCOME_NAMES,
     "capsized, lifted_off, numerical_failure: the trajectory stopped with that status "
     "(whatever it did before); otherwise reversed: exactly one reversal of the heading "
-    "(the long axis seen from above), several_reversals: two or more; stopped: no reversal and the mean spin over the last "
+    "(the long axis seen from above), several_reversals: two or more; stopped: no reversal "
+    "and the mean spin over the last "
     "10% of the run is within the reversal band of zero; no_reversal: none of these.",
 )
 
@@ -51,8 +52,8 @@ def classify(
 ) -> np.ndarray:
     """Outcome codes (int8, see :data:`OUTCOME_NAMES`) from kernel observables.
 
-    ``band`` is the reversal band, a fraction of the initial spin's magnitude: a run without reversal
-    whose final mean spin is inside it has stopped spinning.
+    ``band`` is the reversal band, a fraction of the initial spin's magnitude: a run without
+    reversal whose final mean spin is inside it has stopped spinning.
     """
     out = np.full(np.shape(status), NO_REVERSAL, dtype=np.int8)
     with np.errstate(invalid="ignore"):

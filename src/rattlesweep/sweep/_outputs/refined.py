@@ -103,7 +103,8 @@ class RefinedDirectory(SweepDirectory):
                 path.unlink()
         if foreign:
             raise ValueError(
-                f"{self.tiles_dir} holds {len(foreign)} tiles of another configuration (the "
+                f"{self.tiles_dir} holds {len(foreign)} tiles of another configuration "
+                "(the "
                 f"first: {foreign[0]}), so {self.out / CONFIG_NAME} does not describe "
                 "them: restore the configuration, or use a new directory"
             )

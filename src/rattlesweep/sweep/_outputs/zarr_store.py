@@ -6,8 +6,8 @@ the configuration and versions as global attributes) whose chunks are the sweep'
 (:attr:`~rattlesweep.sweep.Sweep.tile_shape`), so each finished tile is written into
 its own chunks and nothing is merged at the end. A point not computed yet reads as NaN
 (-1 for integers), with ``status`` and ``outcome`` equal to
-:data:`~rattlesweep.sweep._execution.tiles.NOT_COMPUTED`; ``status`` is written after the point's
-other variables, so ``xarray.open_zarr`` on a store being written shows every point
+:data:`~rattlesweep.sweep._execution.tiles.NOT_COMPUTED`; ``status`` is written after the
+point's other variables, so ``xarray.open_zarr`` on a store being written shows every point
 either complete or flagged. The group ``rattlesweep`` holds ``tile_done``, one byte per
 tile set after the tile's data: a resume reads from it which tiles are complete.
 
