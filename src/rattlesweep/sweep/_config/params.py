@@ -89,9 +89,12 @@ class Param:
 
 
 PARAMS: dict[str, Param] = {
-    i.name: Param(i, _UNITS[i.units]) for i in RATTLEBACK.values() if i.sweep
+    i.name: Param(i, _UNITS.get(i.units, {i.units: (1.0, i.units)}))
+    for i in RATTLEBACK.values()
+    if i.sweep
 }
-"""The inputs a sweep can vary (:mod:`rattlesweep.inputs`: those marked ``sweep``)."""
+"""The inputs a sweep can vary (:mod:`rattlesweep.inputs`: those marked ``sweep``), each
+in the units of :data:`_UNITS` for its SI units, or in those alone."""
 
 BODY_PARAMS = tuple(k for k, p in PARAMS.items() if p.group == "body")
 """Parameters of a homogeneous semi-ellipsoid (:meth:`rattlesweep.Body.semi_ellipsoid`)."""
