@@ -201,8 +201,7 @@ def test_frictionless_contact_keeps_horizontal_momentum():
     np.testing.assert_allclose(ds.x_G.values, 0.05 * ds.time.values, rtol=1e-12, atol=1e-15)
 
 
-# --- Coulomb friction
-# ----------------------------------------------------------------------
+# --- Coulomb friction ------------------------------------------------------------------
 
 
 def _max_rolling_demand(theta, t_end=0.3):

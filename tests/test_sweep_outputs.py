@@ -288,8 +288,9 @@ FULL_DISK = textwrap.dedent("""
     ls -la "$MNT/out" "$MNT/out/tiles" > "$LOG/listing" 2>&1
     "$PY" -m rattlesweep.cli info "$MNT/out" > "$LOG/info.out" 2>&1
     mount -o remount,size=64m "$MNT"
-    "$PY" -m rattlesweep.cli resume "$MNT/out" --quiet > "$LOG/resume.out" 2>
-    "$LOG/resume.err" echo $? > "$LOG/resume.rc"
+    "$PY" -m rattlesweep.cli resume "$MNT/out" --quiet \\
+        > "$LOG/resume.out" 2> "$LOG/resume.err"
+    echo $? > "$LOG/resume.rc"
     cp -r "$MNT/out" "$LOG/result"
 """)
 
