@@ -6,10 +6,9 @@ directory of netCDF tiles merged into ``sweep.nc``
 
 from __future__ import annotations
 
-import contextlib
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Iterator, Mapping
+from typing import TYPE_CHECKING, Any, Mapping
 
 import xarray as xr
 
@@ -26,7 +25,7 @@ from .execute import run_tiles
 from .progress import Progress
 from .._config.spec import Sweep
 from .._outputs.store import TileStore
-from .tiles import TileResult
+from .stage import Stage
 
 if TYPE_CHECKING:
     from distributed import Client
@@ -56,13 +55,23 @@ def open_output(
     *,
     command: str | None = None,
     storage_options: Mapping[str, Any] | None = None,
-) -> TileStore[TileResult]:
-    """The output ``sweep.output`` names, at ``out`` (not opened yet)."""
+) -> TileStore[Any]:
+    """The output of ``sweep`` at ``out`` (not opened yet): a refined sweep's directory of
+    levels, or the output ``sweep.output`` names."""
+    local = not storage_options and "://" not in str(out)
+    if sweep.refine is not None:
+        from .._outputs.refined import RefinedDirectory
+
+        if not local:
+            raise ValueError(
+                f"output {out!r}: a refined sweep writes into a local directory"
+            )
+        return RefinedDirectory(sweep, out, command=command)
     if sweep.output == "zarr":
         from .._outputs.zarr_store import ZarrStore
 
         return ZarrStore(sweep, out, storage_options=storage_options, command=command)
-    if storage_options or "://" in str(out):
+    if not local:
         raise ValueError(
             f"output {out!r}: a netCDF sweep writes into a local directory; "
             'URLs and storage_options are for output = "zarr"'
@@ -103,7 +112,7 @@ def run_sweep(
       tile by tile; a lazy dataset over it (``xarray.open_zarr``) is returned.
 
     A sweep with ``refine`` runs level by level
-    (:mod:`~rattlesweep.sweep._refinement.run`) into a local directory and returns its
+    (:mod:`~rattlesweep.sweep._refinement.stages`) into a local directory and returns its
     result on the finest grid.
 
     Rerunning the same sweep into the same output computes only the tiles not written
@@ -137,67 +146,66 @@ def run_sweep(
         )
     check_size(sweep)
     announce(sweep)
-    if sweep.refine is not None:
-        from .._refinement.run import run_refined
-
-        if storage_options or "://" in str(out):
-            raise ValueError(
-                f"output {out!r}: a refined sweep writes into a local directory"
-            )
-        with _connect(scheduler) as own_client:
-            return run_refined(
-                sweep,
-                out,
-                client=client or own_client,
-                workers=workers or _cores(),
-                progress=progress,
-                command=command,
-            )
     store = open_output(sweep, out, command=command, storage_options=storage_options)
-    todo = store.open()
+    store.open()
     own_client = None
     try:
-        left = set(todo)
-        done = [t for t in range(sweep.n_tiles) if t not in left]
-        bar = Progress(
-            sweep.n_tiles,
-            sweep.size,
-            len(done),
-            sum(_points(sweep, t) for t in done),
-            enabled=progress,
-            compiling=(
-                client is None
-                and scheduler is None
-                and not kernels_compiled(parallel=False, level=sweep.friction_level)
-            ),
-        )
-        for note in getattr(store, "notes", ()):
-            bar.note(note)
         if scheduler is not None:
             client = own_client = _client(scheduler)
-
-        def write(result: TileResult) -> None:
-            store.write(result)
-            bar.update(result.summary())
-
-        try:
-            run_tiles(
-                sweep,
-                todo,
-                write,
-                client=client,
-                workers=workers or _cores(),
-                on_wait=bar.tick,
-            )
-        except KeyboardInterrupt:
-            bar.interrupted(store.location)
-            raise
-        bar.close()
+        notes = list(getattr(store, "notes", ()))
+        for stage in store.stages():
+            _run_stage(stage, store, client, workers or _cores(), progress, notes)
+            notes = []
         return store.finish()
     finally:
         if own_client is not None:
             own_client.close()
         store.close()
+
+
+def _run_stage(
+    stage: Stage,
+    store: TileStore[Any],
+    client: Client | None,
+    workers: int,
+    progress: bool,
+    notes: list[str],
+) -> None:
+    """Run the tasks of one stage on the workers or the cluster, writing each result into
+    ``store`` as it arrives, with a progress bar (``notes`` shown on it first). Ctrl-C
+    ends the stage once the tiles in flight are written, and says where the output is."""
+    bar = Progress(
+        stage.tiles,
+        stage.points,
+        stage.tiles_done,
+        stage.points_done,
+        enabled=progress,
+        compiling=(
+            client is None
+            and not kernels_compiled(parallel=False, level=stage.sweep.friction_level)
+        ),
+    )
+    for note in notes:
+        bar.note(note)
+
+    def write(result: Any) -> None:
+        store.write(result)
+        bar.update(result.summary())
+
+    try:
+        run_tiles(
+            stage.sweep,
+            stage.todo,
+            write,
+            client=client,
+            workers=workers,
+            compute=stage.compute,
+            on_wait=bar.tick,
+        )
+    except KeyboardInterrupt:
+        bar.interrupted(store.location)
+        raise
+    bar.close(stage.label)
 
 
 def announce(sweep: Sweep) -> None:
@@ -228,22 +236,6 @@ def _client(scheduler: str) -> Client:
             "scheduler needs dask.distributed: pip install 'rattlesweep[distributed]'"
         ) from None
     return Client(scheduler)
-
-
-@contextlib.contextmanager
-def _connect(scheduler: str | None) -> Iterator[Client | None]:
-    """A client of ``scheduler`` for the duration (None without one)."""
-    client = None if scheduler is None else _client(scheduler)
-    try:
-        yield client
-    finally:
-        if client is not None:
-            client.close()
-
-
-def _points(sweep: Sweep, tile: int) -> int:
-    start, stop = sweep.tile_range(tile)
-    return stop - start
 
 
 def stored_sweep(

@@ -17,6 +17,7 @@ from .._execution.lock import LOCK_NAME, SweepLock
 from .merge import merge_arrays
 from .._config.spec import Sweep
 from .store import write_failure
+from .._execution.stage import Stage, uniform_stage
 from .._execution.tiles import TileResult, result_names, variable_attrs
 
 __all__ = [
@@ -116,6 +117,7 @@ class SweepDirectory:
         self.lock = SweepLock(self.out.resolve() / LOCK_NAME)
         self.written = 0
         self.notes: list[str] = []
+        self.todo: list[int] = []
 
     def open(self) -> list[int]:
         """Create or check the directory for the sweep and take its lock; return the tiles
@@ -130,10 +132,15 @@ class SweepDirectory:
         self.out.mkdir(parents=True, exist_ok=True)
         self.lock.acquire()
         try:
-            return self._prepare()
+            self.todo = self._prepare()
         except BaseException:
             self.lock.release()
             raise
+        return self.todo
+
+    def stages(self) -> Iterator[Stage]:
+        """One stage: the tiles :meth:`open` found still to compute."""
+        yield uniform_stage(self.sweep, self.todo)
 
     def _check_path(self) -> None:
         """Refuse an output path that is no directory, a zarr store, or a directory

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Iterator
 
 import netCDF4
 import numpy as np
@@ -21,6 +22,7 @@ import xarray as xr
 from ...io import NETCDF_LOCK, stale_temporaries
 from ...rattleback import batch
 from .._config.spec import Sweep
+from .._execution.stage import Stage
 from .._execution.tiles import (
     NOT_COMPUTED,
     LevelTile,
@@ -129,6 +131,13 @@ class RefinedDirectory(SweepDirectory):
         return LevelTileResult(
             item.level, item.tile, item.index, data, int(np.sum(data["steps"])), 0.0
         )
+
+    def stages(self) -> Iterator[Stage]:
+        """One stage per level (:func:`~rattlesweep.sweep._refinement.stages.level_stages`),
+        each planned from the results of the levels before it."""
+        from .._refinement.stages import level_stages
+
+        yield from level_stages(self)
 
     def _apply(self, result: LevelTileResult) -> None:
         for name, v in self.values.items():

@@ -4,9 +4,10 @@ error a failed write becomes.
 An output (:class:`~rattlesweep.sweep._outputs.directory.TileDirectory` for netCDF,
 :class:`~rattlesweep.sweep._outputs.zarr_store.ZarrStore`, and
 :class:`~rattlesweep.sweep._outputs.refined.RefinedDirectory` for a refined sweep) is
-opened for one sweep, says which tiles are still to compute, takes each finished tile's
-results from the runner (only the process that runs the sweep writes), and finishes
-into the result dataset.
+opened for one sweep, says which tiles are still to compute and in which stages
+(:class:`~rattlesweep.sweep._execution.stage.Stage`), takes each finished tile's results
+from the runner (only the process that runs the sweep writes), and finishes into the
+result dataset.
 """
 
 from __future__ import annotations
@@ -14,9 +15,12 @@ from __future__ import annotations
 import errno
 import os
 from pathlib import Path
-from typing import Protocol, TypeVar
+from typing import TYPE_CHECKING, Iterator, Protocol, TypeVar
 
 import xarray as xr
+
+if TYPE_CHECKING:
+    from .._execution.stage import Stage
 
 __all__ = ["SweepWriteError", "TileStore", "write_failure"]
 
@@ -38,6 +42,11 @@ class TileStore(Protocol[Result]):
     def open(self) -> list[int]:
         """Lock and prepare the output; return the tiles still to compute (of a refined
         sweep: none, its levels' tiles are planned as the levels run)."""
+
+    def stages(self) -> Iterator[Stage]:
+        """After :meth:`open`, the stages of tasks still to run, in order: one of a
+        uniform sweep, a level's of a refined sweep, planned once the stages before it
+        are written."""
 
     def write(self, result: Result) -> None:
         """Write one finished tile, so that a crash leaves it whole or absent."""

@@ -43,6 +43,7 @@ from .digest import feed, finish, tile_digest
 from .merge import grid_coords, result_attrs
 from .._config.spec import Sweep
 from .store import write_failure
+from .._execution.stage import Stage, uniform_stage
 from .._execution.tiles import NOT_COMPUTED, TileResult, result_dtypes, variable_attrs
 
 if TYPE_CHECKING:
@@ -345,6 +346,7 @@ class ZarrStore:
         self.written = 0
         self.arrays: dict[str, Any] = {}
         self.notes: list[str] = []
+        self.todo: list[int] = []
 
     def open(self) -> list[int]:
         """Lay the store out, or check that it holds this sweep; take its lock; return the
@@ -353,10 +355,15 @@ class ZarrStore:
             self.lock.path.parent.mkdir(parents=True, exist_ok=True)
             self.lock.acquire()
         try:
-            return self._prepare()
+            self.todo = self._prepare()
         except BaseException:
             self.close()
             raise
+        return self.todo
+
+    def stages(self) -> Iterator[Stage]:
+        """One stage: the tiles :meth:`open` found still to compute."""
+        yield uniform_stage(self.sweep, self.todo)
 
     def _prepare(self) -> list[int]:
         sweep = self.sweep

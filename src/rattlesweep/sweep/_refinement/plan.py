@@ -25,7 +25,7 @@ is a separate map):
   cell.
 
 Everything here is plain NumPy on arrays over the finest grid; running the levels is
-:mod:`~rattlesweep.sweep._refinement.run`, storing them
+:mod:`~rattlesweep.sweep._refinement.stages`, storing them
 :mod:`~rattlesweep.sweep._outputs.refined`.
 """
 
