@@ -168,8 +168,9 @@ def launch_inputs(body: Bodies, *, announce: bool = True, **given: Any) -> Input
     ):
         raise ValueError("give either orientation or roll/pitch/yaw, not both")
     scalars = launch_values(given, LAUNCH)
-    if given.get("omega") is not None:
-        del scalars["spin"]
+    spin = scalars.pop("spin")
+    if given.get("omega") is None:  # given, omega is the launch's rotation instead
+        scalars["spin"] = spin
     vectors: dict[str, np.ndarray] = {}
     for name, spec in LAUNCH.items():
         width, value = spec.width, given.get(name)
