@@ -364,7 +364,7 @@ def test_read_only_installation_caches_its_kernels_per_user(installs):
     installed, first, summary, untouched = installs["read-only"]
     assert _all_under(first["saved to"], installed.user_cache), first["saved to"][:3]
     # the stamp of drop_stale_cache, which drops these files after an upgrade in place
-    assert list(installed.user_cache.glob("core_*/kernel-sources.sha256"))
+    assert list(installed.user_cache.glob("_core_*/kernel-sources.sha256"))
 
     second, summary_again = installed.demo("second")
     assert not second["saved to"], second["saved to"][:3]
