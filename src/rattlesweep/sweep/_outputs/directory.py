@@ -133,10 +133,10 @@ class SweepDirectory:
         self.lock.acquire()
         try:
             self.todo = self._prepare()
+            return self.todo
         except BaseException:
             self.lock.release()
             raise
-        return self.todo
 
     def stages(self) -> Iterator[Stage]:
         """One stage: the tiles :meth:`open` found still to compute."""

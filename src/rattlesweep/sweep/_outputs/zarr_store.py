@@ -356,10 +356,10 @@ class ZarrStore:
             self.lock.acquire()
         try:
             self.todo = self._prepare()
+            return self.todo
         except BaseException:
             self.close()
             raise
-        return self.todo
 
     def stages(self) -> Iterator[Stage]:
         """One stage: the tiles :meth:`open` found still to compute."""
