@@ -118,7 +118,8 @@ def report(label, result, reference, tolerance):
     d = np.abs(a[both] - b[both]) * 1e3
     print(
         f"demo map (mu = 0.3, {a.size} launches), default dt against dt/16: outcome "
-        f"(reverses or not) differs at {np.count_nonzero(np.isfinite(a) != np.isfinite(b))};"
+        "(reverses or not) differs at "
+        f"{np.count_nonzero(np.isfinite(a) != np.isfinite(b))};"
         f" |difference| of first reversal times where both reversed ({both.sum()}): "
         f"median {np.median(d):.3f} ms, 95th percentile {np.percentile(d, 95):.3f} ms, "
         f"max {d.max():.3f} ms; wall {result['demo']['1']['wall']:.2f} s (dt) and "

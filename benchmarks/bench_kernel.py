@@ -206,7 +206,8 @@ def latency():
         "cold: an empty numba cache for each friction level)"
     )
     print(
-        f"{'mu':>5} {'numba cache':<12} {'import':>7} {'+ simulate':>11} {'+ run_batch':>12}"
+        f"{'mu':>5} {'numba cache':<12} {'import':>7} {'+ simulate':>11} "
+        f"{'+ run_batch':>12}"
     )
     for mu in (math.inf, 0.3):
         with tempfile.TemporaryDirectory() as cache:

@@ -2,7 +2,7 @@
 
 Run from the repository root::
 
-    .venv/bin/python benchmarks/bench_refine.py                  # both problems: ~15 min on 2 cores
+    .venv/bin/python benchmarks/bench_refine.py                  # both: ~15 min, 2 cores
     .venv/bin/python benchmarks/bench_refine.py --problem demo   # the demo map only
     .venv/bin/python benchmarks/bench_refine.py --keep runs/bench   # keep the outputs
 
@@ -12,7 +12,7 @@ tasks, tile files, the result file):
 
 1. "full": the map simulated at every point of the finest grid;
 2. "adaptive": the declared grid refined ``levels`` times
-   (:mod:`rattlesweep.sweep.refinement.plan`);
+   (:mod:`rattlesweep.sweep._refinement.plan`);
 3. "adaptive+stop": the same with ``stop = "first_reversal"``;
 4. "full+stop": every point of the finest grid with the stop (skipped with --no-full-stop).
 
@@ -53,11 +53,14 @@ import numpy as np
 import xarray as xr
 
 from rattlesweep import Body, run_batch
-from rattlesweep.sweep import Sweep, run_sweep
-from rattlesweep.sweep.outputs.compare import compare_with_full
-from rattlesweep.sweep.config.demo import DEMO_TOML
-from rattlesweep.sweep.outputs.outcomes import at_first_reversal
-from rattlesweep.core.workspace import BLOCK
+from rattlesweep.sweep import (
+    DEMO_TOML,
+    Sweep,
+    at_first_reversal,
+    compare_with_full,
+    run_sweep,
+)
+from rattlesweep._core.workspace import BLOCK
 
 THIN_TOML = """\
 name = "thin: spin x friction at 6 degrees misalignment"
@@ -176,8 +179,10 @@ def run_problem(name: str, root: Path, workers: int, full_stop: bool) -> None:
     for label in ("adaptive", "adaptive+stop"):
         c = compare_with_full(results[label], full)
         print(
-            f"{label}: outcome mismatch {c['mismatch']:.3%} ({round(c['mismatch'] * c['points'])}"
-            f" points, {c['mismatch_filled']} of them filled), simulated {c['simulated']:.1%}"
+            f"{label}: outcome mismatch {c['mismatch']:.3%} "
+            f"({round(c['mismatch'] * c['points'])}"
+            f" points, {c['mismatch_filled']} of them filled), simulated "
+            f"{c['simulated']:.1%}"
         )
         for (a, b), n in c["misses"].items():
             print(f"    full {a} -> adaptive {b}: {n}")

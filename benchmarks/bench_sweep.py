@@ -40,7 +40,7 @@ import time
 from rattlesweep.rattleback.batch import prepare
 from rattlesweep._run import execute
 from rattlesweep.sweep import Sweep, run_sweep
-from rattlesweep.core.workspace import RK4
+from rattlesweep._core.workspace import RK4
 
 
 def grid_sweep(n_target: int, t_end: float, tile_size: int | None = None) -> Sweep:
@@ -156,12 +156,14 @@ def main() -> None:
             print(
                 f"{r['n']:>8} {r['tiles']:>5} {w:>7} {r['prepare']:>9.2f} "
                 f"{r['kernel']:>9.2f} {r['sweep']:>8.2f} "
-                f"{r['sweep'] / r['kernel'] - 1:>8.1%} {r['steps'] / r['kernel'] / 1e6:>15.2f} "
+                f"{r['sweep'] / r['kernel'] - 1:>8.1%} "
+                f"{r['steps'] / r['kernel'] / 1e6:>15.2f} "
                 f"{r['steps'] / r['sweep'] / 1e6:>14.2f}"
             )
         if 2 in by_workers:
             print(
-                f"{'':>8} scaling 1 -> 2 workers: sweep {by_workers[1]['sweep'] / by_workers[2]['sweep']:.2f}x, "
+                f"{'':>8} scaling 1 -> 2 workers: sweep "
+                f"{by_workers[1]['sweep'] / by_workers[2]['sweep']:.2f}x, "
                 f"kernel {by_workers[1]['kernel'] / by_workers[2]['kernel']:.2f}x"
             )
 

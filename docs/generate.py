@@ -12,9 +12,9 @@ from pathlib import Path
 
 from rattlesweep.rattleback.body import PRESETS
 from rattlesweep.cli import build_parser
-from rattlesweep.sweep.config.demo import DEMO_TOML
+from rattlesweep.sweep import DEMO_TOML
 from rattlesweep.inputs import PLANAR, RATTLEBACK, Input
-from rattlesweep.sweep.config.params import PARAMS
+from rattlesweep.sweep._config.params import PARAMS
 
 
 def cli_page() -> str:

@@ -14,7 +14,7 @@ import rattlesweep as rs
 from rattlesweep import Sweep, run_sweep, stability
 from rattlesweep.planar import PlanarBody, simulate_planar
 from rattlesweep.plot import animate, contact_path, reversal_map, stability_map, time_series
-from rattlesweep.sweep.config.demo import DEMO_TOML
+from rattlesweep.sweep import DEMO_TOML
 
 OUT = Path(__file__).parent / "gallery"
 DPI = 80

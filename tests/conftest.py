@@ -1,5 +1,6 @@
 import math
 import os
+import tomllib
 
 import pytest
 
@@ -45,3 +46,24 @@ def kl():
 
 
 HALF_DEGREE = math.radians(0.5)
+
+
+@pytest.fixture(scope="session")
+def made(tmp_path_factory):
+    """One run of ``rattlesweep design`` on the example shell, as a user would run it:
+    the output directory and its design.toml (shared by test_design.py and
+    test_design_trial.py)."""
+    pytest.importorskip("trimesh")
+    pytest.importorskip("manifold3d")
+    from design_helpers import SHELL
+    from rattlesweep.cli import main
+
+    out = tmp_path_factory.mktemp("design")
+    a, b, c = SHELL
+    status = main(
+        ["design", "--a", str(a), "--b", str(b), "--c", str(c), "--out", str(out)]
+    )
+    assert status == 0
+    with open(out / "design.toml", "rb") as f:
+        doc = tomllib.load(f)
+    return out, doc

@@ -12,8 +12,8 @@ import pytest
 
 from rattlesweep import Sweep
 from rattlesweep.cli import main
-from rattlesweep.sweep.execution.estimate import estimate
-from rattlesweep.sweep.config.sizes import MERGED_BYTES, TILE_BYTES
+from rattlesweep.sweep._execution.estimate import estimate
+from rattlesweep.sweep._config.sizes import MERGED_BYTES, TILE_BYTES
 
 CONFIG = """\
 name = "dry"
@@ -110,7 +110,7 @@ kernel time, which a calibration running whole launches spent before answering."
 
 
 def test_calibration_of_hours_long_launches_runs_a_bounded_number_of_steps():
-    from rattlesweep.sweep.execution import estimate as module
+    from rattlesweep.sweep._execution import estimate as module
 
     sweep = Sweep.from_toml(LONG)
     e = estimate(sweep, workers=1)

@@ -17,7 +17,7 @@ import pytest
 
 import rattlesweep as rs
 from rattlesweep.explore import start, warm
-from rattlesweep.sweep.config.params import result_name
+from rattlesweep.sweep._config.params import result_name
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 sync_api = pytest.importorskip(

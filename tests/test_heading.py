@@ -17,7 +17,7 @@ from heading_oracle import (
     reversal_count,
     wackelstein,
 )
-from rattlesweep.core.workspace import HEADING_BAND as KERNEL_HEADING_BAND
+from rattlesweep._core.workspace import HEADING_BAND as KERNEL_HEADING_BAND
 
 TOY = rs.Body.preset("toy")
 

@@ -48,17 +48,19 @@ def test_making_and_writing_a_sweep_loads_no_heavy_library():
 
 def test_lazy_names_resolve_and_are_listed():
     from rattlesweep import sweep
-    from rattlesweep.sweep.execution import run
+    from rattlesweep.sweep._execution import run
 
     assert rs.Sweep is sweep.Sweep
     assert rs.run_sweep is run.run_sweep and rs.resume is run.resume
     assert sweep.run_sweep is run.run_sweep and sweep.resume is run.resume
     assert rs.sweep is sweep
-    # the paths the API reference gave these before the subpackages
-    from rattlesweep.sweep.execution.estimate import estimate
-    from rattlesweep.sweep.outputs.compare import compare_with_full
+    # the public names of functions the private subpackages hold, and the path the API
+    # reference gave compare_with_full before the subpackages
+    from rattlesweep.sweep._execution.estimate import estimate
+    from rattlesweep.sweep._outputs.compare import compare_with_full
 
-    assert sweep.estimate.estimate is estimate
+    assert sweep.estimate is estimate
+    assert sweep.compare_with_full is compare_with_full
     assert sweep.compare.compare_with_full is compare_with_full
     for name in rs.__all__:
         assert name in dir(rs) and getattr(rs, name) is not None
@@ -77,7 +79,7 @@ def test_making_a_sweep_runs_no_kernel():
     kernel: no numba kernel is compiled or loaded to build a configuration."""
     probe = textwrap.dedent("""
         from rattlesweep import Sweep
-        from rattlesweep.core import stepper
+        from rattlesweep._core import stepper
         s = Sweep(axes={"spin": [1.0, 2.0], "mu": [0.3, float("inf")]},
                   fixed={"t_end": 1.0, "roll_deg": 0.5})
         assert s.tile_size > 0
@@ -126,8 +128,8 @@ def test_sweep_errors_and_the_plots_load_on_first_use_only():
     # names from the sweep package, without dask or netCDF4 until the sweep runs
     assert _imported_after("""
         import rattlesweep as rs
-        from rattlesweep.sweep.outputs.store import SweepWriteError
-        from rattlesweep.sweep.execution.lock import SweepLocked
+        from rattlesweep.sweep._outputs.store import SweepWriteError
+        from rattlesweep.sweep._execution.lock import SweepLocked
         assert rs.SweepWriteError is SweepWriteError and rs.SweepLocked is SweepLocked
         assert issubclass(rs.CoarseStepWarning, RuntimeWarning)
     """) == {m: False for m in HEAVY}

@@ -11,9 +11,9 @@ import pytest
 
 import rattlesweep as rs
 from rattlesweep.rattleback.batch import launch_inputs, max_steps
-from rattlesweep.core.rattleback import layout as rattleback_layout
-from rattlesweep.core.planar import layout as planar_layout
-from rattlesweep.core.workspace import COMMON_PARAMS
+from rattlesweep._core.rattleback import layout as rattleback_layout
+from rattlesweep._core.planar import layout as planar_layout
+from rattlesweep._core.workspace import COMMON_PARAMS
 from rattlesweep.inputs import (
     BAND,
     FINITE,

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import rattlesweep as rs
-from rattlesweep.core.workspace import BLOCK, STATUS_NAMES
+from rattlesweep._core.workspace import BLOCK, STATUS_NAMES
 
 from conftest import HALF_DEGREE
 
@@ -178,7 +178,7 @@ def test_no_allocation_in_the_time_loop(kl):
     from numba.core.runtime import _nrt_python, rtsys
 
     from rattlesweep.rattleback.batch import prepare
-    from rattlesweep.core.workspace import O_SLIP_FRAC, RK4
+    from rattlesweep._core.workspace import O_SLIP_FRAC, RK4
     from rattlesweep._run import execute
 
     def allocations(t_end, parallel):
@@ -217,7 +217,7 @@ def test_no_allocation_in_the_time_loop(kl):
 def test_cached_kernels_are_dropped_when_any_kernel_source_changes(tmp_path):
     """numba keys a cached kernel on its own file only; a stepper compiled with an older
     model must not be loaded after the model's file changed."""
-    from rattlesweep.core.jit import drop_stale_cache
+    from rattlesweep._core.jit import drop_stale_cache
 
     (tmp_path / "model.py").write_text("x = 1\n")
     cache = tmp_path / "__pycache__"
@@ -239,7 +239,7 @@ def test_stale_kernels_are_dropped_where_numba_caches_them(tmp_path, monkeypatch
     package itself is not written to."""
     import numba.core.config
 
-    from rattlesweep.core.jit import drop_stale_cache
+    from rattlesweep._core.jit import drop_stale_cache
 
     package = tmp_path / "package"
     (package / "model").mkdir(parents=True)
@@ -271,7 +271,7 @@ def test_kernels_compiled_says_whether_a_first_call_compiles(tmp_path):
 
     from rattlesweep._run import kernels_compiled
 
-    from rattlesweep.core.workspace import ROLLING
+    from rattlesweep._core.workspace import ROLLING
 
     rs.simulate(rs.Body.preset("toy"), spin=5.0, t_end=0.01)  # rolling: mu = inf
     assert kernels_compiled(parallel=False, level=ROLLING)

@@ -9,10 +9,10 @@ import pytest
 
 import rattlesweep as rs
 from rattlesweep.rattleback.batch import prepare
-from rattlesweep.core import models, stepper
-from rattlesweep.core.models import RATTLEBACK
-from rattlesweep.core.rattleback import dynamics, layout, slip
-from rattlesweep.core.workspace import (
+from rattlesweep._core import models, stepper
+from rattlesweep._core.models import RATTLEBACK
+from rattlesweep._core.rattleback import dynamics, layout, slip
+from rattlesweep._core.workspace import (
     BLOCK,
     COUPLES,
     OFF_S,
@@ -159,8 +159,8 @@ def test_compiled_variants_stay_within_the_budget():
 
 PROBE = """
 import rattlesweep as rs
-from rattlesweep.core import events, stepper
-from rattlesweep.core.rattleback import dynamics, slip
+from rattlesweep._core import events, stepper
+from rattlesweep._core.rattleback import dynamics, slip
 rs.simulate(rs.Body.preset("toy"), spin=5.0, t_end=0.01)
 index = lambda d: [key[0] for key in d._cache._cache_file._load_index()]
 print(sorted({sig[1].literal_value for sig in index(dynamics.eval_block)}),

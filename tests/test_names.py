@@ -149,7 +149,8 @@ def test_unstack_gives_the_broadcast_shape_in_one_call():
     assert grid.spin.dims == ("launch_spin", "mu", "time")  # recorded series too
     np.testing.assert_array_equal(grid.launch_spin.values, spins)
     np.testing.assert_array_equal(grid.mu.values, mus)
-    # an input varying along the first axis only, but not the chosen index, stays a coordinate
+    # an input varying along the first axis only, but not the chosen index, stays a
+    # coordinate
     assert grid.roll_deg.dims == ("launch_spin", "mu")
     np.testing.assert_array_equal(grid.roll_deg.values[:, 1], [0.5, 1.0, 1.5])
     for i, s in enumerate(spins):

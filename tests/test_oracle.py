@@ -28,7 +28,8 @@ CASES = {"kane_levinson": (5.0, 6.2), "toy": (-10.0, 2.0)}
 
 
 def kernel_launch(body, spins, t_end):
-    """Kernel run recorded at every step (public API); its t = 0 state as an oracle state."""
+    """Kernel run recorded at every step (public API); its t = 0 state as an oracle
+    state."""
     ds = rs.run_batch(
         body,
         spin=spins,

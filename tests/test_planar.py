@@ -9,8 +9,8 @@ import warnings
 import numpy as np
 import pytest
 
-from rattlesweep.core.planar.dynamics import contact_impulse
-from rattlesweep.core.workspace import BLOCK, STATUS_NAMES
+from rattlesweep._core.planar.dynamics import contact_impulse
+from rattlesweep._core.workspace import BLOCK, STATUS_NAMES
 from rattlesweep.planar import PlanarBody, run_planar_batch, simulate_planar
 
 G = 9.81
@@ -201,7 +201,7 @@ def test_frictionless_contact_keeps_horizontal_momentum():
     np.testing.assert_allclose(ds.x_G.values, 0.05 * ds.time.values, rtol=1e-12, atol=1e-15)
 
 
-# --- Coulomb friction ----------------------------------------------------------------------
+# --- Coulomb friction ------------------------------------------------------------------
 
 
 def _max_rolling_demand(theta, t_end=0.3):

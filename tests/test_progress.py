@@ -3,7 +3,7 @@
 import io
 import time
 
-from rattlesweep.sweep.execution.progress import Progress
+from rattlesweep.sweep._execution.progress import Progress
 
 
 def test_a_compiling_first_tile_is_announced_and_left_out_of_the_eta():
@@ -46,7 +46,7 @@ def test_a_tile_held_back_by_the_interval_is_shown_while_the_next_one_runs():
 
 
 def test_the_runner_shows_every_tile_written_while_it_waits_for_the_next():
-    from rattlesweep.sweep.execution.execute import run_tiles
+    from rattlesweep.sweep._execution.execute import run_tiles
     from sweep_helpers import small_sweep
 
     def compute(sweep, tile):

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import functools
 import math
-import re
 import warnings
 
 import numpy as np
@@ -28,10 +27,9 @@ from hypothesis.extra import numpy as hnp
 
 import rattlesweep as rs
 from rattlesweep.rattleback import batch
-from rattlesweep.core.workspace import NON_FINITE, OK
+from rattlesweep._core.workspace import NON_FINITE, OK
 from rattlesweep import CoarseStepWarning
 from rattlesweep.rattleback.launch import quaternion_from_angles
-from rattlesweep.planar.batch import prepare as prepare_planar
 from strategies import (
     LAUNCH_ARGS,
     any_scalar,
@@ -42,117 +40,15 @@ from strategies import (
     valid_bodies,
     valid_launch,
 )
-
-pytestmark = pytest.mark.filterwarnings("ignore::RuntimeWarning")
-
-# observables every trajectory has, compared bit for bit between batch arrangements
-OBSERVABLES = (
-    "first_reversal_time",
-    "n_reversals",
-    "initial_spin",
-    "final_spin",
-    "mean_final_spin",
-    "max_tilt",
-    "energy_initial",
-    "energy_final",
-    "energy_lost",
-    "slip_fraction",
-    "t_final",
-    "steps",
-    "status",
+from property_checks import (
+    OBSERVABLES,
+    assert_names,
+    assert_same_results,
+    check_trajectories,
+    rerun_batch,
 )
 
-ENERGY_RTOL = 1e-7
-"""A run's energy may rise above its launch value by this fraction of it before the
-properties ask why. Friction and damping only remove energy, so a larger rise must be
-integrator error (RK4's truncation error in violent launches, the O(dt^2) work of a slip
-onset decided at a step start), which shrinks with the step at the method's order once
-the step resolves the motion (by 8 to 16 per halving in 800 random launches; a frictionless
-sliding launch of a flat ellipsoid shrank by 2.6, then 15, 15, 16); a physical defect (a
-force of the wrong sign, a lost impulse) does not shrink with the step."""
-
-
-def names_one_of(exc: Exception, names) -> bool:
-    """Whether the message of ``exc`` names one of ``names`` as a word."""
-    msg = str(exc)
-    return any(re.search(rf"(?<![\w]){re.escape(n)}(?![\w])", msg) for n in names)
-
-
-def assert_names(exc: Exception, names) -> None:
-    assert names_one_of(exc, names), (
-        f"{type(exc).__name__}: {exc}\n does not name any of {sorted(names)}"
-    )
-
-
-def energy_rise(ds) -> np.ndarray:
-    """Each trajectory's largest energy above its launch value, as a fraction of it (the
-    recorded history when there is one, else the final energy)."""
-    e0 = ds.energy_initial.values
-    top = np.nanmax(ds.energy.values, axis=-1) if "energy" in ds else ds.energy_final.values
-    return (top - e0) / np.abs(e0)
-
-
-def check_trajectories(ds, rerun=None, shrink: float = 8.0) -> None:
-    """Every ok trajectory finite (``mean_final_spin`` from 10 steps on, see
-    test_mean_final_spin_of_a_short_run_is_finite), its reversal time inside the run, its
-    energy at most its launch value within ENERGY_RTOL, or, where it rose more, a rise that
-    ``rerun(factor)`` (the same launches with the time step times ``factor``) shows to
-    be integrator error: a quarter of the step divides it by at least ``shrink`` (8 for
-    RK4, of order 4, whose error a quarter step divides by 256 once the step resolves
-    the motion; 2 for the first-order semi-implicit Euler); see :func:`check_energy`."""
-    ok = ds.status.values == OK
-    for name in OBSERVABLES:
-        values = ds[name].values[ok]
-        if name == "mean_final_spin":
-            values = values[ds.steps.values[ok] >= 10]
-        if name == "first_reversal_time":
-            t = values[np.isfinite(values)]
-            # a crossing interpolated inside the first step may round to a hair below 0
-            # when the launch spin is ~0 (the band, a fraction of it, is then ~0 too)
-            assert np.all((t >= -1e-15) & (t <= ds.t_final.values[ok][np.isfinite(values)]))
-            assert not np.any(np.isinf(values))
-        else:
-            assert np.all(np.isfinite(values)), (name, values)
-    if "energy" in ds:
-        assert np.all(np.isfinite(ds.energy.values[ok])), "energy"
-        assert np.all(np.isfinite(ds.spin.values[ok])), "spin"
-    check_energy(ds, rerun, shrink)
-
-
-def check_energy(ds, rerun=None, shrink: float = 8.0) -> None:
-    """The energy part of :func:`check_trajectories`, for either model: a rise above
-    ENERGY_RTOL must shrink by ``shrink`` from the step to a quarter of it, or, where the
-    step is too coarse for the asymptotic rate (a switch moving by a step moves the peak),
-    from a quarter to a sixteenth of it."""
-    rise = energy_rise(ds)
-    suspect = (ds.status.values == OK) & (rise > ENERGY_RTOL)
-    factor = 1.0
-    for _ in range(2):
-        if not suspect.any():
-            return
-        assert rerun is not None, f"energy rose by {rise[suspect]} of its launch value"
-        factor /= 4
-        finer = rerun(factor)
-        finer_rise = energy_rise(finer)
-        note(f"energy rise {rise[suspect]}, {finer_rise[suspect]} at dt * {factor}")
-        shrunk = finer_rise <= np.maximum(rise / shrink, ENERGY_RTOL)
-        suspect &= (finer.status.values == OK) & ~shrunk
-        rise = finer_rise
-    assert not suspect.any(), f"energy rise {rise[suspect]} does not shrink with the step"
-
-
-def rerun_batch(run, ds, kw):
-    """A ``rerun`` for :func:`check_trajectories`: ``run(**kw)`` with each trajectory's
-    time step times ``factor``."""
-    shape = tuple(ds.attrs["batch_shape"])
-    return lambda factor: run(**{**kw, "dt": ds.dt.values.reshape(shape) * factor})
-
-
-def assert_same_results(a, b, err="") -> None:
-    for name in OBSERVABLES:
-        np.testing.assert_array_equal(
-            a[name].values, b[name].values, err_msg=f"{name} {err}"
-        )
+pytestmark = pytest.mark.filterwarnings("ignore::RuntimeWarning")
 
 
 # --- bodies ---------------------------------------------------------------------------
@@ -507,94 +403,6 @@ def test_simulate_records_a_clean_history(body, data):
     for name in OBSERVABLES:
         np.testing.assert_array_equal(run[name].values, ds[name].values[0], err_msg=name)
     np.testing.assert_array_equal(run.energy.values, ds.energy.values[0])
-
-
-# --- the planar model -----------------------------------------------------------------
-PLANAR_OBSERVABLES = (
-    "energy_initial",
-    "energy_final",
-    "energy_lost",
-    "slip_fraction",
-    "max_angle",
-    "final_angle",
-    "final_rate",
-    "t_final",
-    "steps",
-    "status",
-)
-PLANAR_ARGS = (
-    "theta",
-    "rate",
-    "velocity",
-    "mu",
-    "mu_static",
-    "mu_roll",
-    "g",
-    "dt",
-    "t_end",
-)
-
-
-@st.composite
-def planar_launch(draw, body):
-    g = draw(finite(1.0, 20.0))
-    dt0 = body.default_dt(g)
-    mu = draw(st.sampled_from([0.0, 0.2, 0.5, math.inf]) | finite(0.0, 2.0))
-    kw = {
-        "theta": draw(finite(-1.2, 1.2)),
-        "rate": draw(finite(-5.0, 5.0)),
-        "mu": mu,
-        "g": g,
-        "dt": draw(finite(0.1, 1.0)) * dt0,
-    }
-    kw["t_end"] = draw(st.integers(1, 300)) * kw["dt"]
-    if math.isfinite(mu) and draw(st.booleans()):
-        kw["mu_static"] = mu + draw(finite(0.0, 0.5))
-        kw["velocity"] = draw(finite(-0.5, 0.5))
-    if draw(st.booleans()):
-        kw["mu_roll"] = draw(finite(0.0, 0.1)) * body.b
-    return kw
-
-
-@given(a=finite(0.02, 0.3), ratio=finite(0.1, 1.3), mass=finite(0.01, 2.0), data=st.data())
-def test_planar_launches(a, ratio, mass, data):
-    """The planar model: a valid launch with at most one argument replaced by an arbitrary
-    value is refused naming it, or runs clean; results do not depend on the position."""
-    body = rs.PlanarBody(a, ratio * a, mass)
-    kw = data.draw(planar_launch(body))
-    bad = data.draw(st.none() | st.sampled_from(PLANAR_ARGS))
-    if bad is not None:
-        kw[bad] = data.draw(
-            any_scalar(finite(-1, 1))
-            if bad not in ("dt", "t_end")
-            else any_scalar(finite(1e-4, 1e-2)),
-            label=bad,
-        )
-    partners = {"mu": {"mu_static"}, "mu_static": {"velocity"}, "velocity": {"mu_static"}}
-    try:
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", CoarseStepWarning)
-            if prepare_planar(body, **kw).nsteps.max(initial=0) > 5000:
-                kw["t_end"] = 1e-3
-            ds = rs.run_planar_batch(body, **kw)
-    except ValueError as exc:
-        assert bad is not None, f"a valid launch was refused: {exc}"
-        assert_names(exc, {bad} | partners.get(bad, set()))
-        event("refused")
-        return
-    event("accepted")
-    ok = ds.status.values == OK
-    for name in PLANAR_OBSERVABLES:
-        assert np.all(np.isfinite(ds[name].values[ok])), name
-    if not caught and bad not in ("theta", "rate", "velocity", "g", "dt"):
-        check_energy(ds, rerun_batch(functools.partial(rs.run_planar_batch, body), ds, kw))
-    if ds.sizes["trajectory"] >= 2:
-        rev = rs.run_planar_batch(
-            body,
-            **{k: (np.asarray(v)[..., ::-1] if np.ndim(v) else v) for k, v in kw.items()},
-        )
-        for name in PLANAR_OBSERVABLES:
-            np.testing.assert_array_equal(ds[name].values[::-1], rev[name].values)
 
 
 def test_mean_final_spin_of_a_short_run_is_finite():

@@ -23,8 +23,8 @@ from hypothesis import event, given, note
 from hypothesis import strategies as st
 
 import rattlesweep as rs
-from rattlesweep.sweep.execution.run import run_sweep
-from rattlesweep.sweep.config.toml_io import format_toml
+from rattlesweep.sweep._execution.run import run_sweep
+from rattlesweep.sweep._config.toml_io import format_toml
 from strategies import corruptions, sweep_configs
 from test_properties import OBSERVABLES, assert_names, check_trajectories, rerun_batch
 

@@ -11,9 +11,9 @@ import xarray as xr
 
 from rattlesweep.cli import main
 from rattlesweep.sweep import Sweep, run_sweep
-from rattlesweep.sweep.outputs.compare import compare_with_full
-from rattlesweep.sweep.refinement.plan import Levels, plan_level
-from rattlesweep.sweep.outputs.refined import COMPUTED_ATTRS
+from rattlesweep.sweep._outputs.compare import compare_with_full
+from rattlesweep.sweep._refinement.plan import Levels, plan_level
+from rattlesweep.sweep._outputs.refined import COMPUTED_ATTRS
 from sweep_helpers import assert_same_file, file_stats
 
 
@@ -359,7 +359,7 @@ def test_cli_refine_stop_info_plot(tmp_path, capsys):
     not os.environ.get("RATTLESWEEP_SLOW"), reason="slow: set RATTLESWEEP_SLOW=1 to run"
 )
 def test_demo_map_refined_three_levels_matches_the_full_grid(tmp_path):
-    from rattlesweep.sweep.config.demo import DEMO_TOML
+    from rattlesweep.sweep._config.demo import DEMO_TOML
 
     demo = Sweep.from_toml(DEMO_TOML).to_dict()
     demo.pop("stop", None)

@@ -13,8 +13,8 @@ import xarray as xr
 
 from rattlesweep.cli import main
 from rattlesweep.sweep import run_sweep
-from rattlesweep.sweep.execution.run import RESULT_NAME
-from rattlesweep.sweep.outputs.verify import verify
+from rattlesweep.sweep._execution.run import RESULT_NAME
+from rattlesweep.sweep._outputs.verify import verify
 from sweep_helpers import small_sweep
 
 

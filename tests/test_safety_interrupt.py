@@ -11,9 +11,9 @@ import pytest
 import xarray as xr
 
 from rattlesweep.sweep import Sweep, run_sweep
-from rattlesweep.sweep.outputs.directory import tile_path, tile_state
-from rattlesweep.sweep.execution.run import RESULT_NAME
-from rattlesweep.sweep.outputs.verify import verify
+from rattlesweep.sweep._outputs.directory import tile_path, tile_state
+from rattlesweep.sweep._execution.run import RESULT_NAME
+from rattlesweep.sweep._outputs.verify import verify
 from sweep_helpers import start_sweep, without_history
 
 MANY_TILES_TOML = """\

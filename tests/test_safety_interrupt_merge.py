@@ -7,7 +7,7 @@ import subprocess
 import time
 
 from rattlesweep.cli import main
-from rattlesweep.sweep.execution.run import RESULT_NAME
+from rattlesweep.sweep._execution.run import RESULT_NAME
 from sweep_helpers import start_sweep
 from test_safety_interrupt import EXIT_WITHIN, MANY_TILES_TOML
 

@@ -7,8 +7,8 @@ import xarray as xr
 
 from rattlesweep.cli import main
 from rattlesweep.sweep import run_sweep
-from rattlesweep.sweep.execution.run import RESULT_NAME, export
-from rattlesweep.sweep.outputs.verify import verify
+from rattlesweep.sweep._execution.run import RESULT_NAME, export
+from rattlesweep.sweep._outputs.verify import verify
 from sweep_helpers import as_zarr, file_stats, small_sweep, without_history
 
 zarr = pytest.importorskip("zarr")
@@ -165,8 +165,8 @@ def test_orphan_merge_tmp_is_removed_on_resume(tmp_path):
 
 @pytest.mark.parametrize("output", ["netcdf", "zarr"])
 def test_a_symlink_to_an_output_in_use_meets_its_lock(tmp_path, output):
-    from rattlesweep.sweep.execution.lock import SweepLocked
-    from rattlesweep.sweep.execution.run import open_output
+    from rattlesweep.sweep._execution.lock import SweepLocked
+    from rattlesweep.sweep._execution.run import open_output
 
     s = small_sweep(output=output, tile_size=3)
     real = tmp_path / ("real.zarr" if output == "zarr" else "real")

@@ -15,8 +15,8 @@ import xarray as xr
 from rattlesweep.cli import main
 
 from rattlesweep.sweep import Sweep, run_sweep
-from rattlesweep.sweep.execution.run import export
-from rattlesweep.sweep.outputs.verify import verify
+from rattlesweep.sweep._execution.run import export
+from rattlesweep.sweep._outputs.verify import verify
 from sweep_helpers import without_config
 
 pytest.importorskip("zarr")

@@ -124,7 +124,7 @@ def test_toml_body_table_full_ellipsoid_string_refused():
         [fixed]
         t_end = 1.0
         body = { a = 0.2, b = 0.03, c = 0.02, mass = 1.0, com = [0.0, 0.0, -0.01], inertia = [[1e-4, 0, 0], [0, 2e-3, 0], [0, 0, 2e-3]], full_ellipsoid = "false" }
-    """
+    """  # noqa: E501 (a TOML inline table is one line)
     with pytest.raises(ValueError, match=r"full_ellipsoid must be a boolean.*'false'"):
         Sweep.from_toml(text)
 

@@ -9,9 +9,9 @@ import pytest
 import rattlesweep as rs
 from rattlesweep import stability as st
 from rattlesweep.rattleback.batch import prepare
-from rattlesweep.core.models import RATTLEBACK
-from rattlesweep.core.rattleback import layout as L
-from rattlesweep.core.stepper import rolling_derivative
+from rattlesweep._core.models import RATTLEBACK
+from rattlesweep._core.rattleback import layout as L
+from rattlesweep._core.stepper import rolling_derivative
 from rattlesweep.rattleback.launch import quaternion_from_angles
 
 KL = rs.Body.preset("kane_levinson")

@@ -9,7 +9,7 @@ import pytest
 import rattlesweep as rs
 from heading_oracle import heading_reversal_steps, wackelstein
 from rattlesweep.sweep import classify
-from rattlesweep.sweep.outputs.outcomes import (
+from rattlesweep.sweep._outputs.outcomes import (
     CAPSIZED,
     FAILED,
     NO_REVERSAL,

@@ -16,8 +16,8 @@ import xarray as xr
 import rattlesweep as rs
 from rattlesweep.cli import main
 from rattlesweep.sweep import OUTCOME_NAMES, Sweep, classify, resume, run_sweep
-from rattlesweep.sweep.config.grid import uniform01
-from rattlesweep.sweep.execution.run import RESULT_NAME
+from rattlesweep.sweep._config.grid import uniform01
+from rattlesweep.sweep._execution.run import RESULT_NAME
 from sweep_helpers import (
     KILL_TOML,
     assert_same_file,

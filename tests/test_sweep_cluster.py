@@ -14,7 +14,7 @@ import pytest
 import xarray as xr
 
 from rattlesweep.sweep import Sweep, resume, run_sweep
-from rattlesweep.sweep.execution.run import RESULT_NAME
+from rattlesweep.sweep._execution.run import RESULT_NAME
 from sweep_helpers import (
     KILL_TOML,
     as_zarr,
@@ -127,7 +127,7 @@ def test_a_client_killed_mid_sweep_resumes_without_recomputing(tmp_path):
     """The client (the CLI, sending tiles to a cluster by its address and writing a zarr
     store) is killed mid-sweep; a resume on the same cluster completes the store without
     writing again the tiles that were done."""
-    from rattlesweep.sweep.outputs.zarr_store import tiles_done
+    from rattlesweep.sweep._outputs.zarr_store import tiles_done
 
     pytest.importorskip("zarr")
     config = tmp_path / "kill.toml"

@@ -17,10 +17,10 @@ import xarray as xr
 
 from rattlesweep.cli import main
 from rattlesweep.sweep import Sweep, resume, run_sweep
-from rattlesweep.sweep.execution.lock import LOCK_NAME, SweepLocked
-from rattlesweep.sweep.execution.lock import SweepLock as SweepLock_
-from rattlesweep.sweep.execution.run import RESULT_NAME, export
-from rattlesweep.sweep.execution.tiles import NOT_COMPUTED, compute_tile
+from rattlesweep.sweep._execution.lock import LOCK_NAME, SweepLocked
+from rattlesweep.sweep._execution.lock import SweepLock as SweepLock_
+from rattlesweep.sweep._execution.run import RESULT_NAME, export
+from rattlesweep.sweep._execution.tiles import NOT_COMPUTED, compute_tile
 from sweep_helpers import (
     KILL_TOML,
     as_zarr,
@@ -32,7 +32,7 @@ from sweep_helpers import (
 
 zarr = pytest.importorskip("zarr")
 
-from rattlesweep.sweep.outputs.zarr_store import DONE_ARRAY, ZarrStore, tiles_done  # noqa: E402
+from rattlesweep.sweep._outputs.zarr_store import DONE_ARRAY, ZarrStore, tiles_done  # noqa: E402
 
 
 def _cli(*args, **kwargs) -> subprocess.Popen:
@@ -184,7 +184,7 @@ def test_zarr_store_refuses_another_sweep_and_foreign_stores(tmp_path):
 
 HOLD = textwrap.dedent("""
     import sys, time
-    from rattlesweep.sweep.execution.lock import SweepLock
+    from rattlesweep.sweep._execution.lock import SweepLock
     SweepLock(sys.argv[1]).acquire()
     print("held", flush=True)
     time.sleep(120)
@@ -288,7 +288,8 @@ FULL_DISK = textwrap.dedent("""
     ls -la "$MNT/out" "$MNT/out/tiles" > "$LOG/listing" 2>&1
     "$PY" -m rattlesweep.cli info "$MNT/out" > "$LOG/info.out" 2>&1
     mount -o remount,size=64m "$MNT"
-    "$PY" -m rattlesweep.cli resume "$MNT/out" --quiet > "$LOG/resume.out" 2> "$LOG/resume.err"
+    "$PY" -m rattlesweep.cli resume "$MNT/out" --quiet \\
+        > "$LOG/resume.out" 2> "$LOG/resume.err"
     echo $? > "$LOG/resume.rc"
     cp -r "$MNT/out" "$LOG/result"
 """)

@@ -11,9 +11,9 @@ import pytest
 import rattlesweep as rs
 from rattlesweep.rattleback import batch
 from rattlesweep.sweep import Sweep
-from rattlesweep.sweep.config import corners
-from rattlesweep.sweep.config.corners import TILE_STEPS, choose_tile_size
-from rattlesweep.sweep.config.toml_io import format_toml, read_toml
+from rattlesweep.sweep._config import corners
+from rattlesweep.sweep._config.corners import TILE_STEPS, choose_tile_size
+from rattlesweep.sweep._config.toml_io import format_toml, read_toml
 
 
 def _same(a, b) -> bool:
@@ -348,7 +348,7 @@ def test_the_order_of_the_axes_is_part_of_the_configuration(tmp_path):
     """The axes' order is the result's dimension order: a reordered configuration is a
     different sweep (a resume into its directory would otherwise merge tiles laid out
     the other way)."""
-    from rattlesweep.sweep.outputs.directory import TileDirectory
+    from rattlesweep.sweep._outputs.directory import TileDirectory
 
     fixed = {"t_end": 0.1}
     a = Sweep(axes={"spin": [1.0, 2.0], "mu": [0.3, math.inf]}, fixed=fixed)

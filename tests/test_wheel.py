@@ -69,7 +69,8 @@ def _run(cmd, **kwargs) -> subprocess.CompletedProcess:
         [str(c) for c in cmd], capture_output=True, text=True, timeout=600, **kwargs
     )
     assert proc.returncode == 0, (
-        f"{cmd} exited with {proc.returncode}:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
+        f"{cmd} exited with "
+        f"{proc.returncode}:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
     )
     return proc
 
@@ -277,7 +278,7 @@ def _make_read_only(installed: Installed) -> None:
                 str(installed.python),
                 "-c",
                 READ_ONLY_PROBE,
-                str(package / "core" / "__pycache__"),
+                str(package / "_core" / "__pycache__"),
             ],
             capture_output=True,
             text=True,
@@ -346,7 +347,7 @@ def test_installed_wheel_runs_the_demo_and_caches_its_kernels_in_the_package(ins
     assert {p.parent.name for p in first["saved to"]} == {"__pycache__"}
     assert not installed.user_cache.exists()
     # the stamp of drop_stale_cache: the next import keeps these files
-    assert (package / "core" / "__pycache__" / "kernel-sources.sha256").is_file()
+    assert (package / "_core" / "__pycache__" / "kernel-sources.sha256").is_file()
 
     second, summary_again = installed.demo("second")
     assert not second["saved to"], second["saved to"][:3]
@@ -363,7 +364,7 @@ def test_read_only_installation_caches_its_kernels_per_user(installs):
     installed, first, summary, untouched = installs["read-only"]
     assert _all_under(first["saved to"], installed.user_cache), first["saved to"][:3]
     # the stamp of drop_stale_cache, which drops these files after an upgrade in place
-    assert list(installed.user_cache.glob("core_*/kernel-sources.sha256"))
+    assert list(installed.user_cache.glob("_core_*/kernel-sources.sha256"))
 
     second, summary_again = installed.demo("second")
     assert not second["saved to"], second["saved to"][:3]

@@ -1,4 +1,5 @@
-"""The rolling rattleback (MODEL.md sections 3, 4 with stick, 6) as a JAX program, three ways.
+"""The rolling rattleback (MODEL.md sections 3, 4 with stick, 6) as a JAX program, three
+ways.
 
 Written from MODEL.md's equations for ``benchmarks/bench_peers.py``; it reads only the
 public attributes of a ``rattlesweep.Body`` (a, b, c, mass, com, inertia). Rolling only:
@@ -16,8 +17,8 @@ after every step as rattlesweep's kernel does, float64.
 * :func:`soa_runner`: the fastest formulation found: the state as seven (N,) arrays
   ("structure of arrays"), the 3 x 3 solve by its adjugate written out: elementwise
   arithmetic only, which XLA fuses into a few dozen loops over the batch per step; the
-  batch is split over the host devices (``XLA_FLAGS=--xla_force_host_platform_device_count=K``
-  before JAX is imported gives K).
+  batch is split over the host devices
+  (``XLA_FLAGS=--xla_force_host_platform_device_count=K`` before JAX is imported gives K).
 
 The vmap and SoA runners track the first reversal on the fly as the kernel does (MODEL.md
 section 6: the zero crossing of n = omega . Z, linearly interpolated, before the first

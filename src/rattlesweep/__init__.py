@@ -57,12 +57,12 @@ _FROM = {
     "run_planar_batch": ".planar",
     "simulate_planar": ".planar",
     "Sweep": ".sweep",
-    "resume": ".sweep.execution.run",
-    "run_sweep": ".sweep.execution.run",
+    "resume": ".sweep._execution.run",
+    "run_sweep": ".sweep._execution.run",
     "CoarseStepWarning": "._steps",
     "LongRunWarning": "._steps",
-    "SweepWriteError": ".sweep.outputs.store",
-    "SweepLocked": ".sweep.execution.lock",
+    "SweepWriteError": ".sweep._outputs.store",
+    "SweepLocked": ".sweep._execution.lock",
     "DesignRefused": ".design.constraints",
 }
 """Each name of the package and the module it comes from."""
@@ -76,9 +76,9 @@ if TYPE_CHECKING:
     from .rattleback import PRESETS, Body, UnitsWarning, run_batch
     from .rattleback.simulate import simulate
     from .sweep import Sweep
-    from .sweep.execution.lock import SweepLocked
-    from .sweep.execution.run import resume, run_sweep
-    from .sweep.outputs.store import SweepWriteError
+    from .sweep._execution.lock import SweepLocked
+    from .sweep._execution.run import resume, run_sweep
+    from .sweep._outputs.store import SweepWriteError
     from .tidy import decode, to_csv, to_table, unstack
 else:
     # hidden from type checkers, which would give any other name its result type

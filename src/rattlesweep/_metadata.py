@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping, Sequence
 
-from .core.workspace import STATUS_NAMES
+from ._core.workspace import STATUS_NAMES
 from .inputs import Input, result_attrs
 
 __all__ = ["coordinate_attrs", "flag_attrs", "lookup_attrs", "status_attrs"]

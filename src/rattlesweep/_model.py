@@ -4,7 +4,7 @@ layers: a :class:`Prepared` batch (packed by :mod:`rattlesweep._pack`) and the
 :mod:`rattlesweep._results` labels.
 
 A model is described once by a :class:`Model`: its kernel number, its row tables
-(:mod:`rattlesweep.core.rattleback.layout`, :mod:`rattlesweep.core.planar.layout`) and
+(:mod:`rattlesweep._core.rattleback.layout`, :mod:`rattlesweep._core.planar.layout`) and
 which observables and series its results carry.
 """
 
@@ -16,7 +16,7 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from .core.workspace import OBSERVABLES
+from ._core.workspace import OBSERVABLES
 
 __all__ = ["Model", "Prepared", "Raw"]
 
@@ -25,7 +25,7 @@ __all__ = ["Model", "Prepared", "Raw"]
 class Model:
     """What the batch layer needs to know of a model.
 
-    ``number`` is the kernel's model number (:mod:`rattlesweep.core.models`); ``layout``
+    ``number`` is the kernel's model number (:mod:`rattlesweep._core.models`); ``layout``
     the model's layout module (``PARAMS``, ``STATE``, ``RECORD``, ``OBSERVABLES``,
     ``N_OBS``); ``observables`` the names of the per-run results, in order, each a row
     of the shared or the model's observables or a key of ``derived``: (function of the

@@ -7,7 +7,7 @@ import numpy as np
 
 from ._model import Prepared
 from ._validation import is_real
-from .core.workspace import METHODS, STOP_RULES
+from ._core.workspace import METHODS, STOP_RULES
 from .inputs import RATTLEBACK
 
 __all__ = [

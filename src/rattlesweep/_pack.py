@@ -8,8 +8,8 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from ._model import Model, Prepared
-from .core.rows import Rows
-from .core.workspace import BLOCK
+from ._core.rows import Rows
+from ._core.workspace import BLOCK
 
 __all__ = ["blocked", "pack", "prepared", "unblock"]
 

@@ -13,7 +13,7 @@ import numpy as np
 import xarray as xr
 
 from ._version import __version__
-from .core.workspace import O_STATUS, O_T_END, OK, STATUS_NAMES
+from ._core.workspace import O_STATUS, O_T_END, OK, STATUS_NAMES
 from ._model import Model, Prepared, Raw
 
 __all__ = [

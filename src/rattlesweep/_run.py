@@ -16,10 +16,10 @@ from numba import types
 from ._model import Model, Prepared, Raw
 from ._pack import unblock
 from ._validation import check_boolean
-from .core import stepper
-from .core.jit import on_disk
-from .core.models import RATTLEBACK as RATTLEBACK_MODEL
-from .core.workspace import BLOCK, MU_ROLL, MU_S, MU_SPIN, SLIDING, friction_level
+from ._core import stepper
+from ._core.jit import on_disk
+from ._core.models import RATTLEBACK as RATTLEBACK_MODEL
+from ._core.workspace import BLOCK, MU_ROLL, MU_S, MU_SPIN, SLIDING, friction_level
 
 __all__ = [
     "batch_level",
@@ -126,7 +126,7 @@ def kernels_compiled(
 
 def batch_level(prep: Prepared) -> int:
     """The friction level the launches of ``prep`` need
-    (:func:`.core.workspace.friction_level`)."""
+    (:func:`._core.workspace.friction_level`)."""
     mu_s, mu_spin, mu_roll = unblock(prep.P[:, [MU_S, MU_SPIN, MU_ROLL]], prep.n)
     return friction_level(mu_s, mu_spin, mu_roll)
 

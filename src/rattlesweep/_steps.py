@@ -37,7 +37,8 @@ class AnyBody(Protocol):
 
 
 COARSE_DT = 4.0
-"""A time step above this many times the body's default draws a :class:`CoarseStepWarning`."""
+"""A time step above this many times the body's default draws a
+:class:`CoarseStepWarning`."""
 
 RK4_LIMIT = 2.0 * 2.0**0.5 * 64.0 / (2.0 * np.pi)
 """RK4 is unstable for an oscillation of angular frequency ω when ω dt > 2√2: at about
@@ -125,7 +126,8 @@ def announce_long_run(
         + ")"
     )
     warnings.warn(
-        f"this batch takes {total:.3g} steps in all ({len(steps):,} launch{'es' if len(steps) != 1 else ''}; the longest "
+        f"this batch takes {total:.3g} steps in all ({len(steps):,} "
+        f"launch{'es' if len(steps) != 1 else ''}; the longest "
         f"t_end = {float(t_end.flat[i]):g} s / dt = {float(dt.flat[i]):.3g} s{source} = "
         f"{int(steps.flat[i]):,} steps): at about 1e6 steps per second on a core, "
         f"roughly {total / 1e6 / 60:.3g} core-minutes",

@@ -4,10 +4,10 @@ whether a sweep can vary it, and one line of documentation.
 What is generated from these descriptions: the CF attributes (``units``, ``long_name``)
 that results carry for each input (:mod:`rattlesweep.rattleback.metadata`,
 :mod:`rattlesweep.planar.metadata`), the parameters a sweep can vary
-(:mod:`rattlesweep.sweep.config.params`), the rules the batch layer checks for every model
+(:mod:`rattlesweep.sweep._config.params`), the rules the batch layer checks for every model
 (:func:`rattlesweep._launches.check_common`), the inputs a batch keeps as coordinates, the
 command line's friction options and the documentation's tables of inputs
-(``docs/generate.py``). The kernel's parameter rows (:mod:`rattlesweep.core`) pack an
+(``docs/generate.py``). The kernel's parameter rows (:mod:`rattlesweep._core`) pack an
 input by the name it has here, in the units it has here.
 
 Values are in SI units (angles in radians); results show an angle in degrees under a
@@ -93,7 +93,10 @@ class Input:
     rule. ``result`` and ``result_units`` are its name and units in results where they
     are not ``name`` and ``units`` (an angle in degrees); ``in_results`` is False for an
     input that results hold as a global attribute or not at all. A vector input has
-    ``width`` components along the dimension ``dim`` of results.
+    ``width`` components along the dimension ``dim`` of results. An omitted input takes
+    the value of the input ``same_as`` names where it has one. ``details`` is more
+    documentation for the functions' docstrings; ``kind`` the type they show for an
+    input that is not a number (``"bool"``, the choices of a string).
     """
 
     name: str
@@ -112,6 +115,9 @@ class Input:
     required: bool = False
     width: int = 1  # the length of a vector input's last axis
     dim: str = ""  # the name of that axis in results
+    same_as: str = ""
+    details: str = ""
+    kind: str = ""
 
     @property
     def result_name(self) -> str:
@@ -160,6 +166,7 @@ MU_STATIC = Input(
     NONNEG_INF,
     sweep=True,
     default_doc="`mu`",
+    same_as="mu",
 )
 MU_SPIN = Input(
     "mu_spin",
@@ -181,6 +188,11 @@ MU_ROLL = Input(
     0.0,
     NONNEG,
     sweep=True,
+    details="The couple sticks (holds the rolling at rest) while the couple needed stays "
+    "within the bound. In 3-D, below a rate of order mu_roll g dt / (I/m) the couple is "
+    "proportional to the rate, and a roll slower than that whose sticking couple fits "
+    "the bound sticks, the rest of the rate removed by a plastic couple impulse; in the "
+    "plane it holds the body still (the dry-friction oscillator).",
 )
 G = Input(
     "g",
@@ -224,6 +236,7 @@ METHOD = Input(
     "run",
     "rk4",
     in_results=False,
+    kind='{"rk4", "euler"}',
 )
 RECORD_EVERY = Input(
     "record_every",
@@ -235,6 +248,9 @@ RECORD_EVERY = Input(
     in_results=False,
     default_doc="off for a batch; for a single run, the smallest stride "
     "that keeps at most 10 000 samples",
+    details="A batch records into time series over (trajectory, time) and needs one "
+    "dt and t_end for the whole batch.",
+    kind="int",
 )
 PARALLEL = Input(
     "parallel",
@@ -244,6 +260,9 @@ PARALLEL = Input(
     "run",
     True,
     in_results=False,
+    details="The calling thread releases the GIL, for callers that bring their own "
+    "parallelism.",
+    kind="bool",
 )
 THREADS = Input(
     "threads",
@@ -254,9 +273,15 @@ THREADS = Input(
     None,
     in_results=False,
     default_doc="all",
+    kind="int",
 )
 
 # --- the rattleback (3-D model) ---------------------------------------------------------
+_TILT = (
+    "The orientation is R = R_z(yaw) R_y(pitch) R_x(roll), body to world. A tilt beyond "
+    "90 degrees (180 for a full ellipsoid) in radians draws a UnitsWarning: degrees "
+    "typed as radians."
+)
 RATTLEBACK_INPUTS: tuple[Input, ...] = (
     Input(
         "a",
@@ -359,6 +384,7 @@ RATTLEBACK_INPUTS: tuple[Input, ...] = (
         launch_state=True,
         result="roll_deg",
         result_units="degree",
+        details=_TILT,
     ),
     Input(
         "pitch",
@@ -372,6 +398,7 @@ RATTLEBACK_INPUTS: tuple[Input, ...] = (
         launch_state=True,
         result="pitch_deg",
         result_units="degree",
+        details=_TILT,
     ),
     Input(
         "yaw",
@@ -436,6 +463,7 @@ RATTLEBACK_INPUTS: tuple[Input, ...] = (
         0.05,
         BAND,
         in_results=False,
+        kind="float",
     ),
     Input(
         "stop",
@@ -446,6 +474,14 @@ RATTLEBACK_INPUTS: tuple[Input, ...] = (
         None,
         in_results=False,
         default_doc="`None` (run to t_end)",
+        details="A launch stops at the first step at which it has both a first reversal "
+        "time and a reversal of its heading, unless it capsizes or lifts off first. Its "
+        "first_reversal_time and whether it reversed are those of the full run, bit for "
+        "bit, and so is its status up to the stop (a launch that reverses and only later "
+        "capsizes ends ok); n_reversals is at most 1; final_spin, energy_final, "
+        "energy_lost, slip_fraction and max_tilt are taken at the stop, t_final; "
+        "mean_final_spin is the mean over the part of the last 10 % of t_end it ran.",
+        kind='{None, "first_reversal"}',
     ),
     PARALLEL,
     THREADS,

@@ -14,7 +14,8 @@ equations (I + m(|ρ|²𝟙 − ρρᵀ)) ω̇ = −ω×Iω − c_v ω + m ρ×(
     γ̇x = n γy − ωy,   γ̇y = −n γx + ωx
     M ω̇ = T_γ γ + T_ω ω,   M = [[I_xx + mℓ², I_xy], [I_xy, I_yy + mℓ²]]
     T_γ = [[m ℓ ṅ a²/c, −m g β + m ℓ n² κ], [m g α + m ℓ n² κ, m ℓ ṅ b²/c]]
-    T_ω = [[n I_xy − c_v, n (I_yy − I_zz) − m ℓ n α], [n (I_zz − I_xx) + m ℓ n β, −n I_xy − c_v]]
+    T_ω = [[n I_xy − c_v, n (I_yy − I_zz) − m ℓ n α],
+           [n (I_zz − I_xx) + m ℓ n β, −n I_xy − c_v]]
 
 with ṅ = −c_v n / I_zz. With damping the spin itself decays at that rate, so upright spin
 is no longer an exact equilibrium: this is the linearisation at the instantaneous
@@ -192,9 +193,9 @@ def eigen(
     Returns a dict of arrays over the broadcast shape: ``eigenvalues`` (…, 4) complex
     (1/s), sorted pitch-like pair first; ``pitch_growth_rate``, ``roll_growth_rate``
     (largest real part of each mode pair, 1/s), ``pitch_frequency``,
-    ``roll_frequency`` (largest magnitude of an imaginary part, rad/s), ``growth_rate`` (largest real
-    part of all four, 1/s) and ``mode`` (:data:`MODE_NAMES` codes). A mode is pitch-like
-    when its eigenvector tilts more about body y (γx) than about body x (γy).
+    ``roll_frequency`` (largest magnitude of an imaginary part, rad/s), ``growth_rate``
+    (largest real part of all four, 1/s) and ``mode`` (:data:`MODE_NAMES` codes). A mode is
+    pitch-like when its eigenvector tilts more about body y (γx) than about body x (γy).
     """
     A = linearisation(body, spin, g=g, damping=damping)
     lam, vec = np.linalg.eig(A)
@@ -242,8 +243,8 @@ def small_spin_growth_rates(
     first order in n, C = n M J − T_ω (J = [[0, −1], [1, 0]]). For a zero-spin mode φ_k
     normalised by φ_kᵀ M φ_k = 1, the growth rate is σ_k = −½ φ_kᵀ C φ_k + O(n²); with
     damping it includes −½ c_v φ_kᵀφ_k (the O(n c_v) stiffness terms of the frozen-spin
-    linearisation shift only frequencies at this order). For comparison with :func:`eigen`, valid while
-    ``abs(n)`` is small against the rocking frequencies.
+    linearisation shift only frequencies at this order). For comparison with :func:`eigen`,
+    valid while ``abs(n)`` is small against the rocking frequencies.
     """
     p = body_arrays(body)
     n, g, cv = _check_inputs(spin, g, damping)
@@ -291,7 +292,7 @@ def stability_dataset(
     parameters, spin, g or damping are honoured per repeat.
     """
     from .sweep import Sweep
-    from .sweep.outputs.merge import grid_coords, sweep_attrs
+    from .sweep._outputs.merge import grid_coords, sweep_attrs
 
     if not isinstance(sweep, Sweep):
         sweep = Sweep.from_toml(sweep)

@@ -36,11 +36,11 @@ def _body_from_args(args: argparse.Namespace) -> Body:
     if len(given) > 1:
         raise ValueError(f"{' and '.join(given)} each choose the body; give one of them")
     if args.body is not None:
-        from ..sweep.config.body_file import body_from_toml
+        from ..sweep._config.body_file import body_from_toml
 
         return body_from_toml(args.body)
     if shape:
-        from ..sweep.config.grid import semi_ellipsoid_defaults
+        from ..sweep._config.grid import semi_ellipsoid_defaults
 
         si = {
             **semi_ellipsoid_defaults(),
@@ -52,26 +52,42 @@ def _body_from_args(args: argparse.Namespace) -> Body:
     return Body.preset(args.preset or "kane_levinson")
 
 
+_QUICK_LOOK = {"spin": 5.0, "roll": 0.5, "t_end": 10.0}
+"""The command line's defaults where they are not the library's: a launch worth a look
+from the terminal (the roll in degrees, as its option takes it)."""
+
+_HELP = {
+    "spin": "rad/s about the vertical, positive counter-clockwise from above",
+    "roll": "initial roll (degrees; raises the body's +y side)",
+    "pitch": "initial pitch (degrees; lowers the body's +x end)",
+    "yaw": "initial heading (degrees about the vertical)",
+    "velocity": "horizontal velocity of G (m/s), a sliding launch (default: the "
+    "velocity at which the contact rolls)",
+}
+"""The command line's own wording of some options; the others say their description."""
+
+
+def launch_options() -> dict[str, str]:
+    """The per-launch inputs of :func:`rattlesweep.simulate` the command line offers, by
+    the keyword each is given to it by (an angle in degrees: ``roll_deg``): every input
+    with a default or required. Those with neither (``omega``, ``orientation``: the
+    alternatives to the spin and the angles) are left to the Python API."""
+    from .._keywords import angles, per_launch
+    from ..inputs import RATTLEBACK
+
+    degrees = angles(RATTLEBACK)
+    return {
+        f"{name}_deg" if name in degrees else name: name
+        for name, spec in per_launch(RATTLEBACK).items()
+        if spec.required or spec.default is not None or spec.default_doc
+    }
+
+
 def _simulate_from_args(args: argparse.Namespace) -> xr.Dataset:
     from ..rattleback.simulate import simulate
 
-    return simulate(
-        _body_from_args(args),
-        spin=args.spin,
-        roll_deg=args.roll_deg,
-        pitch_deg=args.pitch_deg,
-        yaw_deg=args.yaw_deg,
-        velocity=args.velocity,
-        mu=args.mu,
-        mu_static=args.mu_static,
-        mu_spin=args.mu_spin,
-        mu_roll=args.mu_roll,
-        damping=args.damping,
-        g=args.g,
-        t_end=args.t_end,
-        dt=args.dt,
-        method=args.method,
-    )
+    inputs = {key: getattr(args, key) for key in launch_options()}
+    return simulate(_body_from_args(args), method=args.method, **inputs)
 
 
 def _cmd_simulate(args: argparse.Namespace, argv: list[str] | None) -> int:
@@ -230,52 +246,35 @@ def _add_launch_options(p: argparse.ArgumentParser) -> None:
         help="homogeneous semi-ellipsoid: misalignment of the inertia axes "
         "(degrees; default: the toy preset's)",
     )
-    launch = p.add_argument_group("launch")
-    launch.add_argument(
-        "--spin",
-        type=float,
-        default=5.0,
-        help="rad/s about the vertical, positive counter-clockwise from above",
-    )
-    launch.add_argument(
-        "--roll-deg",
-        type=float,
-        default=0.5,
-        help="initial roll (degrees; raises the body's +y side)",
-    )
-    launch.add_argument(
-        "--pitch-deg",
-        type=float,
-        default=0.0,
-        help="initial pitch (degrees; lowers the body's +x end)",
-    )
-    launch.add_argument(
-        "--yaw-deg",
-        type=float,
-        default=0.0,
-        help="initial heading (degrees about the vertical)",
-    )
-    launch.add_argument(
-        "--velocity",
-        type=float,
-        nargs=2,
-        default=None,
-        metavar=("VX", "VY"),
-        help="horizontal velocity of G (m/s), a "
-        "sliding launch (default: the velocity at which the contact rolls)",
-    )
-    friction = p.add_argument_group("friction and numerics")
-    for name in ("mu", "mu_static", "mu_spin", "mu_roll", "damping", "g", "t_end", "dt"):
+    groups = {
+        "launch": p.add_argument_group("launch"),
+        "friction": p.add_argument_group("friction and numerics"),
+    }
+    for key, name in launch_options().items():
         spec = INPUTS[name]
-        default = spec.default if isinstance(spec.default, float) else None
-        text = spec.long_name + ("" if spec.units == "1" else f" ({spec.units})")
-        if name == "t_end":  # required by run_batch; here a quick look from the terminal
-            default = 10.0
-        elif spec.default_doc:
+        default = _QUICK_LOOK.get(name, spec.default)
+        units = "degrees" if key != name else spec.units
+        text = _HELP.get(name) or spec.long_name + ("" if units == "1" else f" ({units})")
+        if name not in _HELP and name not in _QUICK_LOOK and spec.default_doc:
             text += f"; default: {spec.default_doc.replace('`', '')}"
-        friction.add_argument(
-            f"--{name.replace('_', '-')}", type=float, default=default, help=text
+        group = groups["launch" if spec.group == "launch" else "friction"]
+        option, given = (
+            f"--{key.replace('_', '-')}",
+            default if isinstance(default, float) else None,
         )
+        if spec.width > 1:
+            metavar = tuple(f"V{c}" for c in "XYZW"[: spec.width])
+            group.add_argument(
+                option,
+                type=float,
+                nargs=spec.width,
+                metavar=metavar,
+                default=given,
+                help=text,
+            )
+        else:
+            group.add_argument(option, type=float, default=given, help=text)
+    friction = groups["friction"]
     friction.add_argument(
         "--method",
         choices=["rk4", "euler"],

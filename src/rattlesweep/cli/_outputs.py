@@ -122,8 +122,8 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
 def _sweep_output(path: Path) -> Path | None:
     """The sweep output ``path`` is or belongs to: a zarr store, a sweep directory, or
     the directory of a merged ``sweep.nc``; None for a file of no sweep directory."""
-    from ..sweep.outputs.directory import CONFIG_NAME, RESULT_NAME
-    from ..sweep.outputs.zarr_store import is_zarr_store
+    from ..sweep._outputs.directory import CONFIG_NAME, RESULT_NAME
+    from ..sweep._outputs.zarr_store import is_zarr_store
 
     if is_zarr_store(path) or (path / CONFIG_NAME).is_file():
         return path
@@ -156,7 +156,7 @@ def _warn_damaged(path: Path, command: str) -> _Damage | None:
     does) and warn on stderr about any tile or merged file damaged or lost; tiles of an
     unfinished output not computed yet are no damage. Returns the damage warned
     about."""
-    from ..sweep.outputs.verify import verify
+    from ..sweep._outputs.verify import verify
 
     out = _sweep_output(path)
     if out is None:
@@ -180,7 +180,7 @@ def _warn_damaged(path: Path, command: str) -> _Damage | None:
         file=sys.stderr,
     )
     if found.damaged:
-        from ..sweep.outputs.zarr_store import is_zarr_store
+        from ..sweep._outputs.zarr_store import is_zarr_store
 
         # a chunk missing reads as not computed; one that cannot be decoded fails a read
         failing = [t for t, w in sorted(found.damaged.items()) if " damaged (" in w]
@@ -197,7 +197,7 @@ def _warn_damaged(path: Path, command: str) -> _Damage | None:
 def _info_directory(path: Path) -> Path | None:
     """The merged result of a sweep directory, or None after printing the progress of an
     unfinished one; ValueError when ``path`` is no sweep directory."""
-    from ..sweep.outputs.zarr_store import is_zarr_store
+    from ..sweep._outputs.zarr_store import is_zarr_store
 
     if is_zarr_store(path):
         return path
@@ -208,7 +208,7 @@ def _info_directory(path: Path) -> Path | None:
             f"{path} is a directory without sweep.nc or sweep.toml: expected a "
             "sweep directory (what 'rattlesweep sweep --out DIR' writes)"
         )
-    from ..sweep.outputs.directory import read_config
+    from ..sweep._outputs.directory import read_config
 
     sweep = read_config(path / "sweep.toml")
     print(f"{path} (unfinished sweep: no sweep.nc yet)")
@@ -225,11 +225,12 @@ def _info_directory(path: Path) -> Path | None:
             + ", ".join(f"{d} ({n})" for d, n in zip(fine.dims, fine.shape))
         )
         print(
-            f"  levels started: {len(levels)} of {sweep.refine['levels'] + 1}, {done} tiles "
+            f"  levels started: {len(levels)} of {sweep.refine['levels'] + 1}, {done} "
+            "tiles "
             f"written; 'rattlesweep resume {path}' completes it"
         )
         return None
-    from ..sweep.outputs.verify import verify
+    from ..sweep._outputs.verify import verify
 
     found = verify(path)
     done = sweep.n_tiles - len(found.missing) - len(found.damaged)
@@ -244,7 +245,7 @@ def _info_directory(path: Path) -> Path | None:
 def _open_result(path: Path) -> xr.Dataset:
     import xarray as xr
 
-    from ..sweep.outputs.zarr_store import (
+    from ..sweep._outputs.zarr_store import (
         is_zarr_store,
         open_result,
         stored_sweep,

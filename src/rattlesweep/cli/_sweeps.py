@@ -78,8 +78,9 @@ def _interrupted(state: str) -> int:
 
 def _kept(out: str | Path, interrupt: KeyboardInterrupt) -> str:
     """What an interrupt of a sweep's tiles left in ``out``: the runner's count of the
-    tiles kept when it says (:class:`~rattlesweep.sweep.outputs.store.SweepInterrupted`)."""
-    from ..sweep.outputs.store import SweepInterrupted
+    tiles kept when it says
+    (:class:`~rattlesweep.sweep._outputs.store.SweepInterrupted`)."""
+    from ..sweep._outputs.store import SweepInterrupted
 
     if isinstance(interrupt, SweepInterrupted):
         return str(interrupt)
@@ -125,7 +126,7 @@ def _noted_interrupts() -> Iterator[_NotedInterrupts]:
 
 
 def _run(sweep: Sweep, out: str, args: argparse.Namespace, argv: list[str] | None) -> int:
-    from ..sweep.execution.run import RESULT_NAME, run_sweep
+    from ..sweep._execution.run import RESULT_NAME, run_sweep
 
     written = out if sweep.output == "zarr" else Path(out) / RESULT_NAME
     with _noted_interrupts() as noted:
@@ -167,8 +168,8 @@ def _cmd_sweep(args: argparse.Namespace, argv: list[str] | None) -> int:
 
 
 def _dry_run(sweep: Sweep, args: argparse.Namespace) -> int:
-    from ..sweep.execution.estimate import estimate, format_estimate
-    from ..sweep.execution.run import _cores
+    from ..sweep._execution.estimate import estimate, format_estimate
+    from ..sweep._execution.run import _cores
 
     _sweep_args(args)  # the same checks of the options as a run
     if args.scheduler:
@@ -188,13 +189,13 @@ def _dry_run(sweep: Sweep, args: argparse.Namespace) -> int:
 
 
 def _cmd_resume(args: argparse.Namespace, argv: list[str] | None) -> int:
-    from ..sweep.execution.run import stored_sweep
+    from ..sweep._execution.run import stored_sweep
 
     return _run(stored_sweep(args.dir), args.dir, args, argv)
 
 
 def _cmd_export(args: argparse.Namespace, argv: list[str] | None) -> int:
-    from ..sweep.execution.run import export
+    from ..sweep._execution.run import export
 
     path = export(args.store, args.out)
     print(f"wrote {path}")
@@ -202,7 +203,7 @@ def _cmd_export(args: argparse.Namespace, argv: list[str] | None) -> int:
 
 
 def _cmd_verify(args: argparse.Namespace, argv: list[str] | None) -> int:
-    from ..sweep.outputs.verify import verify
+    from ..sweep._outputs.verify import verify
 
     failed = 0
     for out in args.outputs:
@@ -214,8 +215,8 @@ def _cmd_verify(args: argparse.Namespace, argv: list[str] | None) -> int:
 
 def _cmd_demo(args: argparse.Namespace, argv: list[str] | None) -> int:
     from ..sweep import Sweep
-    from ..sweep.config.demo import DEMO_TOML
-    from ..sweep.execution.run import RESULT_NAME, run_sweep
+    from ..sweep._config.demo import DEMO_TOML
+    from ..sweep._execution.run import RESULT_NAME, run_sweep
 
     if args.print_config:
         print(DEMO_TOML, end="")

@@ -66,7 +66,8 @@ class Design:
             f"tilts below 1 deg) it reverses at mu = {self.launches.mu[0]:g} "
             f"{_span(pred['first_reversal_time_mu_low'], t_end)}; at mu = "
             f"{self.launches.mu[1]:g} {_span(pred['first_reversal_time_mu_high'], t_end)}",
-            f"search: {self.search.launches} launches ({self.search.table.sizes['candidate']}"
+            f"search: {self.search.launches} launches "
+            f"({self.search.table.sizes['candidate']}"
             f" placements, {self.search.levels} refinement levels); "
             + (
                 "robust: every wrong-way launch reversed and no right-way one did within "

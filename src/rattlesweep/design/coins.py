@@ -64,7 +64,8 @@ class Coin:
         object.__setattr__(self, "inner_diameter", float(inner))
         if self.diameter > 0.2 or self.thickness > 0.05 or self.mass > 1.0:
             raise ValueError(
-                f"coin mass = {self.mass!r} kg, diameter = {self.diameter!r} m, thickness = "
+                f"coin mass = {self.mass!r} kg, diameter = {self.diameter!r} m, "
+                "thickness = "
                 f"{self.thickness!r} m look like other units: a coin is given in kg and m "
                 "(at most 1 kg, 0.2 m across and 0.05 m thick)"
             )

@@ -1,8 +1,8 @@
 """What a design must satisfy, checked before any simulation.
 
 - The shell: semi-axes finite and > 0 (SI: m), the empty print (no pockets, no coins)
-  stable upright (its centre of mass below both centres of curvature, docs/model.md: the body),
-  and deep enough for a pocket with a wall below it.
+  stable upright (its centre of mass below both centres of curvature, docs/model.md: the
+  body), and deep enough for a pocket with a wall below it.
 - The coin: its pocket, with a rim on each side, no wider than the flat face.
 - A placement: each pocket inside the flat face with ``rim`` left to the edge, its solid
   surround (pocket radius + wall, down to wall below its floor) inside the infill core
@@ -171,7 +171,8 @@ def check_margin(part: Part, margin: float) -> None:
         else "no coin of this size would do: make the shell lower (c) or wider (b)"
     )
     raise DesignRefused(
-        f"design refused: with two coins of {part.coin.mass * 1e3:.3g} g ({part.coin.name}) "
+        f"design refused: with two coins of {part.coin.mass * 1e3:.3g} g "
+        f"({part.coin.name}) "
         f"the centre of mass is {ell * 1e3:.3g} mm above the contact point, but the "
         f"stability margin of {margin:.0%} needs it at most {limit * 1e3:.3g} mm "
         f"((1 - margin) x the smaller radius of curvature, {radius * 1e3:.3g} mm); "

@@ -14,8 +14,8 @@ from typing import Any, Mapping
 
 from .._version import __version__
 from ..rattleback.body import Body
-from ..sweep.config.schema import body_from_table, body_table
-from ..sweep.config.toml_io import format_toml, read_toml
+from ..sweep._config.schema import body_from_table, body_table
+from ..sweep._config.toml_io import format_toml, read_toml
 
 __all__ = ["body_table", "design_document", "load_body", "write_toml"]
 

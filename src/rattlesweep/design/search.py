@@ -181,7 +181,9 @@ def evaluate(bodies: list[Body], launches: Launches, prefer: str) -> xr.Dataset:
                 worst,
                 {
                     "units": "s",
-                    "long_name": "slowest first reversal in the bad sense (inf: some did not)",
+                    "long_name": (
+                        "slowest first reversal in the bad sense (inf: some did not)"
+                    ),
                 },
             ),
             "bad_reversed": (
@@ -369,7 +371,8 @@ def search(
         []
         if bool(best.robust)
         else [
-            f"no placement tried is robust: the best reverses {float(best.bad_reversed):.0%} "
+            "no placement tried is robust: the best reverses "
+            f"{float(best.bad_reversed):.0%} "
             f"of the bad-sense launches and {float(best.good_reversed):.0%} of the "
             f"preferred-sense ones within {launches.t_end:g} s"
         ]

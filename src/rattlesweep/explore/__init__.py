@@ -48,7 +48,7 @@ def warm() -> float:
     from ..rattleback.body import Body
     from ..rattleback.simulate import simulate
     from ..sweep import Sweep
-    from ..sweep.execution.tiles import compute_points
+    from ..sweep._execution.tiles import compute_points
     import numpy as np
 
     t0 = time.perf_counter()

@@ -1,5 +1,5 @@
 """A reversal map for the page: a refined :class:`rattlesweep.Sweep` of two axes run in
-memory, level by level (:mod:`rattlesweep.sweep.refinement.plan`), a chunk of launches per
+memory, level by level (:mod:`rattlesweep.sweep._refinement.plan`), a chunk of launches per
 scheduler piece, with a snapshot of the outcomes so far for the page to draw."""
 
 from __future__ import annotations
@@ -11,10 +11,10 @@ from typing import Any
 
 import numpy as np
 
-from ..sweep.outputs.outcomes import OUTCOME_NAMES
-from ..sweep.config.params import result_name
-from ..sweep.refinement.plan import Levels, plan_level
-from ..sweep.execution.tiles import NOT_COMPUTED, compute_points, result_dtypes
+from ..sweep._outputs.outcomes import OUTCOME_NAMES
+from ..sweep._config.params import result_name
+from ..sweep._refinement.plan import Levels, plan_level
+from ..sweep._execution.tiles import NOT_COMPUTED, compute_points, result_dtypes
 
 __all__ = ["MapJob"]
 

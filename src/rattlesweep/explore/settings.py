@@ -15,6 +15,9 @@ import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
+from .._keywords import angles, per_launch
+from ..inputs import RATTLEBACK as INPUTS
+from ..inputs import Input
 from ..rattleback.batch import launch_inputs
 from ..rattleback.body import PRESETS, Body
 from .caps import Caps
@@ -33,6 +36,8 @@ __all__ = [
     "preset_bodies",
     "run_spec",
 ]
+
+ANGLES = angles(INPUTS)
 
 CONTROLS = (
     "preset",
@@ -54,23 +59,30 @@ CONTROLS = (
 )
 """The page's controls, in the order their messages are matched."""
 
-UNITS = {
-    "a": "m",
-    "b": "m",
-    "c": "m",
-    "mass": "kg",
-    "delta_deg": "deg",
-    "spin": "rad/s",
-    "roll_deg": "deg",
-    "pitch_deg": "deg",
-    "mu": "1",
-    "mu_static": "1",
-    "mu_spin": "m",
-    "mu_roll": "m",
-    "damping": "N m s",
-    "t_end": "s",
-}
-"""Units of each numeric control, as the page writes them."""
+_PAGE_UNITS = {"rad s-1": "rad/s", "degree": "deg"}
+"""The page's way of writing units that differ from the description's CF units."""
+
+
+def _input(control: str) -> Input | None:
+    """The described input a control sets (``roll_deg``: ``roll``), or None."""
+    degrees = control.endswith("_deg") and control[:-4] in INPUTS
+    return INPUTS.get(control[:-4] if degrees else control)
+
+
+def _units(control: str) -> str:
+    spec = _input(control)
+    assert spec is not None, control
+    units = "degree" if control != spec.name else spec.units
+    return _PAGE_UNITS.get(units, units)
+
+
+UNITS = {c: _units(c) for c in CONTROLS if c not in ("preset", "masses")}
+"""Units of each numeric control, as the page writes them (from the descriptions)."""
+
+LAUNCH = tuple(
+    c for c in CONTROLS if (i := _input(c)) is not None and i.name in per_launch(INPUTS)
+)
+"""The controls of per-launch inputs (the launch, the friction, the run length)."""
 
 LABELS = {
     "a": "a (semi-axis x)",
@@ -131,9 +143,10 @@ _PRESET_NAMES = {
 
 def map_axes() -> dict[str, dict[str, Any]]:
     """Each map axis: its label and units (the control's), the library's description
-    (:data:`rattlesweep.sweep.config.params.PARAMS`) and a default range (``start``, ``stop``;
-    ``relative``: a factor range about the control's current value, for body sizes)."""
-    from ..sweep.config.params import PARAMS
+    (:data:`rattlesweep.sweep._config.params.PARAMS`) and a default range (``start``,
+    ``stop``; ``relative``: a factor range about the control's current value, for body
+    sizes)."""
+    from ..sweep._config.params import PARAMS
 
     out: dict[str, dict[str, Any]] = {}
     for k in MAP_AXES:
@@ -178,26 +191,29 @@ class SettingError(ValueError):
         self.control = control
 
 
+_START = {"delta_deg": 5.0, "spin": -5.0, "roll_deg": 0.5, "mu": 0.3, "t_end": 5.0}
+"""The page's starting values where they are not the library's defaults: the toy
+rattleback spun against its preferred sense, with friction, for five seconds."""
+
+
 def defaults() -> dict[str, Any]:
-    """The page's starting settings: the toy rattleback spun against its preferred sense."""
+    """The page's starting settings: the toy rattleback spun against its preferred sense;
+    each launch input not in :data:`_START` at its library default (empty for none)."""
     toy = Body.preset("toy")
+    launch = {}
+    for c in LAUNCH:
+        spec = _input(c)
+        assert spec is not None
+        launch[c] = _START.get(c, "" if spec.default is None else spec.default)
     return {
         "preset": "custom",
         "a": toy.a,
         "b": toy.b,
         "c": toy.c,
         "mass": toy.mass,
-        "delta_deg": 5.0,
+        "delta_deg": _START["delta_deg"],
         "masses": [],
-        "spin": -5.0,
-        "roll_deg": 0.5,
-        "pitch_deg": 0.0,
-        "mu": 0.3,
-        "mu_static": "",
-        "mu_spin": 0.0,
-        "mu_roll": 0.0,
-        "damping": 0.0,
-        "t_end": 5.0,
+        **launch,
     }
 
 
@@ -292,23 +308,25 @@ def _body(s: Mapping[str, Any], caps: Caps) -> tuple[Body, dict[str, Any]]:
 
 
 def _launch(s: Mapping[str, Any]) -> dict[str, Any]:
-    mu_static = s.get("mu_static")
-    spin = _number("spin", s.get("spin"), finite=True)
-    if abs(spin) > MAX_SPIN:
+    """The keyword arguments of :func:`rattlesweep.simulate` (SI, angles in radians) from
+    the launch controls. A control left empty gives None where the input has no value of
+    its own (``mu_static``: that of ``mu``); a non-finite value is refused where the
+    input's rule refuses infinity."""
+    kw: dict[str, Any] = {}
+    for c in LAUNCH:
+        spec = _input(c)
+        assert spec is not None
+        value = s.get(c, spec.default)
+        if value in (None, "") and spec.default is None and not spec.required:
+            kw[spec.name] = None
+            continue
+        finite = spec.rule is None or bool(spec.rule.bad(math.inf))
+        v = _number(c, value, finite=finite)
+        kw[spec.name] = math.radians(v) if c != spec.name else v
+    if abs(kw["spin"]) > MAX_SPIN:
         raise SettingError(
-            f"spin must be at most {MAX_SPIN:g} rad/s in size, got {spin!r}", "spin"
+            f"spin must be at most {MAX_SPIN:g} rad/s in size, got {kw['spin']!r}", "spin"
         )
-    kw: dict[str, Any] = {
-        "spin": spin,
-        "roll": math.radians(_number("roll_deg", s.get("roll_deg", 0.0), finite=True)),
-        "pitch": math.radians(_number("pitch_deg", s.get("pitch_deg", 0.0), finite=True)),
-        "mu": _number("mu", s.get("mu", math.inf)),  # inf: rolling without slipping
-        "mu_static": None if mu_static in (None, "") else _number("mu_static", mu_static),
-        "mu_spin": _number("mu_spin", s.get("mu_spin", 0.0), finite=True),
-        "mu_roll": _number("mu_roll", s.get("mu_roll", 0.0), finite=True),
-        "damping": _number("damping", s.get("damping", 0.0), finite=True),
-        "t_end": _number("t_end", s.get("t_end"), finite=True),
-    }
     return kw
 
 
@@ -359,19 +377,14 @@ def python_code(spec: RunSpec) -> str:
             for m, x, y, z in args["masses"]
         )
         lines.append(f"body = body.with_point_masses([{items}])  # (kg, (x, y, z) m)")
-    kw = spec.kwargs
-    parts = [
-        f"spin={_fmt(kw['spin'])}",
-        f"roll_deg={_fmt(_degrees(kw['roll']))}",
-        f"pitch_deg={_fmt(_degrees(kw['pitch']))}",
-        f"mu={_fmt(kw['mu'])}",
-    ]
-    if kw["mu_static"] is not None:
-        parts.append(f"mu_static={_fmt(kw['mu_static'])}")
-    for k in ("mu_spin", "mu_roll", "damping"):
-        if kw[k] != 0.0:
-            parts.append(f"{k}={_fmt(kw[k])}")
-    parts.append(f"t_end={_fmt(kw['t_end'])}")
+    parts = []
+    for name, value in spec.kwargs.items():  # those not at the library's default
+        if value is None or value == INPUTS[name].default:
+            continue
+        if name in ANGLES:
+            parts.append(f"{name}_deg={_fmt(_degrees(value))}")
+        else:
+            parts.append(f"{name}={_fmt(value)}")
     lines.append("run = rs.simulate(body, " + ", ".join(parts) + ")")
     lines.append("print(run.first_reversal_time.item(), run.n_reversals.item())")
     return "\n".join(lines) + "\n"
@@ -424,21 +437,12 @@ def map_sweep(settings: Mapping[str, Any], axes: Mapping[str, Any], caps: Caps) 
         fixed["body"] = spec.body
     else:
         fixed.update({k: args[k] for k in _BODY_KEYS if k not in grid})
-    kw = spec.kwargs
-    launch = {
-        "spin": kw["spin"],
-        "roll_deg": math.degrees(kw["roll"]),
-        "pitch_deg": math.degrees(kw["pitch"]),
-        "mu": kw["mu"],
-        "mu_static": kw["mu_static"],
-        "mu_spin": kw["mu_spin"],
-        "mu_roll": kw["mu_roll"],
-        "damping": kw["damping"],
-        "t_end": kw["t_end"],
-    }
-    for k, v in launch.items():
-        if k not in grid and v is not None and not (k == "mu_static" and "mu" in grid):
-            fixed[k] = v
+    for name, value in spec.kwargs.items():
+        key = f"{name}_deg" if name in ANGLES else name
+        follows = INPUTS[name].same_as  # left out to follow its input along an axis
+        if key in grid or value is None or (follows and follows in grid):
+            continue
+        fixed[key] = math.degrees(value) if name in ANGLES else value
     try:
         return Sweep(
             axes=grid,

@@ -9,7 +9,6 @@ flattens the batch onto one ``trajectory`` dimension whose coordinates are the i
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
@@ -17,6 +16,7 @@ import xarray as xr
 from numpy.typing import ArrayLike
 
 from .. import _results as results
+from .._keywords import accepted, check_keywords, document, launch_values
 from .._launches import launches
 from .._model import Model, Prepared
 from .._options import check_method, check_record_every, check_single_step
@@ -24,8 +24,8 @@ from .._pack import prepared
 from .._run import execute
 from .._steps import step_counts, time_steps
 from .._validation import fail_where
-from ..core.models import PLANAR
-from ..core.planar import layout
+from .._core.models import PLANAR
+from .._core.planar import layout
 from ..inputs import PLANAR as INPUTS
 from .body import PlanarBodies, PlanarBody
 from .metadata import attrs_for
@@ -60,51 +60,28 @@ MODEL = Model(
 )
 """The planar model as the batch layer sees it."""
 
+ACCEPTED = accepted(INPUTS)
+"""The names :func:`run_planar_batch` and :func:`simulate_planar` take inputs by."""
 LAUNCH = tuple(s.name for s in INPUTS.values() if s.in_results and s.group != "body")
 """The inputs of a launch that results hold (under their result names)."""
 BODY = tuple(s.name for s in INPUTS.values() if s.group == "body")
 """The body's parameters, results' coordinates too."""
 
 
-def prepare(
-    body: PlanarBodies,
-    *,
-    theta: ArrayLike,
-    rate: ArrayLike = 0.0,
-    velocity: ArrayLike | None = None,
-    mu: ArrayLike = math.inf,
-    mu_static: ArrayLike | None = None,
-    mu_roll: ArrayLike = 0.0,
-    g: ArrayLike = 9.81,
-    dt: ArrayLike | None = None,
-    t_end: ArrayLike,
-) -> Prepared:
+def prepare(body: PlanarBodies, **given: Any) -> Prepared:
     """Check, broadcast and pack planar launches for the kernel.
 
-    See :func:`run_planar_batch` for the arguments. Raises ValueError naming the parameter,
-    the value and the rule for any invalid input. Non-finite launch values (theta, rate,
-    velocity) are not errors: those trajectories get the status ``non_finite``.
+    ``given``: the per-launch inputs of :func:`run_planar_batch` by name. Raises
+    ValueError naming the parameter, the value and the rule for any invalid input.
+    Non-finite launch values (theta, rate, velocity) are not errors: those trajectories
+    get the status ``non_finite``.
     """
-    if theta is None:
-        raise ValueError("theta (rad) is required")
-    if t_end is None:
-        raise ValueError("t_end (s) is required")
-    scalars = {
-        "theta": theta,
-        "rate": rate,
-        "mu": mu,
-        "mu_static": mu if mu_static is None else mu_static,
-        "mu_roll": mu_roll,
-        "mu_spin": 0.0,
-        "g": g,
-        "t_end": t_end,
-    }
-    if velocity is not None:
-        scalars["velocity"] = velocity
-    if dt is not None:
-        scalars["dt"] = dt
+    check_keywords("prepare", given, ACCEPTED)
+    scalars = launch_values(given, INPUTS)
     launch = launches(body, PlanarBody, scalars, INPUTS)
-    flat, table, index, n = launch.flat, launch.bodies, launch.index, launch.n
+    flat = launch.flat
+    flat["mu_spin"] = np.zeros(launch.n)  # a row of the shared layout: none in the plane
+    table, index, n = launch.bodies, launch.index, launch.n
     # warn at the user's call: run_planar_batch or simulate_planar -> prepare
     flat["dt"], default_from = time_steps(table, index, flat, stacklevel=3)
     columns = {
@@ -158,63 +135,28 @@ def run_attrs(method: str, record_every: int | None) -> dict[str, Any]:
     return attrs
 
 
+@document(INPUTS)
 def run_planar_batch(
     body: PlanarBodies,
     *,
-    theta: ArrayLike,
-    rate: ArrayLike = 0.0,
-    velocity: ArrayLike | None = None,
-    mu: ArrayLike = math.inf,
-    mu_static: ArrayLike | None = None,
-    mu_roll: ArrayLike = 0.0,
-    g: ArrayLike = 9.81,
-    dt: ArrayLike | None = None,
-    t_end: ArrayLike,
-    method: str = "rk4",
+    method: str = INPUTS["method"].default,
     record_every: int | None = None,
-    parallel: bool = True,
+    parallel: bool = INPUTS["parallel"].default,
     threads: int | None = None,
+    **inputs: ArrayLike | None,
 ) -> xr.Dataset:
     """Integrate many planar launches at once; return per-trajectory observables.
 
-    Every argument except ``method``, ``record_every``, ``parallel`` and ``threads`` may be
-    an array; all are broadcast together and flattened onto a ``trajectory`` dimension.
+    Every per-launch input may be an array; all are broadcast together with the body and
+    flattened onto a ``trajectory`` dimension. ``method``, ``record_every``,
+    ``parallel`` and ``threads`` are options of the whole batch. The inputs and their
+    descriptions: :data:`rattlesweep.inputs.PLANAR`.
 
     Parameters
     ----------
     body : PlanarBody or array_like of PlanarBody
         The body of each launch.
-    theta : array_like
-        Initial rocking angle (rad, counter-clockwise), ``abs(theta) < pi/2``.
-    rate : array_like, optional
-        Initial dθ/dt (rad/s). Default 0.
-    velocity : array_like, optional
-        Initial horizontal velocity of G (m/s). Default: rolling, ẋ_G = −rate·h(θ); any
-        other velocity launches the body sliding.
-    mu, mu_static : array_like, optional
-        Kinetic and static Coulomb coefficients; ``inf`` (the default) rolls without
-        slip, ``0`` is frictionless; ``mu_static`` defaults to ``mu`` and must be
-        >= ``mu``.
-    mu_roll : array_like, optional
-        Rolling resistance (m): a couple of at most mu_roll·N opposing the rocking, which
-        holds the body still while the couple needed stays within the bound (the
-        dry-friction oscillator). Default 0.
-    g : array_like, optional
-        Gravitational acceleration (m/s²). Default 9.81.
-    dt : array_like, optional
-        Time step (s). Default: 1/64 of the body's shorter small-rocking period.
-    t_end : array_like
-        End time (s); each trajectory takes ceil(t_end/dt) steps, at most 2**53.
-    method : {"rk4", "euler"}, optional
-        Classic RK4 (default) or semi-implicit Euler (first order).
-    record_every : int, optional
-        Record every k-th step into time series over (trajectory, time); needs one
-        ``dt`` and ``t_end`` for the whole batch. Off by default.
-    parallel : bool, optional
-        Spread blocks of trajectories over numba threads (default); ``False`` runs on
-        the calling thread only, releasing the GIL.
-    threads : int, optional
-        Number of numba threads for a parallel run (default: all).
+    {inputs}
 
     Returns
     -------
@@ -231,21 +173,13 @@ def run_planar_batch(
     ------
     ValueError
         For any invalid input, naming the parameter, the value and the rule.
+    TypeError
+        For a name that is not an input, listing the inputs.
     """
+    check_keywords("run_planar_batch", inputs, ACCEPTED)
     m = check_method(method)
     rec_every = check_record_every(record_every)
-    prep = prepare(
-        body,
-        theta=theta,
-        rate=rate,
-        velocity=velocity,
-        mu=mu,
-        mu_static=mu_static,
-        mu_roll=mu_roll,
-        g=g,
-        dt=dt,
-        t_end=t_end,
-    )
+    prep = prepare(body, **inputs)
     if rec_every is not None:
         check_single_step(prep)
     raw = execute(

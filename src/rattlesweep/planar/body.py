@@ -130,7 +130,8 @@ class PlanarBody:
     def homogeneous(
         cls, a: float, b: float, mass: float, *, name: str = "semi_ellipse"
     ) -> "PlanarBody":
-        """Homogeneous half-ellipse lamina (m, m, kg): d = 4b/(3π), I_G = m[(a²+b²)/4 − d²]."""
+        """Homogeneous half-ellipse lamina (m, m, kg):
+        d = 4b/(3π), I_G = m[(a²+b²)/4 − d²]."""
         return cls(a, b, mass, name=name)
 
     # --- geometry ----------------------------------------------------------------------

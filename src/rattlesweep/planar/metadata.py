@@ -1,7 +1,7 @@
 """CF metadata (units, long names, flags) of the inputs and coordinates of planar
 results; the inputs' come from their descriptions (:mod:`rattlesweep.inputs`). The
 attributes of what the kernel computes come from the model's row tables
-(:mod:`rattlesweep.core.planar.layout`) through :meth:`rattlesweep._model.Model.attrs`."""
+(:mod:`rattlesweep._core.planar.layout`) through :meth:`rattlesweep._model.Model.attrs`."""
 
 from __future__ import annotations
 

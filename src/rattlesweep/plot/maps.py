@@ -304,7 +304,7 @@ def mpl_cmap(name: str) -> Colormap:
 def reversed_fraction(sweep: xr.Dataset) -> xr.DataArray:
     """Fraction (0 or 1 per launch; averaged by callers) of launches that reversed at
     least once, from a sweep's ``outcome``."""
-    from ..sweep.outputs.outcomes import REVERSED, SEVERAL
+    from ..sweep._outputs.outcomes import REVERSED, SEVERAL
 
     return sweep.outcome.isin([REVERSED, SEVERAL]).astype(float)
 
@@ -377,8 +377,8 @@ def reversal_vs_growth(
 ) -> Figure:
     """Predicted against simulated: first reversal time (s) of each launch that reversed
     against the linear e-folding time 1/growth_rate (s) at the same grid point, log-log,
-    coloured by ``color_by`` (a dimension) when given: a legend when the dimension has up to 8
-    values, a colour bar when it has more."""
+    coloured by ``color_by`` (a dimension) when given: a legend when the dimension has up to
+    8 values, a colour bar when it has more."""
     import numpy as np
 
     t_rev = sweep.first_reversal_time

@@ -192,9 +192,9 @@ def contact_path(
     ``frame="body"``: where on the body's curved surface it touches, in body x, y (mm;
     the dashed line is the rim x²/a² + y²/b² = 1 where it is in view), the picture of
     the spin-bias argument. Every panel has the same x and y ranges, those of all the
-    paths together, so that panels compare at a glance. ``frame="floor"``: the trace on the floor in world X, Y (mm),
-    with the centre of mass's ground track in grey. Runs are :func:`rattlesweep.simulate`
-    results (or their files).
+    paths together, so that panels compare at a glance. ``frame="floor"``: the trace on the
+    floor in world X, Y (mm), with the centre of mass's ground track in grey. Runs are
+    :func:`rattlesweep.simulate` results (or their files).
     """
     from matplotlib.collections import LineCollection
 

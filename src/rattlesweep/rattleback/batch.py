@@ -13,7 +13,6 @@ kernel run by :mod:`rattlesweep._run`, its results labelled by
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
@@ -22,6 +21,14 @@ import xarray as xr
 from numpy.typing import ArrayLike
 
 from .. import _results as results
+from .._keywords import (
+    accepted,
+    angles,
+    check_keywords,
+    document,
+    launch_values,
+    per_launch,
+)
 from .._launches import as_bodies, launches
 from .._model import Model, Prepared
 from .._options import (
@@ -35,8 +42,8 @@ from .._pack import blocked, prepared
 from .._run import contact_slip_velocity, execute
 from .._steps import step_counts, time_steps
 from .._validation import as_float_array, fail_where
-from ..core.models import RATTLEBACK
-from ..core.rattleback import layout
+from .._core.models import RATTLEBACK
+from .._core.rattleback import layout
 from ..inputs import RATTLEBACK as INPUTS
 from .body import Bodies, Body
 from .launch import (
@@ -55,9 +62,9 @@ __all__ = [
     "launch_inputs",
     "max_steps",
     "prepare",
-    "radian_angles",
     "run_attrs",
     "run_batch",
+    "split_angles",
 ]
 
 TITLE = "rattlesweep rattleback simulation"
@@ -90,6 +97,13 @@ MODEL = Model(
     },
 )
 """The rattleback model as the batch layer sees it."""
+
+LAUNCH = per_launch(INPUTS)
+"""The inputs of each launch, by name."""
+ANGLES = angles(INPUTS)
+"""The launch angles, which a caller may give in degrees (``roll_deg``)."""
+ACCEPTED = accepted(INPUTS)
+"""The names :func:`run_batch` and :func:`rattlesweep.simulate` take launch inputs by."""
 
 SETTINGS = tuple(
     s.name for s in INPUTS.values() if s.group in ("friction", "numerics") and s.in_results
@@ -134,67 +148,33 @@ class Inputs:
         return columns
 
 
-def launch_inputs(
-    body: Bodies,
-    *,
-    spin: ArrayLike | None = None,
-    omega: ArrayLike | None = None,
-    roll: ArrayLike = 0.0,
-    pitch: ArrayLike = 0.0,
-    yaw: ArrayLike = 0.0,
-    orientation: ArrayLike | None = None,
-    velocity: ArrayLike | None = None,
-    mu: ArrayLike = math.inf,
-    mu_static: ArrayLike | None = None,
-    mu_spin: ArrayLike = 0.0,
-    mu_roll: ArrayLike = 0.0,
-    damping: ArrayLike = 0.0,
-    g: ArrayLike = 9.81,
-    dt: ArrayLike | None = None,
-    t_end: ArrayLike,
-    announce: bool = True,
-) -> Inputs:
-    """Check and broadcast launch inputs (see :func:`run_batch` for their meaning and
-    units), without the kernel. Raises ValueError naming the parameter, the value and
-    the rule for any invalid input. Non-finite launch values (spin, omega, angles,
-    orientation, velocity) are not errors: those trajectories get the status
-    ``non_finite``. ``announce`` warns (:class:`~rattlesweep.LongRunWarning`) of
-    a batch of more than :data:`~rattlesweep._steps.LONG_RUN_STEPS` steps."""
-    if spin is not None and omega is not None:
+def launch_inputs(body: Bodies, *, announce: bool = True, **given: Any) -> Inputs:
+    """Check and broadcast launch inputs (``given``: the per-launch inputs of
+    :func:`run_batch` by name, angles in radians), without the kernel. Raises ValueError
+    naming the parameter, the value and the rule for any invalid input. Non-finite
+    launch values (spin, omega, angles, orientation, velocity) are not errors: those
+    trajectories get the status ``non_finite``. ``announce`` warns
+    (:class:`~rattlesweep.LongRunWarning`) of a batch of more than
+    :data:`~rattlesweep._steps.LONG_RUN_STEPS` steps."""
+    check_keywords("launch_inputs", given, tuple(LAUNCH))
+    if given.get("spin") is not None and given.get("omega") is not None:
         raise ValueError(
             "give either spin (about the vertical) or omega (body frame), not both"
         )
-    angles = {"roll": roll, "pitch": pitch, "yaw": yaw}
-    if orientation is not None and any(
-        np.any(as_float_array(k, x) != 0) for k, x in angles.items()
+    if given.get("orientation") is not None and any(
+        np.any(as_float_array(k, given[k]) != 0)
+        for k in ("roll", "pitch", "yaw")
+        if given.get(k) is not None
     ):
         raise ValueError("give either orientation or roll/pitch/yaw, not both")
-    if t_end is None:
-        raise ValueError("t_end (s) is required")
-    scalars = {
-        "roll": roll,
-        "pitch": pitch,
-        "yaw": yaw,
-        "mu": mu,
-        "mu_static": mu if mu_static is None else mu_static,
-        "mu_spin": mu_spin,
-        "mu_roll": mu_roll,
-        "damping": damping,
-        "g": g,
-        "t_end": t_end,
-    }
-    if omega is None:
-        scalars["spin"] = 0.0 if spin is None else spin
-    if dt is not None:
-        scalars["dt"] = dt
+    scalars = launch_values(given, LAUNCH)
+    spin = scalars.pop("spin")
+    if given.get("omega") is None:  # given, omega is the launch's rotation instead
+        scalars["spin"] = spin
     vectors: dict[str, np.ndarray] = {}
-    for name, value in (
-        ("omega", omega),
-        ("orientation", orientation),
-        ("velocity", velocity),
-    ):
-        width = INPUTS[name].width
-        if value is not None:
+    for name, spec in LAUNCH.items():
+        width, value = spec.width, given.get(name)
+        if width > 1 and value is not None:
             arr = as_float_array(name, value)
             if arr.ndim == 0 or arr.shape[-1] != width:
                 raise ValueError(
@@ -231,13 +211,20 @@ def launch_inputs(
     return Inputs(launch.shape, launch.n, table, index, flat, flat_vec, steps, q)
 
 
-def radian_angles(body: Bodies, given: dict[str, Any]) -> dict[str, Any]:
-    """roll, pitch, yaw (rad) from the radian or degree keyword arguments of
-    :func:`run_batch` or :func:`rattlesweep.simulate` (see
-    :func:`rattlesweep.rattleback.launch.angles_in_radians`; warns at the caller's caller)."""
+def split_angles(
+    body: Bodies, inputs: Mapping[str, Any]
+) -> tuple[dict[str, Any], dict[str, Any], dict[str, Any]]:
+    """The keyword inputs of :func:`run_batch` or :func:`rattlesweep.simulate` as the
+    inputs other than the angles, the angles in radians (from the radian or the degree
+    form of each: :func:`rattlesweep.rattleback.launch.angles_in_radians`; warns at the
+    caller's caller), and the angles the user gave in degrees, by angle."""
+    names = [*ANGLES, *(f"{k}_deg" for k in ANGLES)]
     bodies = as_bodies(body, Body)
     full = all(b.full_ellipsoid for b in bodies.flat)
-    return angles_in_radians(given, full_ellipsoid=full, stacklevel=4)
+    forms = {k: inputs.get(k) for k in names}
+    radians = angles_in_radians(forms, full_ellipsoid=full, stacklevel=4)
+    degrees = {k: forms[f"{k}_deg"] for k in ANGLES if forms[f"{k}_deg"] is not None}
+    return {k: v for k, v in inputs.items() if k not in names}, radians, degrees
 
 
 def damping_dts(table: list[Body], index: np.ndarray, damping: np.ndarray) -> np.ndarray:
@@ -344,111 +331,32 @@ def prepare(
     return dataclasses.replace(prep, coords=_coords(inputs, columns, given, degrees or {}))
 
 
+@document(INPUTS)
 def run_batch(
     body: Bodies,
     *,
-    spin: ArrayLike | None = None,
-    omega: ArrayLike | None = None,
-    roll: ArrayLike | None = None,
-    pitch: ArrayLike | None = None,
-    yaw: ArrayLike | None = None,
-    roll_deg: ArrayLike | None = None,
-    pitch_deg: ArrayLike | None = None,
-    yaw_deg: ArrayLike | None = None,
-    orientation: ArrayLike | None = None,
-    velocity: ArrayLike | None = None,
-    mu: ArrayLike = math.inf,
-    mu_static: ArrayLike | None = None,
-    mu_spin: ArrayLike = 0.0,
-    mu_roll: ArrayLike = 0.0,
-    damping: ArrayLike = 0.0,
-    g: ArrayLike = 9.81,
-    dt: ArrayLike | None = None,
-    t_end: ArrayLike,
-    method: str = "rk4",
+    method: str = INPUTS["method"].default,
     record_every: int | None = None,
-    reversal_band: float = 0.05,
+    reversal_band: float = INPUTS["reversal_band"].default,
     stop: str | None = None,
-    parallel: bool = True,
+    parallel: bool = INPUTS["parallel"].default,
     threads: int | None = None,
+    **inputs: ArrayLike | None,
 ) -> xr.Dataset:
     """Integrate many launches at once; return per-trajectory observables.
 
-    Every argument except ``method``, ``record_every``, ``reversal_band``, ``stop``,
-    ``parallel`` and ``threads`` may be an array; all are broadcast together (vector
-    inputs ``omega``, ``orientation`` and ``velocity`` broadcast on their leading axes)
-    and flattened onto a ``trajectory`` dimension.
+    Every per-launch input (the launch, the friction, the numerics) may be an array;
+    all are broadcast together with the body (vector inputs ``omega``, ``orientation``
+    and ``velocity`` on their leading axes) and flattened onto a ``trajectory``
+    dimension. ``method``, ``record_every``, ``reversal_band``, ``stop``, ``parallel``
+    and ``threads`` are options of the whole batch. The inputs and their descriptions:
+    :data:`rattlesweep.inputs.RATTLEBACK`.
 
     Parameters
     ----------
     body : Body or array_like of Body
         The body of each launch.
-    spin : array_like, optional
-        Rotation about the world vertical (rad/s, positive counter-clockwise seen from
-        above). Default 0.
-    omega : array_like, shape (..., 3), optional
-        Body-frame angular velocity (rad/s) instead of ``spin``.
-    roll, pitch, yaw : array_like, optional
-        Initial orientation (rad), R = R_z(yaw) R_y(pitch) R_x(roll). Default 0. A roll
-        or pitch beyond 90 degrees (180 for a full ellipsoid) in radians draws a
-        :class:`~rattlesweep.UnitsWarning`: degrees typed as radians.
-    roll_deg, pitch_deg, yaw_deg : array_like, optional
-        The same angles in degrees; give one form of each angle, not both.
-    orientation : array_like, shape (..., 4), optional
-        Unit quaternion (w, x, y, z), body to world, instead of the angles.
-    velocity : array_like, shape (..., 2), optional
-        Horizontal velocity of G (m/s): a sliding launch. Default: rolling.
-    mu, mu_static : array_like, optional
-        Kinetic and static Coulomb coefficients; ``inf`` (the default) rolls without
-        slip, ``0`` is frictionless. ``mu_static`` defaults to ``mu`` and must be
-        >= ``mu``.
-    mu_spin : array_like, optional
-        Spin (drilling) friction (m): a couple about the contact normal of at most
-        mu_spin·N opposing the spin about it, which stops that spin while the couple
-        needed stays within the bound. Default 0.
-    mu_roll : array_like, optional
-        Rolling resistance (m): a couple of at most mu_roll·N opposing the horizontal
-        part of ω, which sticks (holds that part at zero) while the couple needed stays
-        within the bound. In 3-D, below a rate of order mu_roll·g·dt/(I/m) the couple
-        is proportional to the rate, and a roll slower than that whose sticking couple
-        fits the bound sticks, the rest of the rate removed by a plastic couple
-        impulse. Default 0.
-    damping : array_like, optional
-        Viscous torque coefficient (N m s): a torque −damping·ω. Default 0.
-    g : array_like, optional
-        Gravitational acceleration (m/s²). Default 9.81.
-    dt : array_like, optional
-        Time step (s). Default: 1/64 of the body's shortest small-oscillation period,
-        or the body's smallest principal moment of inertia / ``damping`` when that is
-        shorter (:func:`damping_dts`).
-    t_end : array_like
-        End time (s); each trajectory takes ceil(t_end/dt) steps, at most 2**53.
-    method : {"rk4", "euler"}, optional
-        Classic RK4 (default) or semi-implicit Euler (first order).
-    record_every : int, optional
-        Record every k-th step into time-series variables over (trajectory, time);
-        needs one ``dt`` and ``t_end`` for the whole batch. Off by default.
-    reversal_band : float, optional
-        Hysteresis of the reversal detector, a fraction of the initial spin's magnitude,
-        in [0, 1). Default 0.05.
-    stop : {None, "first_reversal"}, optional
-        None runs every launch to ``t_end``; ``"first_reversal"`` ends a launch at its
-        first reversal, unless it capsizes or lifts off first: at the first step at
-        which it has both a first reversal time (the spin beyond the band on the other
-        side) and a reversal of its heading (see ``n_reversals``). Its
-        ``first_reversal_time`` and whether it reversed are then those of the full run,
-        bit for bit, and so is its ``status`` up to the stop: a launch that reverses and
-        only later capsizes or lifts off ends ``ok`` where the full run says
-        ``capsized`` or ``lifted_off``; ``n_reversals`` is at most 1, and
-        ``final_spin``, ``energy_final``, ``energy_lost``, ``slip_fraction`` and
-        ``max_tilt`` are taken at the stop, ``t_final``; ``mean_final_spin`` is the
-        mean over the part of the last 10 % of ``t_end`` it ran (NaN for none).
-    parallel : bool, optional
-        Spread blocks of trajectories over numba threads (default); ``False`` runs on
-        the calling thread only, releasing the GIL, for callers that bring their own
-        parallelism.
-    threads : int, optional
-        Number of numba threads for a parallel run (default: all).
+    {inputs}
 
     Returns
     -------
@@ -456,9 +364,9 @@ def run_batch(
         Over ``trajectory``: ``first_reversal_time`` (s, NaN when none; the spin's
         first crossing beyond the band), ``n_reversals`` (reversals of the heading, the
         long axis seen from above: each time it turns back by more than 0.1 rad from
-        the furthest it had turned), ``initial_spin``, ``final_spin``, ``mean_final_spin`` (rad/s),
-        ``max_tilt`` (rad), ``energy_initial``, ``energy_final``, ``energy_lost`` (J),
-        ``slip_fraction``, ``t_final`` (s), ``steps`` and ``status`` (CF flags: ok,
+        the furthest it had turned), ``initial_spin``, ``final_spin``, ``mean_final_spin``
+        (rad/s), ``max_tilt`` (rad), ``energy_initial``, ``energy_final``, ``energy_lost``
+        (J), ``slip_fraction``, ``t_final`` (s), ``steps`` and ``status`` (CF flags: ok,
         capsized, lifted_off, non_finite), with every input as a coordinate.
 
     Raises
@@ -467,6 +375,8 @@ def run_batch(
         For any invalid input, naming the parameter, the value and the rule, before any
         computation. Non-finite launch values are not errors: those trajectories get
         the status ``non_finite``.
+    TypeError
+        For a name that is not an input, listing the inputs.
 
     Warns
     -----
@@ -476,43 +386,12 @@ def run_batch(
         Before a batch of more than 10**9 steps in all (a quarter of an hour of a
         core or more), with the step count and where it comes from.
     """
+    check_keywords("run_batch", inputs, ACCEPTED)
     m = check_method(method)
     rec_every = check_record_every(record_every)
     band = check_band(reversal_band)
-    degrees = {
-        k: v
-        for k, v in (("roll", roll_deg), ("pitch", pitch_deg), ("yaw", yaw_deg))
-        if v is not None
-    }
-    angles = radian_angles(
-        body,
-        dict(
-            roll=roll,
-            pitch=pitch,
-            yaw=yaw,
-            roll_deg=roll_deg,
-            pitch_deg=pitch_deg,
-            yaw_deg=yaw_deg,
-        ),
-    )
-    prep = prepare(
-        body,
-        spin=spin,
-        omega=omega,
-        **angles,
-        degrees=degrees,
-        orientation=orientation,
-        velocity=velocity,
-        mu=mu,
-        mu_static=mu_static,
-        mu_spin=mu_spin,
-        mu_roll=mu_roll,
-        damping=damping,
-        g=g,
-        dt=dt,
-        t_end=t_end,
-        stop=stop,
-    )
+    given, radians, degrees = split_angles(body, inputs)
+    prep = prepare(body, **given, **radians, degrees=degrees, stop=stop)
     if rec_every is not None:
         check_single_step(prep)
     raw = execute(

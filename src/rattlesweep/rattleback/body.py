@@ -125,7 +125,8 @@ class Body:
         moments = np.linalg.eigvalsh(inertia)
         if moments[0] <= 0.0:
             raise ValueError(
-                f"inertia must be positive definite; its principal moments are {moments.tolist()}"
+                "inertia must be positive definite; its principal moments are "
+                f"{moments.tolist()}"
             )
         if moments[0] + moments[1] < moments[2] * (1.0 - _REL_TOL):
             raise ValueError(
@@ -149,7 +150,8 @@ class Body:
                 )
             if radius < ell * (1.0 - _REL_TOL):
                 raise ValueError(
-                    f"upright pose is unstable: radius of curvature {label} = {radius:.6g} m "
+                    f"upright pose is unstable: radius of curvature {label} = {radius:.6g} "
+                    "m "
                     f"is smaller than the height of the centre of mass above the contact "
                     f"point c + com_z = {ell:.6g} m (need {label} >= c + com_z)"
                 )
@@ -173,7 +175,8 @@ class Body:
                 freqs = (math.nan,)
         if not all(math.isfinite(f) for f in freqs):
             raise ValueError(
-                f"a = {self.a!r}, b = {self.b!r}, c = {self.c!r} m, mass = {self.mass!r} kg "
+                f"a = {self.a!r}, b = {self.b!r}, c = {self.c!r} m, mass = {self.mass!r} "
+                "kg "
                 f"and inertia are too far apart in scale for float64: the body's "
                 f"small-oscillation frequencies overflow"
             )
@@ -470,7 +473,8 @@ PRESETS = {
     "kane_levinson": (
         _kane_levinson,
         "a=0.20, b=0.03, c=0.02 m, m=1 kg, G=(0,0,-0.01) m, I=[[2,0.2,0],[0.2,16,0],"
-        "[0,0,17]]e-4 kg m^2, full ellipsoid; Kane & Levinson, Int. J. Non-Linear Mech. 17, "
+        "[0,0,17]]e-4 kg m^2, full ellipsoid; Kane & Levinson, Int. J. Non-Linear Mech. "
+        "17, "
         "175 (1982). Their air-resistance torque coefficient is sigma = 1e-4 N m s "
         "(pass damping=1e-4).",
     ),

@@ -3,13 +3,14 @@
 Conventions (radians, SI):
 
 * ``roll``, ``pitch``, ``yaw`` (rad; or ``roll_deg``, ``pitch_deg``, ``yaw_deg`` in
-  degrees, never both forms of one angle) give the orientation R = R_z(yaw) R_y(pitch) R_x(roll)
-  (body → world): starting from upright, turn by ``roll`` about the world X axis (the
-  body's long axis x at that moment), then by ``pitch`` about the world Y axis, then by
+  degrees, never both forms of one angle) give the orientation R = R_z(yaw) R_y(pitch)
+  R_x(roll) (body → world): starting from upright, turn by ``roll`` about the world X axis
+  (the body's long axis x at that moment), then by ``pitch`` about the world Y axis, then by
   ``yaw`` about the vertical Z (the same as yaw, then pitch about the new body y, then
   roll about the newest body x). Each turn is right-handed: positive roll raises the
-  body's +y side, positive pitch lowers its +x end. Alternatively ``orientation=(w, x, y, z)``, a unit quaternion
-  taking body components to world components.
+  body's +y side, positive pitch lowers its +x end. Alternatively
+  ``orientation=(w, x, y, z)``, a unit quaternion taking body components to world
+  components.
 * ``spin`` (rad/s) is a rotation about the world vertical, positive counter-clockwise seen
   from above; alternatively ``omega`` gives the body-frame angular velocity (rad/s).
 * ``velocity=(vx, vy)`` (m/s, world) launches G sliding; by default G moves so that the

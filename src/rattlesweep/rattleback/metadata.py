@@ -1,7 +1,7 @@
 """CF metadata (units, long names, flags) of the inputs and coordinates of rattleback
 results; the inputs' come from their descriptions (:mod:`rattlesweep.inputs`). The
 attributes of what the kernel computes (observables, recorded series) come from the
-model's row tables (:mod:`rattlesweep.core.rattleback.layout`) through
+model's row tables (:mod:`rattlesweep._core.rattleback.layout`) through
 :meth:`rattlesweep._model.Model.attrs`."""
 
 from __future__ import annotations

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
@@ -13,44 +12,35 @@ from .. import _results as results
 from .._options import check_band, check_method, check_record_every
 from .._run import execute
 from ..inputs import RATTLEBACK as INPUTS
-from .batch import prepare, radian_angles, run_attrs
+from .._keywords import check_keywords, document
+from .batch import ACCEPTED, LAUNCH, prepare, run_attrs, split_angles
 from .body import Body
 from .metadata import attrs_for
 
 __all__ = ["simulate"]
 
 
+@document(INPUTS, scalar=True)
 def simulate(
     body: Body,
     *,
-    spin: float | None = None,
-    omega: ArrayLike | None = None,
-    roll: float | None = None,
-    pitch: float | None = None,
-    yaw: float | None = None,
-    roll_deg: float | None = None,
-    pitch_deg: float | None = None,
-    yaw_deg: float | None = None,
-    orientation: ArrayLike | None = None,
-    velocity: ArrayLike | None = None,
-    mu: float = math.inf,
-    mu_static: float | None = None,
-    mu_spin: float = 0.0,
-    mu_roll: float = 0.0,
-    damping: float = 0.0,
-    g: float = 9.81,
-    dt: float | None = None,
-    t_end: float,
-    method: str = "rk4",
+    method: str = INPUTS["method"].default,
     record_every: int | None = None,
-    reversal_band: float = 0.05,
+    reversal_band: float = INPUTS["reversal_band"].default,
+    **inputs: ArrayLike | None,
 ) -> xr.Dataset:
     """Simulate one launch and return its time series.
 
-    Arguments are those of :func:`rattlesweep.run_batch`, as scalars (``omega`` (3,),
+    The inputs are those of :func:`rattlesweep.run_batch`, as scalars (``omega`` (3,),
     ``orientation`` (4,), ``velocity`` (2,)); angles in radians, or in degrees as
     ``roll_deg``, ``pitch_deg``, ``yaw_deg``. ``record_every`` defaults to the smallest
     stride that keeps at most 10 000 samples (1 for runs of up to 10 000 steps).
+
+    Parameters
+    ----------
+    body : Body
+        The body.
+    {inputs}
 
     Returns
     -------
@@ -62,13 +52,15 @@ def simulate(
         the previous sample), ``slip_velocity`` and ``slip_speed`` (m/s),
         ``quaternion``, ``omega`` (rad/s), ``position`` (m) and ``velocity`` (m/s) of G;
         the per-run observables of :func:`run_batch` as scalar variables; every input as
-        an attribute (units in ``<name>_units``, long name in ``<name>_long_name``), named as the coordinates of
-        :func:`run_batch` (``launch_spin``, ``roll_deg`` ...).
+        an attribute (units in ``<name>_units``, long name in ``<name>_long_name``), named
+        as the coordinates of :func:`run_batch` (``launch_spin``, ``roll_deg`` ...).
 
     Raises
     ------
     ValueError
         For any invalid input, naming the parameter, the value and the rule.
+    TypeError
+        For a name that is not an input, listing the inputs.
 
     Warns
     -----
@@ -81,36 +73,14 @@ def simulate(
     """
     if not isinstance(body, Body):
         raise ValueError(f"body must be a Body, got {body!r}")
+    check_keywords("simulate", inputs, ACCEPTED)
     m = check_method(method)
     rec_every = check_record_every(record_every)
     band = check_band(reversal_band)
-    angles = radian_angles(
-        body,
-        dict(
-            roll=roll,
-            pitch=pitch,
-            yaw=yaw,
-            roll_deg=roll_deg,
-            pitch_deg=pitch_deg,
-            yaw_deg=yaw_deg,
-        ),
-    )
-    inputs: dict[str, Any] = dict(
-        spin=spin,
-        omega=omega,
-        **angles,
-        orientation=orientation,
-        velocity=velocity,
-        mu=mu,
-        mu_static=mu_static,
-        mu_spin=mu_spin,
-        mu_roll=mu_roll,
-        damping=damping,
-        g=g,
-        dt=dt,
-        t_end=t_end,
-    )
-    for name, value in inputs.items():
+    given, radians, degrees = split_angles(body, inputs)
+    # every launch input, None where not given (the configuration the result keeps)
+    launch: dict[str, Any] = {k: radians.get(k, given.get(k)) for k in LAUNCH}
+    for name, value in launch.items():
         width = INPUTS[name].width
         if value is None:
             continue
@@ -120,19 +90,14 @@ def simulate(
             )
         if width > 1 and np.shape(value) != (width,):
             raise ValueError(f"{name} must have shape ({width},), got {np.shape(value)}")
-    degrees = {
-        k: v
-        for k, v in (("roll", roll_deg), ("pitch", pitch_deg), ("yaw", yaw_deg))
-        if v is not None
-    }
-    prep = prepare(body, degrees=degrees, **inputs)
+    prep = prepare(body, degrees=degrees, **launch)
     rec_every = results.default_record_every(prep, rec_every)
     raw = execute(prep, method=m, record_every=rec_every, band=band, parallel=False)
     config = {
         "body": body.describe(),
         "launch": {
             k: (np.asarray(v).tolist() if v is not None else None)
-            for k, v in inputs.items()
+            for k, v in launch.items()
         },
         "dt_used": float(prep.coords["dt"][1][0]),
         "method": method,

@@ -1,4 +1,0 @@
-"""Running a sweep: the entry points and their checks (:mod:`.run`), tiles on threads or a
-dask cluster (:mod:`.execute`), one tile's computation (:mod:`.tiles`), the time and size
-estimate (:mod:`.estimate`), progress reports (:mod:`.progress`) and the lock that keeps
-two runs off one output (:mod:`.lock`)."""
