@@ -49,6 +49,8 @@ class CoarseStepWarning(RuntimeWarning):
     """A time step so coarse that a result, statuses included, may be a numerical
     artefact."""
 
+    __module__ = "rattlesweep"  # where users import it from: tracebacks and pickles say so
+
 
 def default_dts(table: Sequence[AnyBody], index: np.ndarray, g: np.ndarray) -> np.ndarray:
     """Each trajectory's default time step (s), computed once per distinct (body, g)."""
@@ -103,6 +105,8 @@ core or more."""
 
 class LongRunWarning(UserWarning):
     """A batch about to take a very large number of steps (minutes or more)."""
+
+    __module__ = "rattlesweep"  # where users import it from: tracebacks and pickles say so
 
 
 def announce_long_run(

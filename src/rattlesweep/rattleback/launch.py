@@ -43,6 +43,8 @@ class UnitsWarning(UserWarning):
     """An input whose value makes sense only in other units: a tilt angle given in
     radians that can only be degrees typed as radians (``roll=30``)."""
 
+    __module__ = "rattlesweep"  # where users import it from: tracebacks and pickles say so
+
 
 def angles_in_radians(
     given: dict[str, Any], *, full_ellipsoid: bool, stacklevel: int = 3
