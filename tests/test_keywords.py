@@ -160,12 +160,17 @@ def test_a_misspelt_option_is_refused_with_the_option_it_meant(
 
 
 @pytest.mark.parametrize("function,inputs,required,body", FUNCTIONS, ids=IDS)
-def test_a_missing_required_input_is_a_type_error(function, inputs, required, body):
+def test_a_missing_required_input_is_a_type_error_and_none_a_value_error(
+    function, inputs, required, body
+):
     for name in required:
         given = {k: v for k, v in required.items() if k != name}
         units = inputs[name].units
         with pytest.raises(TypeError, match=rf"^{name} \({units}\) is required$"):
             function(body, **given)
+        # given as None: a value the input cannot take, as before the descriptions
+        with pytest.raises(ValueError, match=rf"^{name} \({units}\) is required$"):
+            function(body, **given, **{name: None})
 
 
 def _entry(doc, name):

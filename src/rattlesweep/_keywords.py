@@ -55,12 +55,17 @@ def accepted(inputs: Mapping[str, Input]) -> tuple[str, ...]:
 
 
 def check_keywords(
-    function: Callable[..., Any], given: Mapping[str, Any], names: Sequence[str]
+    function: Callable[..., Any],
+    given: Mapping[str, Any],
+    names: Sequence[str],
+    required: Mapping[str, Input] | None = None,
 ) -> None:
     """Refuse, before anything is computed, a keyword of ``given`` that is not one of
     ``names`` (the inputs ``function`` takes as ``**given``), naming it and listing
     the inputs and the function's own keyword-only options, with the closest of all
-    these names (a TypeError, as Python's own for an unexpected keyword)."""
+    these names, and an input of ``required`` (the model's inputs) that is required and
+    not in ``given``: TypeErrors, as Python's own for an unexpected keyword or a missing
+    argument."""
     for key in given:
         if key not in names:
             options = [
@@ -76,14 +81,17 @@ def check_keywords(
             raise TypeError(
                 f"{function.__name__}() got an unknown keyword {key!r}{hint}; {takes}"
             )
+    for name, spec in (required or {}).items():
+        if spec.required and name not in given:
+            raise TypeError(f"{name} ({spec.units}) is required")
 
 
 def launch_values(given: Mapping[str, Any], inputs: Mapping[str, Input]) -> dict[str, Any]:
     """The scalar per-launch inputs of a call by name: each value given, or for one
     omitted (or None) the value of the input its description names as ``same_as``, else
     its default. An input with neither is left out (the time step, whose default is the
-    body's); a required one is refused (a TypeError, as Python's own for a missing
-    argument)."""
+    body's); a required one given as None is refused (a ValueError: one omitted is
+    :func:`check_keywords`'s TypeError)."""
     values: dict[str, Any] = {}
     for name, spec in per_launch(inputs).items():
         if spec.width > 1:
@@ -94,7 +102,7 @@ def launch_values(given: Mapping[str, Any], inputs: Mapping[str, Input]) -> dict
         if value is None:
             value = spec.default
         if value is None and spec.required:
-            raise TypeError(f"{name} ({spec.units}) is required")
+            raise ValueError(f"{name} ({spec.units}) is required")
         if value is not None:
             values[name] = value
     return values

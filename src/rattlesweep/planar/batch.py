@@ -177,7 +177,7 @@ def run_planar_batch(
         For a name that is neither an input nor an option, listing both; for a
         required input not given (``theta``, ``t_end``).
     """
-    check_keywords(run_planar_batch, inputs, ACCEPTED)
+    check_keywords(run_planar_batch, inputs, ACCEPTED, INPUTS)
     m = check_method(method)
     rec_every = check_record_every(record_every)
     prep = prepare(body, **inputs)

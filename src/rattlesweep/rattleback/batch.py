@@ -387,7 +387,7 @@ def run_batch(
         Before a batch of more than 10**9 steps in all (a quarter of an hour of a
         core or more), with the step count and where it comes from.
     """
-    check_keywords(run_batch, inputs, ACCEPTED)
+    check_keywords(run_batch, inputs, ACCEPTED, INPUTS)
     m = check_method(method)
     rec_every = check_record_every(record_every)
     band = check_band(reversal_band)

@@ -74,7 +74,7 @@ def simulate(
     """
     if not isinstance(body, Body):
         raise ValueError(f"body must be a Body, got {body!r}")
-    check_keywords(simulate, inputs, ACCEPTED)
+    check_keywords(simulate, inputs, ACCEPTED, INPUTS)
     m = check_method(method)
     rec_every = check_record_every(record_every)
     band = check_band(reversal_band)
