@@ -189,6 +189,7 @@ DT = Input(
     None,
     POSITIVE,
     sweep=True,
+    details="A given dt longer than t_end is refused: a launch takes whole steps.",
     default_doc="1/64 of the body's shortest small-oscillation period",
 )
 T_END = Input(

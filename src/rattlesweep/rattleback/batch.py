@@ -190,7 +190,6 @@ def launch_inputs(body: Bodies, *, announce: bool = True, **given: Any) -> Input
         index,
         flat,
         longest=(longest, ("damping",)),
-        dt_at_most_t_end=True,
         stacklevel=4,
     )
     if "orientation" in flat_vec:
