@@ -77,7 +77,7 @@ def _copy_notebooks() -> None:
         shutil.copyfile(nb, target / nb.name)
 
 
-def setup(app):  # noqa: D103
+def setup(app):
     # autosummary writes a stub per documented name and never removes one: a stub of a
     # name that moved would be an orphan page, which -W turns into an error
     shutil.rmtree(HERE / "generated" / "api", ignore_errors=True)

@@ -1,12 +1,26 @@
 """What the design tests (test_design.py, test_design_trial.py) share: the example
 shell, the Part a design.toml describes, and launches the search never made."""
 
+import contextlib
+import io
+
 import numpy as np
+import pytest
 
 import rattlesweep as rs
+from rattlesweep.cli import main
 from rattlesweep.design import Coin, Material, Part, PrintSettings
 
 SHELL = (0.07, 0.02, 0.018)  # m: 140 x 40 x 18 mm
+
+
+def design_help():
+    """What ``rattlesweep design --help`` prints."""
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out), pytest.raises(SystemExit) as done:
+        main(["design", "--help"])
+    assert done.value.code == 0
+    return out.getvalue()
 
 
 def part_from(doc):

@@ -35,7 +35,7 @@ from rattlesweep.design.mesh import (  # noqa: E402
     moments_of_mesh,
 )
 from rattlesweep.sweep import Sweep  # noqa: E402
-from design_helpers import SHELL, part_from, reversals  # noqa: E402
+from design_helpers import SHELL, design_help, part_from, reversals  # noqa: E402
 
 
 def test_stl_is_watertight_has_the_size_and_the_pockets(made):
@@ -284,15 +284,7 @@ def test_cli_reports_bad_input_as_an_error(capsys):
 def test_every_coin_is_offered_and_documented():
     from pathlib import Path
 
-    from rattlesweep.cli import build_parser
-
-    help_text = " ".join(
-        build_parser()
-        ._subparsers._group_actions[0]  # noqa: SLF001
-        .choices["design"]
-        .format_help()
-        .split()
-    )
+    help_text = " ".join(design_help().split())
     page = Path(__file__).resolve().parent.parent / "docs/guide/design.md"
     doc = page.read_text() if page.is_file() else None
     for name, coin in COINS.items():

@@ -21,7 +21,7 @@ from rattlesweep.design import (  # noqa: E402
     design,
     load_body,
 )
-from design_helpers import SHELL, part_from  # noqa: E402
+from design_helpers import SHELL, design_help, part_from  # noqa: E402
 
 
 # --- what a new user's trial found (issue 33, second round) ---------------------------
@@ -315,18 +315,11 @@ def test_simulate_and_animate_take_the_design_toml(made, tmp_path):
 
 
 def test_coin_names_in_any_case_and_the_help(monkeypatch):
-    from rattlesweep.cli import build_parser
     from rattlesweep.design import make_coin
 
     assert make_coin("EUR_1") == COINS["eur_1"]
     assert make_coin("washer_m10") == COINS["washer_M10"]
-    help_text = " ".join(
-        build_parser()
-        ._subparsers._group_actions[0]  # noqa: SLF001
-        .choices["design"]
-        .format_help()
-        .split()
-    )
+    help_text = " ".join(design_help().split())
     assert "--coins" not in help_text
     assert "Two coins are used" in help_text
     assert help_text.count("which this overrides") >= 4  # coin mass, diameter, thickness,

@@ -56,8 +56,14 @@ def test_docs_build_without_warnings(tmp_path):
         "guide/benchmarks",
         "generated/api/rattlesweep.run_batch",
         "generated/notebooks/02_rattleback_reversal",
+        # the public exceptions and warnings, documented where users import them from
+        "generated/api/rattlesweep.CoarseStepWarning",
+        "generated/api/rattlesweep.SweepWriteError",
+        "generated/api/rattlesweep.DesignRefused",
     ):
         assert (out / f"{page}.html").is_file(), page
+    design = (out / "guide/design.html").read_text()
+    assert "../generated/api/rattlesweep.DesignRefused.html" in design
     api = (out / "generated/api/rattlesweep.run_batch.html").read_text()
     assert "mu_static" in api and "Returns" in api
     # the tables of inputs, from their descriptions: the default step's damping bound too

@@ -15,6 +15,7 @@ from rattlesweep._core.rattleback import layout as rattleback_layout
 from rattlesweep._core.planar import layout as planar_layout
 from rattlesweep._core.workspace import COMMON_PARAMS
 from rattlesweep.inputs import (
+    AT_LEAST_MU,
     BAND,
     FINITE,
     HALF_TURN,
@@ -23,6 +24,7 @@ from rattlesweep.inputs import (
     PLANAR,
     POSITIVE,
     RATTLEBACK,
+    UNIT_QUATERNION,
 )
 from rattlesweep.planar.batch import prepare as prepare_planar
 
@@ -38,6 +40,8 @@ EDGES = {
     id(FINITE): (0.0, math.inf),
     id(HALF_TURN): (1.5, 1.6),
     id(BAND): (0.0, 1.0),
+    id(AT_LEAST_MU): (math.inf, -1e-9),
+    id(UNIT_QUATERNION): ((1.0, 0.0, 0.0, 0.0), (2.0, 0.0, 0.0, 0.0)),
 }
 
 # arguments that are another form of a described input (the angles in degrees)
@@ -246,6 +250,8 @@ def test_omitted_inputs_take_their_described_defaults():
         assert dt == pytest.approx(want, rel=1e-12)
     text = RATTLEBACK["dt"].default_text
     assert "damping" in text and "smallest principal moment of inertia" in text
+    assert "damping" not in PLANAR  # nor in its default step's description
+    assert "damping" not in PLANAR["dt"].default_text
     planar = rs.run_planar_batch(LAMINA, theta=0.1, t_end=T_END)
     for spec in PLANAR.values():
         if spec.in_results and isinstance(spec.default, float):
@@ -275,7 +281,7 @@ def _ruled(inputs):
 def test_a_batch_obeys_each_rattleback_rule(name, spec):
     good, bad = EDGES[id(spec.rule)]
     max_steps(TOY, **_launch("rattleback", name, good))  # every check, no kernel
-    if spec.launch_state and not np.isfinite(bad):
+    if spec.launch_state and not np.all(np.isfinite(bad)):
         # a launch value: not refused but a status
         ds = rs.run_batch(TOY, **_launch("rattleback", name, bad))
         assert list(rs.decode(ds).status.values) == ["non_finite"]

@@ -5,6 +5,7 @@ line and the explorer, is documented in their signatures and docstrings, and is 
 into results, with no other edit. An unknown name is refused before anything runs."""
 
 import argparse
+import inspect
 import os
 import subprocess
 import sys
@@ -127,9 +128,49 @@ def test_an_unknown_input_is_refused_before_anything_runs(
     with pytest.raises(TypeError) as refused:
         function(body, mu_rol=0.1, **required)
     message = str(refused.value)
-    assert f"{function.__name__}() got an unknown input 'mu_rol'" in message
+    assert f"{function.__name__}() got an unknown keyword 'mu_rol'" in message
     assert "(did you mean 'mu_roll'?)" in message
-    assert message.endswith(", ".join(accepted(inputs)))
+    inputs_list, options = (
+        ", ".join(accepted(inputs)),
+        ", ".join(_options(function, inputs)),
+    )
+    assert message.endswith(f"its inputs are {inputs_list}; its options are {options}")
+
+
+def _options(function, inputs):
+    """The keyword-only parameters of a public function that are not inputs."""
+    return [
+        p.name
+        for p in inspect.signature(function).parameters.values()
+        if p.kind is p.KEYWORD_ONLY and p.name not in accepted(inputs)
+    ]
+
+
+@pytest.mark.parametrize("function,inputs,required,body", FUNCTIONS, ids=IDS)
+def test_a_misspelt_option_is_refused_with_the_option_it_meant(
+    function, inputs, required, body
+):
+    assert {"method", "record_every"} <= set(_options(function, inputs))
+    with pytest.raises(TypeError) as refused:
+        function(body, metod="rk4", **required)
+    message = str(refused.value)
+    assert f"{function.__name__}() got an unknown keyword 'metod'" in message
+    assert "(did you mean 'method'?)" in message
+    assert f"; its options are {', '.join(_options(function, inputs))}" in message
+
+
+@pytest.mark.parametrize("function,inputs,required,body", FUNCTIONS, ids=IDS)
+def test_a_missing_required_input_is_a_type_error_and_none_a_value_error(
+    function, inputs, required, body
+):
+    for name in required:
+        given = {k: v for k, v in required.items() if k != name}
+        units = inputs[name].units
+        with pytest.raises(TypeError, match=rf"^{name} \({units}\) is required$"):
+            function(body, **given)
+        # given as None: a value the input cannot take, as before the descriptions
+        with pytest.raises(ValueError, match=rf"^{name} \({units}\) is required$"):
+            function(body, **given, **{name: None})
 
 
 def _entry(doc, name):
@@ -192,3 +233,15 @@ def test_the_explorer_shows_only_described_inputs():
     assert set(settings.LAUNCH) == {
         c for c in numeric if c.removesuffix("_deg") in per_launch(RATTLEBACK)
     }
+
+
+def test_an_option_without_a_description_is_refused():
+    from rattlesweep._keywords import document
+
+    def run(body, *, colour=None, **inputs):
+        """{inputs}"""
+
+    with pytest.raises(
+        TypeError, match=r"run: the options \['colour'\] have no description"
+    ):
+        document(RATTLEBACK)(run)

@@ -18,7 +18,7 @@ from numpy_oracle import first_reversal
 
 pytest.importorskip("mujoco")
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
-from peers import mujoco_rattleback as mj  # noqa: E402
+from peers import mujoco_rattleback as mj
 
 SLOW = -5.0  # rad/s, I_xy n < 0: the slow, roll-driven reversal
 T_END = 12.5  # s

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent / "data"))
-import make_reference  # noqa: E402
+import make_reference
 
 REFERENCE = np.load(make_reference.PATH)
 

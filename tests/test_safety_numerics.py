@@ -19,6 +19,22 @@ def test_dt_longer_than_t_end_is_refused():
     assert ok.t_final.values.tolist() == pytest.approx([0.01])
 
 
+def test_the_planar_model_refuses_dt_longer_than_t_end_alike():
+    lamina = rs.PlanarBody(0.10, 0.05, 1.0)
+    for solid, planar in (
+        (rs.run_batch, rs.run_planar_batch),
+        (rs.simulate, rs.simulate_planar),
+    ):
+        with pytest.raises(ValueError) as refused:
+            solid(TOY, spin=5.0, t_end=0.01, dt=0.1)
+        with pytest.raises(ValueError) as refused_planar:
+            planar(lamina, theta=0.1, t_end=0.01, dt=0.1)
+        assert str(refused_planar.value) == str(refused.value)
+        assert str(refused.value).startswith("dt must be at most t_end")
+    ok = rs.run_planar_batch(lamina, theta=0.1, t_end=0.01, dt=0.002)
+    assert ok.t_final.values.tolist() == pytest.approx([0.01])
+
+
 def test_billions_of_steps_are_announced_before_the_run():
     # damping = 1e3 makes the default step 2.75e-10 s: 3.6e9 steps for 1 s of motion
     with warnings.catch_warnings():

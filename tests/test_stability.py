@@ -281,3 +281,25 @@ def xr_points(stab, sim):
     a, b = xr.align(stab.e_folding_time, sim.first_reversal_time, join="inner")
     ok = np.isfinite(a.values) & np.isfinite(b.values)
     return a.values[ok], b.values[ok]
+
+
+@pytest.mark.parametrize(
+    "name,bad", [("g", -1.0), ("damping", -1e-3), ("g", [9.81, 0.0])], ids=str
+)
+def test_a_bad_input_is_refused_as_run_batch_refuses_it(name, bad):
+    with pytest.raises(ValueError) as batch:
+        rs.run_batch(TOY, spin=1.0, t_end=0.01, **{name: bad})
+    for function in (st.eigen, st.linearisation, st.small_spin_growth_rates):
+        with pytest.raises(ValueError) as linear:
+            function(TOY, 1.0, **{name: bad})
+        assert str(linear.value) == str(batch.value), function.__name__
+
+
+def test_a_non_finite_spin_is_refused_as_a_sweep_refuses_it():
+    # a batch gives a non-finite spin a status; a sweep, like the linearisation, refuses it
+    with pytest.raises(ValueError) as swept:
+        rs.Sweep(axes={"g": [9.8]}, fixed={"t_end": 1.0, "spin": math.inf})
+    with pytest.raises(ValueError) as linear:
+        st.eigen(TOY, math.inf)
+    assert str(linear.value) == "spin must be finite; got inf"
+    assert str(swept.value).endswith(str(linear.value))

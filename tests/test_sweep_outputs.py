@@ -227,7 +227,7 @@ def test_a_held_lock_refuses_a_second_sweep_and_a_killed_holder_leaves_it_stale(
 def test_stale_and_foreign_locks(tmp_path):
     lock = tmp_path / LOCK_NAME
     here = socket.gethostname()
-    SweepLock = lambda d: SweepLock_(d / LOCK_NAME)  # noqa: E731
+    SweepLock = lambda d: SweepLock_(d / LOCK_NAME)
     # a process id now used by another program (pid 1 did not start at tick 0)
     lock.write_text(json.dumps({"host": here, "pid": 1, "started": "0"}))
     with SweepLock(tmp_path) as held:

@@ -22,8 +22,8 @@ from peers import mujoco_rattleback as mj
 from rattlesweep import CoarseStepWarning
 
 sys.path.insert(0, str(ROOT / "tests"))
-from event_reference import rattleback_events  # noqa: E402
-from numpy_oracle import NumpyRolling, first_reversal  # noqa: E402
+from event_reference import rattleback_events
+from numpy_oracle import NumpyRolling, first_reversal
 
 PITCH = math.radians(0.5)
 FAST, SLOW = 5.0, -5.0  # rad/s

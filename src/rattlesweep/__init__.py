@@ -14,6 +14,8 @@ from typing import TYPE_CHECKING, Any
 
 from ._version import __version__
 
+# the names and modules the API reference documents (docs/api.rst), and the planar
+# model's module, which its guide imports from
 __all__ = [
     "Body",
     "CoarseStepWarning",
@@ -27,8 +29,12 @@ __all__ = [
     "UnitsWarning",
     "decode",
     "design",
+    "explore",
+    "inputs",
+    "io",
     "planar",
     "plot",
+    "rattleback",
     "resume",
     "run_batch",
     "run_planar_batch",
@@ -69,7 +75,7 @@ _FROM = {
 
 if TYPE_CHECKING:
     # what __getattr__ imports on first use, seen by type checkers as it is
-    from . import design, planar, plot, stability, sweep
+    from . import design, explore, inputs, io, planar, plot, rattleback, stability, sweep
     from .design.constraints import DesignRefused
     from ._steps import CoarseStepWarning, LongRunWarning
     from .planar import PlanarBody, run_planar_batch, simulate_planar
@@ -97,4 +103,10 @@ else:
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+    """The public names, and the submodules imported so far (``rs.tidy``)."""
+    loaded = {
+        k
+        for k, v in globals().items()
+        if not k.startswith("_") and getattr(v, "__name__", "").startswith(f"{__name__}.")
+    }
+    return sorted(set(__all__) | loaded)

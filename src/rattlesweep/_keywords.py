@@ -54,25 +54,44 @@ def accepted(inputs: Mapping[str, Input]) -> tuple[str, ...]:
     return tuple(names)
 
 
-def check_keywords(function: str, given: Mapping[str, Any], names: Sequence[str]) -> None:
+def check_keywords(
+    function: Callable[..., Any],
+    given: Mapping[str, Any],
+    names: Sequence[str],
+    required: Mapping[str, Input] | None = None,
+) -> None:
     """Refuse, before anything is computed, a keyword of ``given`` that is not one of
-    ``names``, naming it and listing those a call takes (a TypeError, as Python's own
-    for an unexpected keyword)."""
+    ``names`` (the inputs ``function`` takes as ``**given``), naming it and listing
+    the inputs and the function's own keyword-only options, with the closest of all
+    these names, and an input of ``required`` (the model's inputs) that is required and
+    not in ``given``: TypeErrors, as Python's own for an unexpected keyword or a missing
+    argument."""
     for key in given:
         if key not in names:
-            close = difflib.get_close_matches(key, names, n=1)
+            options = [
+                p.name
+                for p in inspect.signature(function).parameters.values()
+                if p.kind is p.KEYWORD_ONLY and p.name not in names
+            ]
+            close = difflib.get_close_matches(key, [*names, *options], n=1)
             hint = f" (did you mean {close[0]!r}?)" if close else ""
+            takes = f"its inputs are {', '.join(names)}"
+            if options:
+                takes += f"; its options are {', '.join(options)}"
             raise TypeError(
-                f"{function}() got an unknown input {key!r}{hint}; its inputs are "
-                f"{', '.join(names)}"
+                f"{function.__name__}() got an unknown keyword {key!r}{hint}; {takes}"
             )
+    for name, spec in (required or {}).items():
+        if spec.required and name not in given:
+            raise TypeError(f"{name} ({spec.units}) is required")
 
 
 def launch_values(given: Mapping[str, Any], inputs: Mapping[str, Input]) -> dict[str, Any]:
     """The scalar per-launch inputs of a call by name: each value given, or for one
     omitted (or None) the value of the input its description names as ``same_as``, else
     its default. An input with neither is left out (the time step, whose default is the
-    body's); a required one is refused."""
+    body's); a required one given as None is refused (a ValueError: one omitted is
+    :func:`check_keywords`'s TypeError)."""
     values: dict[str, Any] = {}
     for name, spec in per_launch(inputs).items():
         if spec.width > 1:
@@ -141,7 +160,11 @@ def document(inputs: Mapping[str, Input], *, scalar: bool = False) -> Callable[[
         first = [p for p in own.values() if p.kind is p.POSITIONAL_OR_KEYWORD]
         options = {k: p for k, p in own.items() if p.kind is p.KEYWORD_ONLY}
         undescribed = set(options) - set(inputs)
-        assert not undescribed, f"{function.__name__}: options {undescribed} undescribed"
+        if undescribed:
+            raise TypeError(
+                f"{function.__name__}: the options {sorted(undescribed)} have no "
+                "description in rattlesweep.inputs"
+            )
         degrees = angles(inputs)
         params: list[inspect.Parameter] = []
         entries: list[str] = []

@@ -49,6 +49,8 @@ class CoarseStepWarning(RuntimeWarning):
     """A time step so coarse that a result, statuses included, may be a numerical
     artefact."""
 
+    __module__ = "rattlesweep"  # where users import it from: tracebacks and pickles say so
+
 
 def default_dts(table: Sequence[AnyBody], index: np.ndarray, g: np.ndarray) -> np.ndarray:
     """Each trajectory's default time step (s), computed once per distinct (body, g)."""
@@ -103,6 +105,8 @@ core or more."""
 
 class LongRunWarning(UserWarning):
     """A batch about to take a very large number of steps (minutes or more)."""
+
+    __module__ = "rattlesweep"  # where users import it from: tracebacks and pickles say so
 
 
 def announce_long_run(
@@ -189,14 +193,13 @@ def time_steps(
     flat: Mapping[str, np.ndarray],
     *,
     longest: tuple[np.ndarray, tuple[str, ...]] | None = None,
-    dt_at_most_t_end: bool = False,
     stacklevel: int,
 ) -> tuple[np.ndarray, dict[str, np.ndarray] | None]:
     """Each launch's time step (s), and the inputs it comes from when it is the default
     (None when ``dt`` is given): the ``dt`` of ``flat`` (the flat inputs) or the body's
     default at its ``g``, shortened where the model's bound ``longest`` (each launch's
     longest step, and the inputs it depends on) is shorter. A ``dt`` given is refused
-    beyond ``t_end`` when ``dt_at_most_t_end``, and draws a :class:`CoarseStepWarning`
+    beyond ``t_end`` (in both models), and draws a :class:`CoarseStepWarning`
     when far beyond the default (``stacklevel`` as for :func:`warnings.warn`, counted
     from the caller)."""
     default = default_dts(table, index, flat["g"])
@@ -208,14 +211,13 @@ def time_steps(
     if "dt" not in flat:
         return default, {k: flat[k] for k in depends}
     dt = flat["dt"]
-    if dt_at_most_t_end:
-        fail_where(
-            "dt",
-            dt,
-            dt > flat["t_end"],
-            "must be at most t_end (a launch takes whole steps, so one step of dt "
-            "would run it past t_end)",
-        )
+    fail_where(
+        "dt",
+        dt,
+        dt > flat["t_end"],
+        "must be at most t_end (a launch takes whole steps, so one step of dt "
+        "would run it past t_end)",
+    )
     warn_coarse_dt(table, index, flat["g"], dt, stacklevel=stacklevel + 1, default=default)
     return dt, None
 

@@ -18,15 +18,26 @@ Values are in SI units (angles in radians); results show an angle in degrees und
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Any, Callable, Mapping
+from dataclasses import dataclass, replace
+from typing import Any, Mapping
 
 import numpy as np
-from numpy.typing import ArrayLike
 
+from ._rules import (
+    AT_LEAST_MU,
+    BAND,
+    FINITE,
+    HALF_TURN,
+    NONNEG,
+    NONNEG_INF,
+    POSITIVE,
+    UNIT_QUATERNION,
+    Rule,
+)
 from ._validation import fail_where
 
 __all__ = [
+    "AT_LEAST_MU",
     "BAND",
     "FINITE",
     "HALF_TURN",
@@ -36,47 +47,12 @@ __all__ = [
     "PLANAR",
     "POSITIVE",
     "RATTLEBACK",
+    "UNIT_QUATERNION",
     "Input",
     "Rule",
     "check_rules",
     "result_attrs",
 ]
-
-
-@dataclass(frozen=True)
-class Rule:
-    """A rule every value of a numeric input obeys."""
-
-    message: str  # what an error says after the input's name: "must be finite and > 0"
-    short: str  # the same for a table: "finite, > 0"
-    ok: Callable[[np.ndarray], np.ndarray]  # True where a value obeys it
-
-    def bad(self, values: ArrayLike) -> np.ndarray:
-        """True where a value breaks the rule (NaN breaks every rule)."""
-        with np.errstate(invalid="ignore"):
-            return ~np.asarray(self.ok(np.asarray(values, dtype=float)), dtype=bool)
-
-
-POSITIVE = Rule("must be finite and > 0", "finite, > 0", lambda v: np.isfinite(v) & (v > 0))
-FINITE = Rule("must be finite", "finite", np.isfinite)
-NONNEG_INF = Rule(
-    "must be >= 0 (inf allowed: rolling without slip)",
-    ">= 0, `inf` allowed",
-    lambda v: v >= 0,
-)
-NONNEG = Rule(
-    "must be finite and >= 0", "finite, >= 0", lambda v: np.isfinite(v) & (v >= 0)
-)
-HALF_TURN = Rule(
-    "must be in (-pi/2, pi/2) rad (at |theta| = pi/2 the flat edge reaches the floor)",
-    "in (-pi/2, pi/2)",
-    lambda v: np.abs(v) < math.pi / 2,
-)
-BAND = Rule(
-    "must be in [0, 1) (a fraction of |initial spin|)",
-    "in [0, 1)",
-    lambda v: (v >= 0) & (v < 1),
-)
 
 
 @dataclass(frozen=True)
@@ -163,7 +139,7 @@ MU_STATIC = Input(
     "Static Coulomb coefficient, at least mu: the bound a sticking contact holds.",
     "friction",
     None,
-    NONNEG_INF,
+    AT_LEAST_MU,
     sweep=True,
     default_doc="`mu`",
     same_as="mu",
@@ -213,9 +189,8 @@ DT = Input(
     None,
     POSITIVE,
     sweep=True,
-    default_doc="1/64 of the body's shortest small-oscillation period; with "
-    "`damping` (3-D model), at most the body's smallest principal moment of "
-    "inertia / `damping` where that is shorter",
+    details="A given dt longer than t_end is refused: a launch takes whole steps.",
+    default_doc="1/64 of the body's shortest small-oscillation period",
 )
 T_END = Input(
     "t_end",
@@ -419,6 +394,7 @@ RATTLEBACK_INPUTS: tuple[Input, ...] = (
         "initial orientation quaternion (w, x, y, z)",
         "Initial orientation, a unit quaternion body to world, instead of the angles.",
         "launch",
+        rule=UNIT_QUATERNION,
         launch_state=True,
         width=4,
         dim="quaternion_component",
@@ -450,7 +426,11 @@ RATTLEBACK_INPUTS: tuple[Input, ...] = (
         sweep=True,
     ),
     G,
-    DT,
+    replace(
+        DT,
+        default_doc=f"{DT.default_doc}; with `damping`, at most the body's smallest "
+        "principal moment of inertia / `damping` where that is shorter",
+    ),
     T_END,
     METHOD,
     RECORD_EVERY,

@@ -43,6 +43,8 @@ from numpy.typing import ArrayLike
 
 from ._launches import distinct_bodies
 from ._metadata import flag_attrs
+from ._validation import fail_where
+from .inputs import RATTLEBACK as INPUTS
 from .rattleback.body import Bodies, Body
 
 if TYPE_CHECKING:
@@ -112,28 +114,31 @@ def body_arrays(body: Bodies) -> dict[str, np.ndarray]:
     return {k: np.asarray(v, dtype=float)[inverse].reshape(shape) for k, v in cols.items()}
 
 
+# the defaults of run_batch, from the inputs' descriptions
+_G = INPUTS["g"].default
+_DAMPING = INPUTS["damping"].default
+
+
 def _check_inputs(
     spin: ArrayLike, g: ArrayLike, damping: ArrayLike
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    spin, g, damping = (np.asarray(v, dtype=float) for v in (spin, g, damping))
-    for name, v, ok, rule in (
-        ("spin", spin, np.isfinite(spin), "must be finite (rad/s)"),
-        ("g", g, np.isfinite(g) & (g > 0), "must be finite and > 0"),
-        (
-            "damping",
-            damping,
-            np.isfinite(damping) & (damping >= 0),
-            "must be finite and >= 0 (N m s)",
-        ),
-    ):
-        if not np.all(ok):
-            bad = v[~ok] if v.ndim else v
-            raise ValueError(f"{name} {rule}; got {np.ravel(bad)[0]!r}")
-    return spin, g, damping
+    """The three as float arrays, each checked by its rule in
+    :data:`rattlesweep.inputs.RATTLEBACK` with run_batch's message; a non-finite spin is
+    refused too (a batch gives it a status instead, having no linearisation to make)."""
+    arrays = {
+        "spin": np.asarray(spin, dtype=float),
+        "g": np.asarray(g, dtype=float),
+        "damping": np.asarray(damping, dtype=float),
+    }
+    for name, values in arrays.items():
+        rule = INPUTS[name].rule
+        if rule is not None:
+            fail_where(name, values, rule.bad(values), rule.message)
+    return arrays["spin"], arrays["g"], arrays["damping"]
 
 
 def linearisation(
-    body: Bodies, spin: ArrayLike, *, g: ArrayLike = 9.81, damping: ArrayLike = 0.0
+    body: Bodies, spin: ArrayLike, *, g: ArrayLike = _G, damping: ArrayLike = _DAMPING
 ) -> np.ndarray:
     """The 4×4 matrix A (…, 4, 4) of ẋ = A x, x = (γx, γy, ωx, ωy), for rolling about
     steady upright spin ``spin`` (rad/s); ``g`` (m/s²), ``damping`` (N m s).
@@ -172,7 +177,7 @@ def linearisation(
 
 
 def trace_identity(
-    body: Bodies, spin: ArrayLike, *, g: ArrayLike = 9.81, damping: ArrayLike = 0.0
+    body: Bodies, spin: ArrayLike, *, g: ArrayLike = _G, damping: ArrayLike = _DAMPING
 ) -> np.ndarray:
     """Closed-form sum of the four eigenvalues' real parts (1/s):
     (m ℓ n I_xy (a² − b²)/c − c_v (M_xx + M_yy)) / det M."""
@@ -186,7 +191,7 @@ def trace_identity(
 
 
 def eigen(
-    body: Bodies, spin: ArrayLike, *, g: ArrayLike = 9.81, damping: ArrayLike = 0.0
+    body: Bodies, spin: ArrayLike, *, g: ArrayLike = _G, damping: ArrayLike = _DAMPING
 ) -> dict[str, np.ndarray]:
     """Tilt eigenvalues and their modes.
 
@@ -225,7 +230,7 @@ def eigen(
 
 
 def zero_spin_frequencies(
-    body: Bodies, *, g: ArrayLike = 9.81
+    body: Bodies, *, g: ArrayLike = _G
 ) -> tuple[np.ndarray, np.ndarray]:
     """(pitch-like, roll-like) rocking frequencies (rad/s) of the rolling body at zero
     spin, from the linearisation (equal to :meth:`Body.small_oscillation_frequencies`)."""
@@ -234,7 +239,7 @@ def zero_spin_frequencies(
 
 
 def small_spin_growth_rates(
-    body: Bodies, spin: ArrayLike, *, g: ArrayLike = 9.81, damping: ArrayLike = 0.0
+    body: Bodies, spin: ArrayLike, *, g: ArrayLike = _G, damping: ArrayLike = _DAMPING
 ) -> tuple[np.ndarray, np.ndarray]:
     """First-order-in-spin growth rates (1/s) of the (pitch-like, roll-like) modes, in
     closed form (the Walker / Garcia–Hubbard small-spin expansion).

@@ -39,9 +39,15 @@ class DesignRefused(ValueError):
     """A design that cannot meet the stability margin; ``max_coin_mass`` (kg) is the
     largest mass of the same coin (size unchanged) that would, 0 when none would."""
 
+    __module__ = "rattlesweep"  # where users import it from: tracebacks and pickles say so
+
     def __init__(self, message: str, max_coin_mass: float) -> None:
         super().__init__(message)
         self.max_coin_mass = max_coin_mass
+
+    def __reduce__(self) -> tuple[type[DesignRefused], tuple[str, float]]:
+        # the arguments __init__ takes (BaseException's reduce would give the message only)
+        return type(self), (str(self), self.max_coin_mass)
 
 
 def check_shell(

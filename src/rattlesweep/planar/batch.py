@@ -76,7 +76,7 @@ def prepare(body: PlanarBodies, **given: Any) -> Prepared:
     Non-finite launch values (theta, rate, velocity) are not errors: those trajectories
     get the status ``non_finite``.
     """
-    check_keywords("prepare", given, ACCEPTED)
+    check_keywords(prepare, given, ACCEPTED)
     scalars = launch_values(given, INPUTS)
     launch = launches(body, PlanarBody, scalars, INPUTS)
     flat = launch.flat
@@ -174,9 +174,10 @@ def run_planar_batch(
     ValueError
         For any invalid input, naming the parameter, the value and the rule.
     TypeError
-        For a name that is not an input, listing the inputs.
+        For a name that is neither an input nor an option, listing both; for a
+        required input not given (``theta``, ``t_end``).
     """
-    check_keywords("run_planar_batch", inputs, ACCEPTED)
+    check_keywords(run_planar_batch, inputs, ACCEPTED, INPUTS)
     m = check_method(method)
     rec_every = check_record_every(record_every)
     prep = prepare(body, **inputs)

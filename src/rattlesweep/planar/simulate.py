@@ -54,7 +54,8 @@ def simulate_planar(
     ValueError
         For any invalid input, naming the parameter, the value and the rule.
     TypeError
-        For a name that is not an input, listing the inputs.
+        For a name that is neither an input nor an option, listing both; for a
+        required input not given (``theta``, ``t_end``).
 
     Warns
     -----
@@ -63,7 +64,7 @@ def simulate_planar(
     """
     if not isinstance(body, PlanarBody):
         raise ValueError(f"body must be a PlanarBody, got {body!r}")
-    check_keywords("simulate_planar", inputs, ACCEPTED)
+    check_keywords(simulate_planar, inputs, ACCEPTED, INPUTS)
     m = check_method(method)
     rec_every = check_record_every(record_every)
     # every launch input, None where not given (the configuration the result keeps)

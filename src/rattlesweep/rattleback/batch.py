@@ -156,7 +156,7 @@ def launch_inputs(body: Bodies, *, announce: bool = True, **given: Any) -> Input
     trajectories get the status ``non_finite``. ``announce`` warns
     (:class:`~rattlesweep.LongRunWarning`) of a batch of more than
     :data:`~rattlesweep._steps.LONG_RUN_STEPS` steps."""
-    check_keywords("launch_inputs", given, tuple(LAUNCH))
+    check_keywords(launch_inputs, given, tuple(LAUNCH))
     if given.get("spin") is not None and given.get("omega") is not None:
         raise ValueError(
             "give either spin (about the vertical) or omega (body frame), not both"
@@ -190,7 +190,6 @@ def launch_inputs(body: Bodies, *, announce: bool = True, **given: Any) -> Input
         index,
         flat,
         longest=(longest, ("damping",)),
-        dt_at_most_t_end=True,
         stacklevel=4,
     )
     if "orientation" in flat_vec:
@@ -376,7 +375,8 @@ def run_batch(
         computation. Non-finite launch values are not errors: those trajectories get
         the status ``non_finite``.
     TypeError
-        For a name that is not an input, listing the inputs.
+        For a name that is neither an input nor an option, listing both; for a
+        required input not given (``t_end``).
 
     Warns
     -----
@@ -386,7 +386,7 @@ def run_batch(
         Before a batch of more than 10**9 steps in all (a quarter of an hour of a
         core or more), with the step count and where it comes from.
     """
-    check_keywords("run_batch", inputs, ACCEPTED)
+    check_keywords(run_batch, inputs, ACCEPTED, INPUTS)
     m = check_method(method)
     rec_every = check_record_every(record_every)
     band = check_band(reversal_band)

@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .._validation import as_float_array
+from .._rules import UNIT_QUATERNION
 
 __all__ = [
     "quaternion_from_angles",
@@ -42,6 +43,8 @@ __all__ = [
 class UnitsWarning(UserWarning):
     """An input whose value makes sense only in other units: a tilt angle given in
     radians that can only be degrees typed as radians (``roll=30``)."""
+
+    __module__ = "rattlesweep"  # where users import it from: tracebacks and pickles say so
 
 
 def angles_in_radians(
@@ -136,11 +139,11 @@ def up_vector(q: np.ndarray) -> np.ndarray:
 def check_unit_quaternion(q: np.ndarray) -> None:
     """Raise ValueError for a finite quaternion whose norm is not 1 (to 1e-6)."""
     norm = np.linalg.norm(q, axis=-1)
-    bad = np.isfinite(norm) & (np.abs(norm - 1.0) > 1e-6)
+    bad = np.isfinite(norm) & UNIT_QUATERNION.bad(q)
     if np.any(bad):
         idx = np.argwhere(bad)[0]
         raise ValueError(
-            f"orientation must be a unit quaternion (w, x, y, z), |q| = 1 to 1e-6; "
+            f"orientation {UNIT_QUATERNION.message}; "
             f"got |q| = {norm[tuple(idx)]:.9g} at index {tuple(int(i) for i in idx)}"
         )
 

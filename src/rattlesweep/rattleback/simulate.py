@@ -60,7 +60,8 @@ def simulate(
     ValueError
         For any invalid input, naming the parameter, the value and the rule.
     TypeError
-        For a name that is not an input, listing the inputs.
+        For a name that is neither an input nor an option, listing both; for a
+        required input not given (``t_end``).
 
     Warns
     -----
@@ -73,7 +74,7 @@ def simulate(
     """
     if not isinstance(body, Body):
         raise ValueError(f"body must be a Body, got {body!r}")
-    check_keywords("simulate", inputs, ACCEPTED)
+    check_keywords(simulate, inputs, ACCEPTED, INPUTS)
     m = check_method(method)
     rec_every = check_record_every(record_every)
     band = check_band(reversal_band)

@@ -25,6 +25,8 @@ LOCK_NAME = ".rattlesweep.lock"
 class SweepLocked(ValueError):
     """Raised when another running sweep holds the output's lock."""
 
+    __module__ = "rattlesweep"  # where users import it from: tracebacks and pickles say so
+
 
 def _start_time(pid: int) -> str | None:
     """The start time of a process (clock ticks since boot, Linux), None where unknown."""

@@ -29,6 +29,8 @@ class SweepWriteError(OSError):
     """Writing a sweep's output failed (disk full, no permission, a lost connection...).
     What was written before is intact, and a resume continues from there."""
 
+    __module__ = "rattlesweep"  # where users import it from: tracebacks and pickles say so
+
 
 class SweepInterrupted(KeyboardInterrupt):
     """Ctrl-C stopped a sweep while its tiles ran; the message says how many tiles are
