@@ -31,7 +31,6 @@ __all__ = [
     "design",
     "explore",
     "inputs",
-    "io",
     "planar",
     "plot",
     "rattleback",
@@ -75,7 +74,8 @@ _FROM = {
 
 if TYPE_CHECKING:
     # what __getattr__ imports on first use, seen by type checkers as it is
-    from . import design, explore, inputs, io, planar, plot, rattleback, stability, sweep
+    from . import design, explore, inputs, planar, plot, rattleback, stability, sweep
+    from . import io as io  # documented; out of __all__, not to shadow the stdlib's
     from .design.constraints import DesignRefused
     from ._steps import CoarseStepWarning, LongRunWarning
     from .planar import PlanarBody, run_planar_batch, simulate_planar
