@@ -11,9 +11,9 @@ come from it. Plain Python, no numba: the tables are read at import time only.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, Iterator
+from typing import Any, Callable, Iterator
 
-__all__ = ["Row", "Rows", "check_regions"]
+__all__ = ["Row", "Rows", "check_regions", "input_row"]
 
 
 @dataclass(frozen=True)
@@ -33,6 +33,25 @@ class Row:
     width: int = 1
     dim: str | None = None
     pack: Callable | None = field(default=None, compare=False)
+
+
+def input_row(
+    described: Any, width: int = 1, dim: str | None = None, pack: Callable | None = None
+) -> Row:
+    """The row that packs a per-launch input, named, with units and long name, as the
+    input's description in :mod:`rattlesweep.inputs` gives them, so that the kernel's
+    tables and the results say the same. ``width`` and ``dim`` stay the layout's own:
+    they shape the kernel's rows. ``pack`` makes the row's values (by default the
+    input's own values)."""
+    name = described.name
+    return Row(
+        name,
+        described.units,
+        described.long_name,
+        width,
+        dim,
+        pack=pack if pack is not None else (lambda f: f[name]),
+    )
 
 
 class Rows:

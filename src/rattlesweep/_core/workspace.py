@@ -31,7 +31,8 @@ from numba import types
 from numba.extending import overload
 
 from .jit import OVERLOAD_OPTIONS
-from .rows import Row, Rows
+from .rows import Row, Rows, input_row
+from ..inputs import INPUTS
 
 __all__ = [
     "BLOCK",
@@ -360,23 +361,12 @@ N_FRACTIONS = 3
 # --- the parameter rows every model starts its parameters with, rows of region P -----
 COMMON_PARAMS = Rows(
     "common parameters",
-    Row("dt", "s", "time step", pack=lambda f: f["dt"]),
-    Row("mu", "1", "kinetic friction coefficient", pack=lambda f: f["mu"]),
-    Row("mu_static", "1", "static friction coefficient", pack=lambda f: f["mu_static"]),
-    Row("g", "m s-2", "gravitational acceleration", pack=lambda f: f["g"]),
-    Row(
-        "mu_spin",
-        "m",
-        "spin friction coefficient: bound of the couple about the normal "
-        "per unit normal force",
-        pack=lambda f: f["mu_spin"],
-    ),
-    Row(
-        "mu_roll",
-        "m",
-        "rolling resistance coefficient: bound of the rolling couple per unit normal force",
-        pack=lambda f: f["mu_roll"],
-    ),
+    input_row(INPUTS["dt"]),
+    input_row(INPUTS["mu"]),
+    input_row(INPUTS["mu_static"]),
+    input_row(INPUTS["g"]),
+    input_row(INPUTS["mu_spin"]),
+    input_row(INPUTS["mu_roll"]),
     Row(
         "slip_speed_floor",
         "m s-1",

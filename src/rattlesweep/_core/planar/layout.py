@@ -7,7 +7,8 @@ Each table is the single source of truth for its rows, as in :mod:`..rattleback.
 
 from __future__ import annotations
 
-from ..rows import Row, Rows, check_regions
+from ..rows import Row, Rows, check_regions, input_row
+from ...inputs import PLANAR
 from ..workspace import COMMON_PARAMS, N_SHARED, N_SHARED_OBS, OFF_P
 
 __all__ = ["PARAMS", "STATE", "RECORD", "OBSERVABLES"]
@@ -21,19 +22,9 @@ PARAMS = Rows(
         "b2", "m2", "squared semi-axis normal to the flat edge", pack=lambda f: f["b"] ** 2
     ),
     Row("ab2", "m4", "a² b²", pack=lambda f: f["a"] * f["a"] * f["b"] * f["b"]),
-    Row(
-        "com_depth",
-        "m",
-        "depth of the centre of mass below the flat edge",
-        pack=lambda f: f["com_depth"],
-    ),
-    Row("mass", "kg", "mass", pack=lambda f: f["mass"]),
-    Row(
-        "inertia",
-        "kg m2",
-        "moment of inertia about the centre of mass",
-        pack=lambda f: f["inertia"],
-    ),
+    input_row(PLANAR["com_depth"]),
+    input_row(PLANAR["mass"]),
+    input_row(PLANAR["inertia"]),
 )
 A2 = PARAMS.start("a2")
 B2 = PARAMS.start("b2")

@@ -10,7 +10,8 @@ the units and long names that results carry.
 
 from __future__ import annotations
 
-from ..rows import Row, Rows, check_regions
+from ..rows import Row, Rows, check_regions, input_row
+from ...inputs import RATTLEBACK
 from ..workspace import COMMON_PARAMS, N_SHARED, N_SHARED_OBS, OFF_P
 
 __all__ = ["PARAMS", "STATE", "RECORD", "OBSERVABLES"]
@@ -22,58 +23,16 @@ PARAMS = Rows(
     Row("a2", "m2", "squared semi-axis along body x", pack=lambda f: f["a"] ** 2),
     Row("b2", "m2", "squared semi-axis along body y", pack=lambda f: f["b"] ** 2),
     Row("c2", "m2", "squared semi-axis along body z", pack=lambda f: f["c"] ** 2),
-    Row("mass", "kg", "mass", pack=lambda f: f["mass"]),
-    Row(
-        "com",
-        "m",
-        "centre of mass from the centre of the flat face, body frame",
-        3,
-        "body_axis",
-        pack=lambda f: f["com"],
-    ),
-    Row(
-        "inertia_xx",
-        "kg m2",
-        "inertia tensor element I_xx about G",
-        pack=lambda f: f["inertia_xx"],
-    ),
-    Row(
-        "inertia_yy",
-        "kg m2",
-        "inertia tensor element I_yy about G",
-        pack=lambda f: f["inertia_yy"],
-    ),
-    Row(
-        "inertia_zz",
-        "kg m2",
-        "inertia tensor element I_zz about G",
-        pack=lambda f: f["inertia_zz"],
-    ),
-    Row(
-        "inertia_xy",
-        "kg m2",
-        "inertia tensor element I_xy about G",
-        pack=lambda f: f["inertia_xy"],
-    ),
-    Row(
-        "inertia_xz",
-        "kg m2",
-        "inertia tensor element I_xz about G",
-        pack=lambda f: f["inertia_xz"],
-    ),
-    Row(
-        "inertia_yz",
-        "kg m2",
-        "inertia tensor element I_yz about G",
-        pack=lambda f: f["inertia_yz"],
-    ),
-    Row("damping", "N m s", "viscous torque coefficient", pack=lambda f: f["damping"]),
-    Row(
-        "full_ellipsoid",
-        "1",
-        "1 for a full ellipsoid (no rim), 0 for a semi-ellipsoid",
-        pack=lambda f: f["full_ellipsoid"],
-    ),
+    input_row(RATTLEBACK["mass"]),
+    input_row(RATTLEBACK["com"], 3, "body_axis"),
+    input_row(RATTLEBACK["inertia_xx"]),
+    input_row(RATTLEBACK["inertia_yy"]),
+    input_row(RATTLEBACK["inertia_zz"]),
+    input_row(RATTLEBACK["inertia_xy"]),
+    input_row(RATTLEBACK["inertia_xz"]),
+    input_row(RATTLEBACK["inertia_yz"]),
+    input_row(RATTLEBACK["damping"]),
+    input_row(RATTLEBACK["full_ellipsoid"]),
 )
 A2 = PARAMS.start("a2")
 B2 = PARAMS.start("b2")
