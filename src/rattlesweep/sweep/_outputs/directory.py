@@ -15,8 +15,8 @@ import xarray as xr
 from ...io import (
     DIGEST_SUFFIX,
     NETCDF_LOCK,
-    recorded_digest_matches,
     stale_temporaries,
+    unreadable_files,
     write_netcdf,
 )
 from .._execution.lock import LOCK_NAME, SweepLock
@@ -61,13 +61,14 @@ def read_config(path: Path) -> Sweep:
         ) from None
 
 
-def tile_state(path: Path, sweep: Sweep, tile: int) -> str:
+def tile_state(path: Path, sweep: Sweep, tile: int, *, checked: bool = False) -> str:
     """ "valid" for a complete tile file of this sweep, "foreign" for a complete tile of
     another configuration, "damaged" for anything unreadable (truncated, corrupt) or
-    differing from the digest recorded when it was written (checked first: damaged HDF5
-    metadata can crash the netCDF library)."""
+    differing from the digest recorded when it was written. Checked first, unless
+    ``checked`` says the caller did (:func:`~rattlesweep.io.unreadable_files`): damaged
+    HDF5 metadata can crash the netCDF library."""
     start, stop = sweep.tile_range(tile)
-    if recorded_digest_matches(path) is False:
+    if not checked and unreadable_files([path]):
         return "damaged"
     try:
         with NETCDF_LOCK, netCDF4.Dataset(path) as nc:
@@ -203,7 +204,7 @@ class SweepDirectory:
         result = self.out / RESULT_NAME
         if result.exists():
             try:
-                if recorded_digest_matches(result) is False:
+                if unreadable_files([result]):
                     raise ValueError("damaged")
                 with NETCDF_LOCK, netCDF4.Dataset(result) as nc:
                     ours = nc.getncattr("sweep_config_hash") == self.sweep.config_hash()
@@ -298,9 +299,15 @@ class TileDirectory(SweepDirectory):
             ):
                 stale.unlink(missing_ok=True)
         todo, damaged, foreign = [], [], []
-        for tile in range(sweep.n_tiles):
-            path = tile_path(self.tiles_dir, tile)
-            state = tile_state(path, sweep, tile) if path.exists() else "missing"
+        paths = [tile_path(self.tiles_dir, tile) for tile in range(sweep.n_tiles)]
+        unread = unreadable_files([p for p in paths if p.exists()])
+        for tile, path in enumerate(paths):
+            if not path.exists():
+                state = "missing"
+            elif path in unread:
+                state = "damaged"
+            else:
+                state = tile_state(path, sweep, tile, checked=True)
             if state != "valid":
                 todo.append(tile)
             if state == "damaged":
