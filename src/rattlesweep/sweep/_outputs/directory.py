@@ -257,6 +257,23 @@ class SweepDirectory:
             )
         self.tiles_dir.mkdir(exist_ok=True)
 
+    def check_digests_in_way(self) -> None:
+        """Refuse, before anything is removed, a directory where a file's digest
+        (``NAME.b2sum``) is something else than a file: writing it would fail after
+        the tile it belongs to is computed, naming the tile."""
+        found = (
+            self.out / (RESULT_NAME + DIGEST_SUFFIX),
+            *self.tiles_dir.rglob("*" + DIGEST_SUFFIX),
+        )
+        for path in found:
+            if (path.exists() or path.is_symlink()) and not path.is_file():
+                raise ValueError(
+                    f"{path} is in the way: a sweep keeps the digest of "
+                    f"{path.name.removesuffix(DIGEST_SUFFIX)} in a file there, and "
+                    f"{path} is {'a directory' if path.is_dir() else 'no regular file'}. "
+                    "Move it away, then resume"
+                )
+
     def _prepare(self) -> list[int]:
         """With the lock held: check and prepare the directory, return the tiles still to
         compute."""
@@ -287,6 +304,7 @@ class TileDirectory(SweepDirectory):
         sweep = self.sweep
         config = self._check_config()
         self.make_tiles_dir()
+        self.check_digests_in_way()
         # temporary files of a process killed while writing a tile or the merge of this
         # sweep (a directory without sweep.toml holds none of its files); the lock is
         # held, so no other process writes them now

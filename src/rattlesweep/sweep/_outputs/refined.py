@@ -78,6 +78,7 @@ class RefinedDirectory(SweepDirectory):
     def _prepare(self) -> list[int]:
         config = self._check_config()
         self.make_tiles_dir()
+        self.check_digests_in_way()
         levels = (d for d in self.tiles_dir.glob("level-*") if d.is_dir())
         for level in levels:
             for stale in (
