@@ -206,4 +206,5 @@ def test_verify_reads_every_level_tile_of_a_refined_sweep(tmp_path):
     report = found.report()
     assert f"{n - 2} of {n} tiles verified" in report and "tile 1 of level 1" in report
     (info,) = _commands(["info", out])
-    assert "warning: " in info[2] and "tile 0 of level 2: tile-000000.nc" in info[2]
+    assert info[2].startswith(f"rattlesweep info: warning: {out} is damaged ({n - 2} of")
+    assert "tile 1 of level 1" in info[2] and "and 1 more (`rattlesweep verify" in info[2]

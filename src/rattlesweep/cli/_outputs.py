@@ -171,12 +171,18 @@ def _warn_damaged(path: Path, command: str) -> _Damage | None:
         return _Damage(out, "it cannot be verified")
     if not (found.damaged or found.problems or (found.missing and found.finished)):
         return None
+    # one line: the first thing wrong; verify lists them all
     head, *lines = found.report().splitlines()
+    issues = [line.strip() for line in lines if not line.strip().startswith("`")]
+    more = (
+        f"; and {len(issues) - 1} more (`rattlesweep verify {out}` lists them)"
+        if len(issues) > 1
+        else ""
+    )
     print(
-        f"rattlesweep {command}: warning: {out} is damaged ({head.split(': ', 1)[1]}; "
-        f"`rattlesweep verify {out}` lists the same):",
-        *lines,
-        sep="\n",
+        f"rattlesweep {command}: warning: {out} is damaged ({head.split(': ', 1)[1]}): "
+        f"{issues[0] if issues else 'see `rattlesweep verify`'}{more}; "
+        f"`rattlesweep resume {out}` recomputes what is missing or damaged",
         file=sys.stderr,
     )
     if found.damaged:
