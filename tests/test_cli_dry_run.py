@@ -55,6 +55,25 @@ def test_dry_run_of_a_refined_sweep_names_the_finest_grid(tmp_path, capsys):
     assert "for the declared grid" in text
 
 
+def test_dry_run_counts_a_refined_sweeps_first_level_tiles_as_the_run_makes_them(
+    tmp_path, capsys
+):
+    # it said "45 in 9 tiles" (the uniform grid's blocks) where level 0 ran 6
+    config = tmp_path / "refined.toml"
+    config.write_text(
+        CONFIG.replace('name = "dry"', 'name = "dry"\ntile_size = 8').replace(
+            'body = ["toy", "kane_levinson"]', "delta_deg = [-3.0, -1.0, 0.0, 2.0, 4.0]"
+        )
+        + '[refine]\nlevels = 1\naxes = ["spin"]\n'
+    )
+    assert main(["sweep", str(config), "--dry-run"]) == 0
+    said = capsys.readouterr().out
+    assert main(["sweep", str(config), "--out", str(tmp_path / "r"), "--quiet"]) == 0
+    made = len(list((tmp_path / "r" / "levels" / "level-0").glob("tile-*.nc")))
+    assert made == 7  # 50 points, 8 a tile
+    assert f"points: 50 in {made} tiles of at most 8" in said, said
+
+
 def test_a_sweep_without_out_or_dry_run_is_refused(tmp_path, capsys):
     config = tmp_path / "dry.toml"
     config.write_text(CONFIG)

@@ -208,6 +208,8 @@ def test_refine_and_stop_in_the_configuration():
     "refine, message",
     [
         ({"levels": 0}, "refine.levels must be an integer from 1"),
+        ({}, "refine.levels is missing"),  # an empty [refine]: it said "got None"
+        ({"axes": ["spin"]}, "refine.levels is missing"),
         ({"levels": 2, "axes": ["mu"]}, "refine.axes: 'mu' is not an axis"),
         ({"levels": 2, "axes": "spin"}, "refine.axes must be a list"),
         ({"levels": 2, "typo": 1}, r"refine: unknown keys \['typo'\]"),

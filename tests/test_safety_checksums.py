@@ -43,7 +43,7 @@ def test_sweep_nc_and_tiles_are_checksummed_and_a_changed_byte_is_named(tmp_path
     alone.write_bytes(bytes(damaged))
     assert main(["info", str(alone)]) == 2
     err = capsys.readouterr().err
-    assert err.startswith(f"rattlesweep info: cannot read {alone}: it is damaged (")
+    assert err.startswith(f"rattlesweep info: cannot read {alone}: copy.nc is damaged (")
     assert "checksum" in err and "Traceback" not in err
 
     plot = subprocess.run(
@@ -52,7 +52,7 @@ def test_sweep_nc_and_tiles_are_checksummed_and_a_changed_byte_is_named(tmp_path
         text=True,
     )
     assert plot.returncode == 2 and "Traceback" not in plot.stderr, plot.stderr
-    assert f"cannot read {alone}: it is damaged (" in plot.stderr
+    assert f"cannot read {alone}: copy.nc is damaged (" in plot.stderr
 
     shutil.copy(alone, merged)
     found = verify(out)
@@ -126,6 +126,85 @@ def test_damaged_hdf5_metadata_is_named_from_the_digest_before_the_library_opens
     tile = out / "tiles" / "tile-000003.nc"
     _flip(tile, 2400)
     found = verify(out)
-    assert found.damaged == {3: "tile-000003.nc is unreadable or incomplete"}
+    assert list(found.damaged) == [3]
+    assert found.damaged[3].startswith("tile-000003.nc is damaged (its bytes differ")
     assert main(["resume", str(out), "--quiet"]) == 0  # the tile and sweep.nc rewritten
     assert verify(out).ok
+
+
+def test_damaged_files_without_digests_are_read_by_a_child_first(tmp_path):
+    # a file copied away from its digest, and a directory of an older version (no
+    # digests): netCDF-C crashed on both (abort on a double free) or gave a traceback.
+    # Such a file is read in full by a child process first, and named when that fails
+
+    out = tmp_path / "run"
+    run_sweep(small_sweep(tile_size=3), out, progress=False)
+    for digest in out.rglob("*.b2sum"):
+        digest.unlink()
+    alone = tmp_path / "alone.nc"
+    shutil.copy(out / RESULT_NAME, alone)
+    _flip(alone, 2400)
+    _flip(out / RESULT_NAME, 2400)
+    _flip(out / "tiles" / "tile-000002.nc", 100)
+    (info, plot, verified, info_dir, plot_dir) = _commands(
+        ["info", alone],
+        ["plot", alone, "--out", tmp_path / "a.png"],
+        ["verify", out],
+        ["info", out],
+        ["plot", out / RESULT_NAME, "--out", tmp_path / "b.png"],
+    )
+    for status, _, err in (info, plot, info_dir, plot_dir):
+        last = err.strip().splitlines()[-1]
+        assert status == 2 and "Traceback" not in err, (status, err)
+        assert " is damaged (" in last and "cannot read " in last, last
+    assert f"cannot read {alone}: alone.nc is damaged (reading it crashes" in info[2]
+    assert verified[0] == 1
+    assert "damaged: tile 2: tile-000002.nc is damaged (" in verified[1]
+    assert "sweep.nc is damaged (reading it crashes the netCDF library" in verified[1]
+
+    # one child reads many files; one that crashes it is named, a new one goes on
+    from rattlesweep.io import unreadable_files
+
+    good = tmp_path / "good.nc"
+    shutil.copy(out / "tiles" / "tile-000003.nc", good)
+    found = unreadable_files([alone, good, out / RESULT_NAME, out / "tiles/tile-000004.nc"])
+    assert set(found) == {alone, out / RESULT_NAME}
+    assert all("reading it crashes the netCDF library" in w for w in found.values())
+
+
+REFINED = """\
+name = "refined toy"
+tile_size = 8
+[axes]
+spin = { start = -24, stop = 24, num = 9 }
+delta_deg = { start = -8, stop = 8, num = 5 }
+[fixed]
+t_end = 3.0
+roll_deg = 0.5
+mu = 0.3
+[refine]
+levels = 2
+"""
+
+
+def test_verify_reads_every_level_tile_of_a_refined_sweep(tmp_path):
+    # verify checked only sweep.nc of a refined sweep: "0 of 0 tiles verified", status 0
+    from rattlesweep.sweep import Sweep
+
+    out = tmp_path / "rd"
+    run_sweep(Sweep.from_toml(REFINED), out, progress=False)
+    levels = out / "levels"
+    n = len(list(levels.glob("level-*/tile-*.nc")))
+    assert verify(out).ok and verify(out).n_tiles == n > 12
+    assert len(list(levels.glob("level-2/tile-*.nc"))) > 1
+    (levels / "level-1" / "tile-000001.nc").unlink()
+    _flip(levels / "level-2" / "tile-000000.nc", 2400)
+    found = verify(out)
+    assert found.finished and found.missing == ("1 of level 1",)
+    assert list(found.damaged) == ["0 of level 2"]
+    assert "tile-000000.nc is damaged (its bytes differ" in found.damaged["0 of level 2"]
+    report = found.report()
+    assert f"{n - 2} of {n} tiles verified" in report and "tile 1 of level 1" in report
+    (info,) = _commands(["info", out])
+    assert info[2].startswith(f"rattlesweep info: warning: {out} is damaged ({n - 2} of")
+    assert "tile 1 of level 1" in info[2] and "and 1 more (`rattlesweep verify" in info[2]

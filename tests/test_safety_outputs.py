@@ -297,3 +297,18 @@ def test_a_zarr_chunk_copied_over_another_tiles_is_found_and_recomputed(tmp_path
     export(store, tmp_path / "again.nc")
     with xr.open_dataset(reference) as a, xr.open_dataset(tmp_path / "again.nc") as b:
         xr.testing.assert_identical(without_history(a.load()), without_history(b.load()))
+
+
+def test_a_digest_path_in_the_way_is_named_before_anything_is_removed(tmp_path, capsys):
+    # a directory where a tile's digest goes: resume removed the good tile, recomputed
+    # it, then failed naming the tile ("[Errno 21] cannot write .../tile-000003.nc")
+    out = tmp_path / "dm"
+    run_sweep(small_sweep(tile_size=8), out, progress=False)
+    tile = out / "tiles" / "tile-000003.nc"
+    before = file_stats(out, "*.nc")
+    (out / "tiles" / "tile-000003.nc.b2sum").unlink()
+    (out / "tiles" / "tile-000003.nc.b2sum").mkdir()
+    assert main(["resume", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert f"{tile}.b2sum is in the way" in err and "is a directory" in err, err
+    assert file_stats(out, "*.nc") == before

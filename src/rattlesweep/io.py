@@ -8,10 +8,12 @@ import hashlib
 import os
 import re
 import signal
+import subprocess
+import sys
 import tempfile
 import threading
 from pathlib import Path
-from typing import Iterator
+from typing import Any, Iterator
 
 import xarray as xr
 
@@ -20,7 +22,9 @@ __all__ = [
     "DamagedFile",
     "NETCDF_LOCK",
     "check_digest",
+    "check_readable",
     "digest_path",
+    "unreadable_files",
     "recorded_digest_matches",
     "stale_temporaries",
     "write_netcdf",
@@ -115,6 +119,206 @@ def check_digest(path: str | os.PathLike) -> None:
             f"{Path(path).name} is damaged (its bytes differ from the digest recorded in "
             f"{digest_path(path).name} when it was written)"
         )
+
+
+def check_readable(path: str | os.PathLike) -> None:
+    """Raise :class:`DamagedFile` when the netCDF file ``path`` cannot be opened safely:
+    it differs from its recorded digest, or, with none recorded, reading it in full
+    fails or crashes the netCDF library in a child process (:func:`unreadable_files`).
+    A file that is no netCDF file, or no regular file, passes: opening it fails
+    cleanly."""
+    reason = unreadable_files([Path(path)]).get(Path(path))
+    if reason is not None:
+        raise DamagedFile(reason)
+
+
+def unreadable_files(paths: list[Path]) -> dict[Path, str]:
+    """The files among ``paths`` that must not be opened by the netCDF library in this
+    process, each with the message that says why.
+
+    A file with a recorded digest is checked against it. The others are read in full
+    (header, every attribute, every variable) by one child process, which names each
+    file as it finishes: damaged HDF5 metadata can crash the netCDF library (a
+    segmentation fault, an abort on a double free) where Python cannot catch it, so
+    a child that dies names the file in flight, and a new child reads the rest. A
+    file is read again only when it changed since (same process)."""
+    found: dict[Path, str] = {}
+    probe = []
+    for path in paths:
+        matches = recorded_digest_matches(path)
+        if matches is False:
+            found[path] = (
+                f"{path.name} is damaged (its bytes differ from the digest recorded in "
+                f"{digest_path(path).name} when it was written)"
+            )
+        elif matches is None and path.is_file():
+            key = _probe_key(path)
+            if key not in _PROBED:
+                probe.append(path)
+            elif (known := _PROBED[key]) is not None:
+                found[path] = known
+    while probe:  # a child per crash, each going on after the file that crashed one
+        done = _probe(probe)
+        for path, reason in done.items():
+            with contextlib.suppress(OSError):
+                _PROBED[_probe_key(path)] = reason
+            if reason is not None:
+                found[path] = reason
+        probe = probe[len(done) :]
+    return found
+
+
+_PROBED: dict[tuple[int, int, int, int], str | None] = {}
+"""Files read in full by a child process: (device, inode, size, modification time) ->
+why it cannot be read, None when it can."""
+
+
+def _probe_key(path: Path) -> tuple[int, int, int, int]:
+    st = path.stat()
+    return (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns)
+
+
+# what the child runs: SIGINT ignored (the parent's Ctrl-C ends it), each file read in
+# full through netCDF4 (what xarray's loading reads: attributes, variables' data), a line
+# per file ("ok", "other": no netCDF file, "bad" and the error's first line)
+_PROBE = """
+import signal, sys
+signal.signal(signal.SIGINT, signal.SIG_IGN)
+import netCDF4
+print("ready", flush=True)
+
+def read(group):
+    for a in group.ncattrs():
+        group.getncattr(a)
+    for v in group.variables.values():
+        for a in v.ncattrs():
+            v.getncattr(a)
+        v[...]
+    for g in group.groups.values():
+        read(g)
+
+for i, path in enumerate(sys.stdin.read().split("\\0")[:-1]):
+    try:
+        nc = netCDF4.Dataset(path)
+    except OSError as exc:
+        kind = "other" if "Unknown file format" in str(exc) else "bad"
+        line = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+        print(kind, i, line, sep="\\t", flush=True)
+        continue
+    except Exception as exc:
+        line = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+        print("bad", i, line, sep="\\t", flush=True)
+        continue
+    try:
+        with nc:
+            read(nc)
+    except Exception as exc:
+        line = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+        print("bad", i, line, sep="\\t", flush=True)
+    else:
+        print("ok", i, sep="\\t", flush=True)
+"""
+
+
+_PROBE_WAIT_S = 30.0
+"""How long a child process may take over a file beyond reading it at
+:data:`_PROBE_RATE` before the file counts as damaged: damaged HDF5 metadata can also
+send the netCDF library into an endless loop."""
+
+_PROBE_RATE = 20e6
+"""Bytes per second a child process reads at the least (compressed netCDF)."""
+
+
+def _probe(paths: list[Path]) -> dict[Path, str | None]:
+    """Read ``paths`` in order in one child process until one crashes or stalls it: the
+    files it finished and the one in flight -> why it cannot be read (None: it can)."""
+    env = {**os.environ, "LIBC_FATAL_STDERR_": "1"}  # glibc's abort note: not the tty
+    with tempfile.TemporaryFile() as err:
+        child = subprocess.Popen(
+            [sys.executable, "-c", _PROBE],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=err,
+            env=env,
+        )
+        try:
+            lines, stalled = _probe_lines(child, paths)
+        finally:
+            if child.poll() is None:
+                child.kill()
+            child.wait()
+        err.seek(0)
+        last = err.read().decode(errors="replace").strip().splitlines()
+    if not lines or lines[0] != "ready":
+        raise OSError(
+            f"cannot check {paths[0]}: the netCDF reader did not start "
+            f"({last[-1] if last else child.returncode})"
+        )
+    found: dict[Path, str | None] = {}
+    for line in lines[1:]:
+        kind, index, *error = line.split("\t")
+        path = paths[int(index)]
+        found[path] = (
+            f"{path.name} is damaged ({(error or ['?'])[0]}: a chunk fails its "
+            "checksum or cannot be read)"
+            if kind == "bad"
+            else None
+        )
+    if len(found) < len(paths):
+        path = paths[len(found)]
+        if stalled:
+            how = f"reading it had not ended after {stalled:.0f} s"
+        elif child.returncode < 0:
+            how = (
+                f"reading it crashes the netCDF library: {_signal_name(-child.returncode)}"
+            )
+        else:
+            how = f"reading it fails: {last[-1] if last else child.returncode}"
+        found[path] = f"{path.name} is damaged ({how})"
+    return found
+
+
+def _probe_lines(child: subprocess.Popen, paths: list[Path]) -> tuple[list[str], float]:
+    """The lines the child wrote until it ended, or until the file in flight took longer
+    than its time (then also that time; else 0)."""
+    import selectors
+
+    assert child.stdin is not None and child.stdout is not None
+    names = "".join(f"{os.fspath(p)}\0" for p in paths).encode()
+    feeder = threading.Thread(target=_feed, args=(child.stdin, names), daemon=True)
+    feeder.start()
+    lines: list[str] = []
+    buffer = b""
+    with selectors.DefaultSelector() as selector:
+        selector.register(child.stdout, selectors.EVENT_READ)
+        while True:
+            in_flight = paths[min(max(len(lines) - 1, 0), len(paths) - 1)]
+            try:
+                size = in_flight.stat().st_size
+            except OSError:
+                size = 0
+            wait = _PROBE_WAIT_S + size / _PROBE_RATE
+            if not selector.select(wait):
+                return lines, wait
+            block = os.read(child.stdout.fileno(), 1 << 16)
+            if not block:
+                return lines, 0.0
+            buffer += block
+            *done, buffer = buffer.split(b"\n")
+            lines.extend(line.decode(errors="replace") for line in done)
+
+
+def _feed(stream: Any, data: bytes) -> None:
+    with contextlib.suppress(OSError):  # the child ended before reading all
+        stream.write(data)
+        stream.close()
+
+
+def _signal_name(number: int) -> str:
+    try:
+        return signal.Signals(number).name
+    except ValueError:
+        return f"signal {number}"
 
 
 def _file_digest(path: Path) -> str:

@@ -121,6 +121,11 @@ def _cmd_animate(args: argparse.Namespace, argv: list[str] | None) -> int:
     from ..plot import animate
 
     if args.run is not None:
+        from pathlib import Path
+
+        from ._outputs import _check_digest
+
+        _check_digest(Path(args.run))
         with xr.open_dataset(args.run) as ds:
             run = ds.load()
     else:

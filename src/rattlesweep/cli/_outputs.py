@@ -42,14 +42,14 @@ _DAMAGED = "it is damaged ({}: a chunk fails its checksum or cannot be read)"
 
 def _check_digest(path: Path) -> None:
     """Raise DamagedFile (a ValueError) naming the file ``path`` as damaged when it
-    differs from the digest recorded when it was written; checked before the netCDF
-    library opens it, as damaged metadata can crash that library (a file with no digest
-    passes)."""
-    from ..io import DamagedFile, check_digest
+    differs from the digest recorded when it was written, or, with none recorded, a
+    child process cannot read it in full; checked before the netCDF library opens it
+    here, as damaged metadata can crash that library."""
+    from ..io import DamagedFile, check_readable
 
     if path.is_file():
         try:
-            check_digest(path)
+            check_readable(path)
         except DamagedFile as exc:
             raise DamagedFile(f"cannot read {path}: {exc}") from None
 
@@ -171,20 +171,26 @@ def _warn_damaged(path: Path, command: str) -> _Damage | None:
         return _Damage(out, "it cannot be verified")
     if not (found.damaged or found.problems or (found.missing and found.finished)):
         return None
+    # one line: the first thing wrong; verify lists them all
     head, *lines = found.report().splitlines()
+    issues = [line.strip() for line in lines if not line.strip().startswith("`")]
+    more = (
+        f"; and {len(issues) - 1} more (`rattlesweep verify {out}` lists them)"
+        if len(issues) > 1
+        else ""
+    )
     print(
-        f"rattlesweep {command}: warning: {out} is damaged ({head.split(': ', 1)[1]}; "
-        f"`rattlesweep verify {out}` lists the same):",
-        *lines,
-        sep="\n",
+        f"rattlesweep {command}: warning: {out} is damaged ({head.split(': ', 1)[1]}): "
+        f"{issues[0] if issues else 'see `rattlesweep verify`'}{more}; "
+        f"`rattlesweep resume {out}` recomputes what is missing or damaged",
         file=sys.stderr,
     )
     if found.damaged:
         from ..sweep._outputs.zarr_store import is_zarr_store
 
         # a chunk missing reads as not computed; one that cannot be decoded fails a read
-        failing = [t for t, w in sorted(found.damaged.items()) if " damaged (" in w]
-        tile = (failing or sorted(found.damaged))[0]
+        failing = [t for t, w in found.damaged.items() if " damaged (" in w]
+        tile = (failing or list(found.damaged))[0]
         what = f"tile {tile} is damaged: {found.damaged[tile]}"
         return _Damage(out, what, unread=bool(failing) and is_zarr_store(out))
     if found.problems:

@@ -76,15 +76,41 @@ def _interrupted(state: str) -> int:
     return 130
 
 
-def _kept(out: str | Path, interrupt: KeyboardInterrupt) -> str:
-    """What an interrupt of a sweep's tiles left in ``out``: the runner's count of the
-    tiles kept when it says
-    (:class:`~rattlesweep.sweep._outputs.store.SweepInterrupted`)."""
+def _kept(out: str | Path, interrupt: KeyboardInterrupt, existed: bool) -> str:
+    """What an interrupt of a sweep left in ``out`` (``existed``: before the command):
+    its merged result complete (written atomically, and not older than any tile),
+    nothing of a sweep at all, or the tiles kept (the runner's count when it says, as
+    :class:`~rattlesweep.sweep._outputs.store.SweepInterrupted`)."""
     from ..sweep._outputs.store import SweepInterrupted
+    from ..sweep._outputs.zarr_store import is_zarr_store
 
+    location, out = out, Path(out)
+    merged = out / "sweep.nc"
+    if _complete(out, merged):
+        return f"the result is complete: {merged} is written"
+    if not (out / "sweep.toml").is_file() and not is_zarr_store(location):
+        if not existed:  # the directory this command made, empty but for its lock
+            with contextlib.suppress(OSError):
+                out.rmdir()
+        return f"nothing was written to {out}"
     if isinstance(interrupt, SweepInterrupted):
         return str(interrupt)
     return f"the tiles written so far are kept: `rattlesweep resume {out}` finishes it"
+
+
+def _complete(out: Path, merged: Path) -> bool:
+    """Whether the sweep directory ``out`` holds its merged file whole (the digest
+    written with it matches) and not older than any of its tiles."""
+    from ..io import recorded_digest_matches
+
+    try:
+        if recorded_digest_matches(merged) is not True:
+            return False
+        made = merged.stat().st_mtime_ns
+        tiles = (*out.glob("tiles/tile-*.nc"), *out.glob("levels/level-*/tile-*.nc"))
+        return all(t.stat().st_mtime_ns <= made for t in tiles)
+    except OSError:
+        return False
 
 
 class _NotedInterrupts:
@@ -126,14 +152,15 @@ def _noted_interrupts() -> Iterator[_NotedInterrupts]:
 
 
 def _run(sweep: Sweep, out: str, args: argparse.Namespace, argv: list[str] | None) -> int:
-    from ..sweep._execution.run import RESULT_NAME, run_sweep
-
-    written = out if sweep.output == "zarr" else Path(out) / RESULT_NAME
+    existed = Path(out).exists()
     with _noted_interrupts() as noted:
         try:
+            from ..sweep._execution.run import RESULT_NAME, run_sweep
+
+            written = out if sweep.output == "zarr" else Path(out) / RESULT_NAME
             ds = run_sweep(sweep, out, command=_command(argv), **_sweep_args(args))
         except KeyboardInterrupt as interrupt:
-            return _interrupted(_kept(out, interrupt))
+            return _interrupted(_kept(out, interrupt, existed))
     if noted.count:  # lost in a library; the merge went on to the end (atomically)
         return _interrupted(f"the merged result was complete: {written} is written")
     print(f"wrote {written}: {_points(ds)}; {_summary(ds)}")
@@ -195,11 +222,32 @@ def _cmd_resume(args: argparse.Namespace, argv: list[str] | None) -> int:
 
 
 def _cmd_export(args: argparse.Namespace, argv: list[str] | None) -> int:
-    from ..sweep._execution.run import export
+    out = Path(args.out)
+    before = _stamp(out)
+    try:
+        from ..sweep._execution.run import export
 
-    path = export(args.store, args.out)
+        path = export(args.store, args.out)
+    except KeyboardInterrupt:
+        # the file is written atomically: in place whole, or not at all
+        now = _stamp(out)
+        if now is not None and now != before:
+            return _interrupted(f"the export is complete: {out} is written")
+        return _interrupted(
+            f"{out} is unchanged" if now is not None else f"nothing was written to {out}"
+        )
     print(f"wrote {path}")
     return 0
+
+
+def _stamp(path: Path) -> tuple[int, int] | None:
+    """The inode and modification time of ``path`` (None: there is none): a file
+    written atomically has a new inode."""
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return (st.st_ino, st.st_mtime_ns)
 
 
 def _cmd_verify(args: argparse.Namespace, argv: list[str] | None) -> int:
@@ -222,6 +270,7 @@ def _cmd_demo(args: argparse.Namespace, argv: list[str] | None) -> int:
         print(DEMO_TOML, end="")
         return 0
     out = Path(args.out)
+    existed = out.exists()
     t0 = time.perf_counter()
     with _noted_interrupts() as noted:
         try:
@@ -229,7 +278,7 @@ def _cmd_demo(args: argparse.Namespace, argv: list[str] | None) -> int:
                 Sweep.from_toml(DEMO_TOML), out, command=_command(argv), **_sweep_args(args)
             )
         except KeyboardInterrupt as interrupt:
-            return _interrupted(_kept(out, interrupt))
+            return _interrupted(_kept(out, interrupt, existed))
     if noted.count:
         return _interrupted(f"the merged result was complete: {out / RESULT_NAME}")
     png = _save_map(ds, out / "reversal_map.png")

@@ -373,6 +373,12 @@ def normalise_refine(
         raise ValueError(
             f"refine: unknown keys {sorted(unknown)}; allowed: {', '.join(_REFINE_KEYS)}"
         )
+    if "levels" not in spec:
+        raise ValueError(
+            f"refine.levels is missing: a refined sweep needs its number of levels, an "
+            f"integer from 1 to {MAX_REFINE_LEVELS} (each level halves the spacing of "
+            "the refined axes), as `levels = 2` in [refine]"
+        )
     levels = spec.get("levels")
     if not (_is_int(levels) and 1 <= levels <= MAX_REFINE_LEVELS):
         raise ValueError(

@@ -134,18 +134,21 @@ def estimate(sweep: Sweep, workers: int) -> Estimate:
     sample_seconds, run, full = _calibrate(sweep, sample, max(1, int(_SAMPLE_STEPS // m)))
     per_point = sample_seconds * (full / max(run, 1)) / len(sample)
     finest = sweep.finest()
+    # a refined sweep's first level runs its declared points in runs of tile_size
+    # (level_stages), not in the blocks of the grid a uniform sweep's tiles are
+    tiles = -(-n // sweep.tile_size) if sweep.refine is not None else sweep.n_tiles
     # the points shared among the workers, but never less than one whole tile (a tile
     # runs on one worker)
     seconds = (
         per_point * max(n / workers, min(n, sweep.tile_size))
         + _START_SECONDS
-        + _TILE_SECONDS * sweep.n_tiles
+        + _TILE_SECONDS * tiles
     )
     finest_seconds = per_point * finest.size / workers
     per_result = sum(np.dtype(d).itemsize for d in result_dtypes(sweep).values())
     result_bytes = per_result * finest.size
     process = _process_bytes()
-    in_flight = KERNEL_BYTES_PER_LAUNCH * sweep.tile_size * min(workers, sweep.n_tiles)
+    in_flight = KERNEL_BYTES_PER_LAUNCH * sweep.tile_size * min(workers, tiles)
     needs = size_needs(sweep)
     held = int(sum(need for _, _, need, _, _ in needs))
     refused = None
@@ -155,7 +158,7 @@ def estimate(sweep: Sweep, workers: int) -> Estimate:
         refused = str(exc)
     return Estimate(
         points=n,
-        tiles=sweep.n_tiles,
+        tiles=tiles,
         tile_size=sweep.tile_size,
         finest_points=finest.size,
         workers=workers,

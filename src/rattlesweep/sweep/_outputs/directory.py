@@ -15,8 +15,8 @@ import xarray as xr
 from ...io import (
     DIGEST_SUFFIX,
     NETCDF_LOCK,
-    recorded_digest_matches,
     stale_temporaries,
+    unreadable_files,
     write_netcdf,
 )
 from .._execution.lock import LOCK_NAME, SweepLock
@@ -61,13 +61,14 @@ def read_config(path: Path) -> Sweep:
         ) from None
 
 
-def tile_state(path: Path, sweep: Sweep, tile: int) -> str:
+def tile_state(path: Path, sweep: Sweep, tile: int, *, checked: bool = False) -> str:
     """ "valid" for a complete tile file of this sweep, "foreign" for a complete tile of
     another configuration, "damaged" for anything unreadable (truncated, corrupt) or
-    differing from the digest recorded when it was written (checked first: damaged HDF5
-    metadata can crash the netCDF library)."""
+    differing from the digest recorded when it was written. Checked first, unless
+    ``checked`` says the caller did (:func:`~rattlesweep.io.unreadable_files`): damaged
+    HDF5 metadata can crash the netCDF library."""
     start, stop = sweep.tile_range(tile)
-    if recorded_digest_matches(path) is False:
+    if not checked and unreadable_files([path]):
         return "damaged"
     try:
         with NETCDF_LOCK, netCDF4.Dataset(path) as nc:
@@ -203,7 +204,7 @@ class SweepDirectory:
         result = self.out / RESULT_NAME
         if result.exists():
             try:
-                if recorded_digest_matches(result) is False:
+                if unreadable_files([result]):
                     raise ValueError("damaged")
                 with NETCDF_LOCK, netCDF4.Dataset(result) as nc:
                     ours = nc.getncattr("sweep_config_hash") == self.sweep.config_hash()
@@ -256,6 +257,23 @@ class SweepDirectory:
             )
         self.tiles_dir.mkdir(exist_ok=True)
 
+    def check_digests_in_way(self) -> None:
+        """Refuse, before anything is removed, a directory where a file's digest
+        (``NAME.b2sum``) is something else than a file: writing it would fail after
+        the tile it belongs to is computed, naming the tile."""
+        found = (
+            self.out / (RESULT_NAME + DIGEST_SUFFIX),
+            *self.tiles_dir.rglob("*" + DIGEST_SUFFIX),
+        )
+        for path in found:
+            if (path.exists() or path.is_symlink()) and not path.is_file():
+                raise ValueError(
+                    f"{path} is in the way: a sweep keeps the digest of "
+                    f"{path.name.removesuffix(DIGEST_SUFFIX)} in a file there, and "
+                    f"{path} is {'a directory' if path.is_dir() else 'no regular file'}. "
+                    "Move it away, then resume"
+                )
+
     def _prepare(self) -> list[int]:
         """With the lock held: check and prepare the directory, return the tiles still to
         compute."""
@@ -286,6 +304,7 @@ class TileDirectory(SweepDirectory):
         sweep = self.sweep
         config = self._check_config()
         self.make_tiles_dir()
+        self.check_digests_in_way()
         # temporary files of a process killed while writing a tile or the merge of this
         # sweep (a directory without sweep.toml holds none of its files); the lock is
         # held, so no other process writes them now
@@ -298,9 +317,15 @@ class TileDirectory(SweepDirectory):
             ):
                 stale.unlink(missing_ok=True)
         todo, damaged, foreign = [], [], []
-        for tile in range(sweep.n_tiles):
-            path = tile_path(self.tiles_dir, tile)
-            state = tile_state(path, sweep, tile) if path.exists() else "missing"
+        paths = [tile_path(self.tiles_dir, tile) for tile in range(sweep.n_tiles)]
+        unread = unreadable_files([p for p in paths if p.exists()])
+        for tile, path in enumerate(paths):
+            if not path.exists():
+                state = "missing"
+            elif path in unread:
+                state = "damaged"
+            else:
+                state = tile_state(path, sweep, tile, checked=True)
             if state != "valid":
                 todo.append(tile)
             if state == "damaged":

@@ -19,7 +19,7 @@ import netCDF4
 import numpy as np
 import xarray as xr
 
-from ...io import DIGEST_SUFFIX, NETCDF_LOCK, recorded_digest_matches, stale_temporaries
+from ...io import DIGEST_SUFFIX, NETCDF_LOCK, stale_temporaries, unreadable_files
 from ...rattleback import batch
 from .._config.spec import Sweep
 from .._execution.stage import Stage
@@ -78,6 +78,7 @@ class RefinedDirectory(SweepDirectory):
     def _prepare(self) -> list[int]:
         config = self._check_config()
         self.make_tiles_dir()
+        self.check_digests_in_way()
         levels = (d for d in self.tiles_dir.glob("level-*") if d.is_dir())
         for level in levels:
             for stale in (
@@ -99,9 +100,16 @@ class RefinedDirectory(SweepDirectory):
         and those still to compute. Unreadable files, and files of other points, are
         deleted to be computed again; files of another configuration are refused."""
         done, todo, foreign = [], [], []
-        for item in items:
-            path = level_tile_path(self.tiles_dir, item.level, item.tile)
-            state = self._read(path, item) if path.exists() else "missing"
+        paths = [level_tile_path(self.tiles_dir, i.level, i.tile) for i in items]
+        # before the netCDF library opens them: damaged metadata can crash it
+        unread = unreadable_files([p for p in paths if p.exists()])
+        for item, path in zip(items, paths):
+            if not path.exists():
+                state: LevelTileResult | str = "missing"
+            elif path in unread:
+                state = "damaged"
+            else:
+                state = self._read(path, item)
             if isinstance(state, LevelTileResult):
                 self._apply(state)
                 done.append(state)
@@ -122,8 +130,6 @@ class RefinedDirectory(SweepDirectory):
 
     def _read(self, path: Path, item: LevelTile) -> LevelTileResult | str:
         names = result_names(self.fine)
-        if recorded_digest_matches(path) is False:  # before the netCDF library opens it
-            return "damaged"
         try:
             with NETCDF_LOCK, netCDF4.Dataset(path) as nc:
                 if nc.getncattr("config_hash") != self.sweep.config_hash():

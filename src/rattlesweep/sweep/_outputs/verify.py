@@ -15,14 +15,15 @@ __all__ = ["Verification", "verify"]
 class Verification:
     """What :func:`verify` found: the output's ``location``, its number of tiles, the
     tiles without a file or done flag (``missing``), the tiles found damaged (tile ->
-    what is wrong) and other problems (the merged file). ``finished`` says that the
-    sweep had finished (its merged file was written), so a tile in ``missing`` was lost
-    rather than not computed yet."""
+    what is wrong, in the order of the tiles) and other problems (the merged file).
+    ``finished`` says that the sweep had finished (its merged file was written), so a
+    tile in ``missing`` was lost rather than not computed yet. A tile is its number, or
+    for a refined sweep "N of level K"."""
 
     location: str
     n_tiles: int
-    missing: tuple[int, ...]
-    damaged: Mapping[int, str]
+    missing: tuple[int | str, ...]
+    damaged: Mapping[int | str, str]
     problems: tuple[str, ...] = ()
     finished: bool = False
 
@@ -45,7 +46,7 @@ class Verification:
             lines.append(
                 f"  {what}: {_tiles(len(self.missing))} ({first}tile {self.missing[0]})"
             )
-        for tile in sorted(self.damaged)[:10]:
+        for tile in list(self.damaged)[:10]:
             lines.append(f"  damaged: tile {tile}: {self.damaged[tile]}")
         if len(self.damaged) > 10:
             lines.append(f"  damaged: {_tiles(len(self.damaged) - 10)} more")
@@ -90,30 +91,33 @@ def _verify_zarr(
     bad = check_tiles(location, sweep, np.flatnonzero(done), options)
     missing = tuple(int(t) for t in np.flatnonzero(~done))
     return Verification(
-        location, sweep.n_tiles, missing, bad, tuple(check_coords(location, sweep, options))
+        location,
+        sweep.n_tiles,
+        missing,
+        dict(sorted(bad.items())),
+        tuple(check_coords(location, sweep, options)),
     )
 
 
 def _verify_directory(out: Path, sweep: Any) -> Verification:
+    from ...io import unreadable_files
     from .directory import RESULT_NAME, TILES_DIR, tile_path, tile_state
 
     if sweep.refine is not None:
-        # a refined sweep's tiles are per level; its merged file, on the finest grid, is
-        # what is checked
-        return Verification(
-            str(out),
-            0,
-            (),
-            {},
-            _check_merged(out / RESULT_NAME, sweep, required=True, grid=sweep.finest()),
-        )
-    missing, damaged = [], {}
-    for tile in range(sweep.n_tiles):
-        path = tile_path(out / TILES_DIR, tile)
+        return _verify_refined(out, sweep)
+    missing: list[int | str] = []
+    damaged: dict[int | str, str] = {}
+    paths = [tile_path(out / TILES_DIR, tile) for tile in range(sweep.n_tiles)]
+    # all files without digests read by one child process, not one each
+    unread = unreadable_files([p for p in (*paths, out / RESULT_NAME) if p.exists()])
+    for tile, path in enumerate(paths):
         if not path.exists():
             missing.append(tile)
             continue
-        state = tile_state(path, sweep, tile)
+        if path in unread:
+            damaged[tile] = unread[path]
+            continue
+        state = tile_state(path, sweep, tile, checked=True)
         if state != "valid":
             damaged[tile] = f"{path.name} is " + (
                 "a tile of another configuration"
@@ -131,6 +135,92 @@ def _verify_directory(out: Path, sweep: Any) -> Verification:
     )
 
 
+def _verify_refined(out: Path, sweep: Any) -> Verification:
+    """Every level's tiles of a refined sweep's directory, planned as a resume plans
+    them: a level's points follow from the tiles of the levels before it, so the levels
+    after one with a tile missing or damaged cannot be planned; their files are only
+    checked for damage."""
+    from ...io import unreadable_files
+    from .._refinement.plan import Levels, plan_level
+    from .directory import RESULT_NAME
+    from .refined import LEVELS_DIR, RefinedDirectory, level_tile_path
+    from .._execution.tiles import LevelTile
+
+    refine = sweep.refine
+    directory = RefinedDirectory(sweep, out)  # not opened: no lock taken, nothing written
+    fine = directory.fine
+    levels = Levels(
+        fine.shape,
+        tuple(list(fine.axes).index(k) for k in refine["axes"]),
+        refine["levels"],
+    )
+    missing: list[int | str] = []
+    damaged: dict[int | str, str] = {}
+    n_tiles, planned = 0, set()
+    for level in range(levels.levels + 1):
+        if missing or damaged:
+            break
+        index = (
+            levels.level0()
+            if level == 0
+            else plan_level(
+                directory.values,
+                directory.computed,
+                levels,
+                level,
+                refine.get("reversal_time_jump"),
+            )
+        )
+        size = sweep.tile_size
+        items = [
+            LevelTile(level, t, index[a : a + size])
+            for t, a in enumerate(range(0, len(index), size))
+        ]
+        paths = [level_tile_path(out / LEVELS_DIR, level, t.tile) for t in items]
+        planned.update(paths)
+        unread = unreadable_files([p for p in paths if p.exists()])
+        n_tiles += len(items)
+        for item, path in zip(items, paths):
+            label = f"{item.tile} of level {level}"
+            if not path.exists():
+                missing.append(label)
+                continue
+            state = unread.get(path) or directory._read(path, item)
+            if isinstance(state, str):
+                damaged[label] = (
+                    state
+                    if state not in ("damaged", "foreign")
+                    else (
+                        f"{path.name} is "
+                        + (
+                            "a tile of another configuration"
+                            if state == "foreign"
+                            else "unreadable, incomplete or of other points"
+                        )
+                    )
+                )
+            else:
+                directory._apply(state)
+    # the files of levels that cannot be planned: damage found all the same
+    others = sorted(
+        p for p in (out / LEVELS_DIR).glob("level-*/tile-*.nc") if p not in planned
+    )
+    n_tiles += len(others)
+    for path, why in unreadable_files(others).items():
+        damaged[f"{int(path.stem[5:])} of {path.parent.name.replace('-', ' ')}"] = why
+    result = out / RESULT_NAME
+    return Verification(
+        str(out),
+        n_tiles,
+        tuple(missing),
+        damaged,
+        _check_merged(
+            result, sweep, required=not (missing or damaged), grid=sweep.finest()
+        ),
+        finished=result.exists(),
+    )
+
+
 def _check_merged(
     path: Path, sweep: Any, required: bool, grid: Any = None
 ) -> tuple[str, ...]:
@@ -139,15 +229,15 @@ def _check_merged(
     ``required``."""
     import netCDF4
 
-    from ...io import NETCDF_LOCK, DamagedFile, check_digest
+    from ...io import NETCDF_LOCK, unreadable_files
     from .merge import grid_coords
 
     if not path.exists():
         return (f"{path.name} is missing: resume writes it",) if required else ()
-    try:
-        check_digest(path)  # before the netCDF library opens it: damaged metadata can
-    except DamagedFile as exc:  # crash it
-        return (f"{exc}; resume writes it again",)
+    # before the netCDF library opens it here: damaged metadata can crash it
+    damage = unreadable_files([path]).get(path)
+    if damage is not None:
+        return (f"{damage}; resume writes it again",)
     try:
         with NETCDF_LOCK, netCDF4.Dataset(path) as nc:
             if nc.getncattr("sweep_config_hash") != sweep.config_hash():
