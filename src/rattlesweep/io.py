@@ -21,7 +21,6 @@ __all__ = [
     "DIGEST_SUFFIX",
     "DamagedFile",
     "NETCDF_LOCK",
-    "check_digest",
     "check_readable",
     "digest_path",
     "unreadable_files",
@@ -44,7 +43,7 @@ def write_netcdf(ds: xr.Dataset, path: str | os.PathLike, *, digest: bool = Fals
     waits until the file is in place (:func:`_interrupts_held`). With ``digest``, the
     BLAKE2b digest of the complete file is written beside it first (:func:`digest_path`),
     so that a damaged file is recognised before the netCDF library opens it
-    (:func:`check_digest`). Returns the path.
+    (:func:`check_readable`). Returns the path.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -81,7 +80,9 @@ of ``b2sum`` (BLAKE2b, 512 bits): ``b2sum -c sweep.nc.b2sum`` checks it too."""
 
 
 class DamagedFile(ValueError):
-    """A file whose bytes differ from the digest recorded when it was written."""
+    """A file that must not be opened by the netCDF library: its bytes differ from the
+    digest recorded when it was written, or, with none recorded, reading it crashed or
+    failed in a child process (:func:`check_readable`)."""
 
 
 def digest_path(path: str | os.PathLike) -> Path:
@@ -109,16 +110,6 @@ def recorded_digest_matches(path: str | os.PathLike) -> bool | None:
         return _file_digest(Path(path)) == recorded
     except OSError:
         return False
-
-
-def check_digest(path: str | os.PathLike) -> None:
-    """Raise :class:`DamagedFile` when ``path`` differs from its recorded digest
-    (:func:`recorded_digest_matches`); a file with none recorded passes."""
-    if recorded_digest_matches(path) is False:
-        raise DamagedFile(
-            f"{Path(path).name} is damaged (its bytes differ from the digest recorded in "
-            f"{digest_path(path).name} when it was written)"
-        )
 
 
 def check_readable(path: str | os.PathLike) -> None:

@@ -123,9 +123,9 @@ def _cmd_animate(args: argparse.Namespace, argv: list[str] | None) -> int:
     if args.run is not None:
         from pathlib import Path
 
-        from ._outputs import _check_digest
+        from ._outputs import _check_readable
 
-        _check_digest(Path(args.run))
+        _check_readable(Path(args.run))
         with xr.open_dataset(args.run) as ds:
             run = ds.load()
     else:

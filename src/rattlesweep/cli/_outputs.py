@@ -20,7 +20,7 @@ def _open_netcdf(path: str) -> xr.Dataset:
     backends)."""
     import xarray as xr
 
-    _check_digest(Path(path))
+    _check_readable(Path(path))
     try:
         with xr.open_dataset(path) as ds:
             return ds.load()  # all read here: a damaged chunk fails now, not mid-plot
@@ -40,7 +40,7 @@ def _open_netcdf(path: str) -> xr.Dataset:
 _DAMAGED = "it is damaged ({}: a chunk fails its checksum or cannot be read)"
 
 
-def _check_digest(path: Path) -> None:
+def _check_readable(path: Path) -> None:
     """Raise DamagedFile (a ValueError) naming the file ``path`` as damaged when it
     differs from the digest recorded when it was written, or, with none recorded, a
     child process cannot read it in full; checked before the netCDF library opens it
@@ -259,7 +259,7 @@ def _open_result(path: Path) -> xr.Dataset:
     )
 
     if not is_zarr_store(path):
-        _check_digest(path)
+        _check_readable(path)
         with xr.open_dataset(path) as ds:
             return ds.load()  # all read here: a damaged chunk fails now
     sweep = stored_sweep(str(path))
