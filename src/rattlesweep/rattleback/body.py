@@ -150,9 +150,9 @@ class Body:
                 )
             if radius < ell * (1.0 - _REL_TOL):
                 raise ValueError(
-                    f"upright pose is unstable: radius of curvature {label} = {radius:.6g} "
-                    "m "
-                    f"is smaller than the height of the centre of mass above the contact "
+                    f"upright pose is unstable: radius of curvature {label} = "
+                    f"{radius:.6g} m is smaller than the height of the centre of mass "
+                    f"above the contact "
                     f"point c + com_z = {ell:.6g} m (need {label} >= c + com_z)"
                 )
         com.setflags(write=False)
@@ -175,9 +175,9 @@ class Body:
                 freqs = (math.nan,)
         if not all(math.isfinite(f) for f in freqs):
             raise ValueError(
-                f"a = {self.a!r}, b = {self.b!r}, c = {self.c!r} m, mass = {self.mass!r} "
-                "kg "
-                f"and inertia are too far apart in scale for float64: the body's "
+                f"a = {self.a!r}, b = {self.b!r}, c = {self.c!r} m, "
+                f"mass = {self.mass!r} kg and inertia are too far apart in scale for "
+                f"float64: the body's "
                 f"small-oscillation frequencies overflow"
             )
 

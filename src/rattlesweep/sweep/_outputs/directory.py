@@ -213,9 +213,8 @@ class SweepDirectory:
             if not ours:
                 raise ValueError(
                     f"{self.out} holds {RESULT_NAME} but no {CONFIG_NAME}, and that file "
-                    "is "
-                    "not this sweep's result (another configuration, or unreadable): not "
-                    "overwriting it. Move it away, or use a new directory"
+                    "is not this sweep's result (another configuration, or unreadable): "
+                    "not overwriting it. Move it away, or use a new directory"
                 )
         if self.tiles_dir.is_dir():
             files = sorted(p for p in self.tiles_dir.rglob("*") if p.is_file())
