@@ -15,6 +15,9 @@ from rattlesweep._core.rattleback import dynamics, layout, slip
 from rattlesweep._core.workspace import (
     BLOCK,
     COUPLES,
+    H_HALF_DT,
+    H_STAGE_DT,
+    OFF_H,
     OFF_S,
     OFF_X,
     ROLLING,
@@ -24,7 +27,9 @@ from rattlesweep._core.workspace import (
     S_UHX,
     S_UHY,
     SLIDING,
+    STAGE_MID,
     STAGE_START,
+    S_TURN,
     X_DCX,
 )
 
@@ -39,10 +44,16 @@ def _evaluate_couples(W):
     models.evaluate(W, RATTLEBACK, COUPLES, STAGE_START, False, 0)
 
 
-def _slipping_block():
+@numba.njit(cache=True)
+def _evaluate_sliding_mid(W):
+    models.evaluate(W, RATTLEBACK, SLIDING, STAGE_MID, False, 0)
+
+
+def _slipping_block(all_slow=False):
     """A workspace holding one block of kane_levinson launches, every other lane
     slipping: slowly (steered, where the consistent direction is solved for) or fast,
-    with a consistent direction from the step before."""
+    with a consistent direction from the step before; or (``all_slow``) every lane
+    slipping slowly."""
     n = BLOCK
     prep = prepare(
         rs.Body.preset("kane_levinson"),
@@ -54,13 +65,13 @@ def _slipping_block():
         t_end=0.01,
     )
     Y = prep.Y[0].copy()
-    offsets = np.where(np.arange(n) % 4 == 1, 1e-5, 1.0)  # m/s: slow, fast
+    offsets = np.where((np.arange(n) % 4 == 1) | all_slow, 1e-5, 1.0)  # m/s: slow, fast
     Y[layout.VEL_X] += offsets
     W = np.zeros(layout.N_WORK * BLOCK)
     for j in range(n):
         assert stepper.load_lane(W, RATTLEBACK, prep.P[0], Y, j)
     lanes = np.arange(BLOCK)
-    slipping = lanes % 2 == 1
+    slipping = (lanes % 2 == 1) | all_slow
     W[(OFF_S + S_MODE) * BLOCK + lanes] = slipping
     angle = 0.3 * lanes
     W[(OFF_S + S_UHX) * BLOCK + lanes] = np.cos(angle)
@@ -104,6 +115,39 @@ def test_the_right_hand_side_writes_only_its_outputs(evaluate):
         ~outputs & ~((first == before) | (np.isnan(first) & np.isnan(before)))
     )
     assert changed.size == 0, f"rows written outside the outputs: {set(changed // BLOCK)}"
+
+
+@pytest.mark.parametrize(
+    "evaluate", [_evaluate_sliding, _evaluate_sliding_mid], ids=["start", "mid"]
+)
+def test_a_slow_slip_solves_alike_in_the_block_pass_and_alone(evaluate):
+    """Where enough lanes of a block slip slowly, their consistent directions are solved
+    for in one vector pass over the block, else lane by lane: a lane's derivative and
+    outputs are the same either way, at a step start (d* wanted) and at an inner stage
+    (d* wanted only where it steers)."""
+    lanes = np.arange(BLOCK)
+    whole, slipping = _slipping_block(all_slow=True)
+    stage_state = _rows(layout.OFF_T, layout.N_STATE)
+    whole[stage_state] = whole[_rows(layout.OFF_Y, layout.N_STATE)]  # T = Y, half a step on
+    whole[(OFF_H + H_STAGE_DT) * BLOCK + lanes] = whole[(OFF_H + H_HALF_DT) * BLOCK + lanes]
+    whole[(OFF_S + S_TURN) * BLOCK + lanes] = 40.0 * np.cos(lanes)  # rad/s: the guess turns
+    alone = whole.copy()
+    evaluate(whole)
+    kinds = whole[(layout.OFF_G + layout.SLIP_KIND) * BLOCK + lanes]
+    assert np.count_nonzero(kinds == slip.SLOW_SLIP) >= slip.VECTOR_SLOW
+    dstar = (layout.OFF_G + layout.DSTAR_SLOPE) * BLOCK + lanes
+    assert np.all(whole[dstar] != 0.0)  # the block pass ran
+    compared = 0
+    for j in range(0, BLOCK, 3):
+        one = alone.copy()
+        one[(OFF_S + S_MODE) * BLOCK + lanes] = lanes == j  # the others stick
+        evaluate(one)
+        assert np.all(one[dstar] == 0.0)  # solved lane by lane
+        for offset, n in [(layout.OFF_A, layout.N_STATE), (OFF_X, OFF_S - OFF_X)]:
+            rows = np.arange(offset, offset + n) * BLOCK + j
+            np.testing.assert_array_equal(one[rows], whole[rows])
+        compared += 1
+    assert compared == 11 and slipping.all()
 
 
 # --- the compile budget ------------------------------------------------------------------

@@ -20,8 +20,9 @@ Where things live:
 * ``rattleback/`` – the 3-D model: ``layout`` (its rows), ``geometry`` (contact
   geometry, impulses; docs/model.md: contact geometry), ``dynamics`` (the right-hand side,
   ``eval_block``) with its phases ``contact`` (kinematics, slip velocity), ``slip`` (the
-  friction direction), ``accelerations`` (with the couples) and ``derivative`` (friction
-  force, stage arithmetic), ``model`` (what it supplies to the stepper);
+  friction direction; ``consistent`` solves for a slow slip's), ``accelerations`` (with
+  the couples) and ``derivative`` (friction force, stage arithmetic), ``model`` (what it
+  supplies to the stepper);
 * ``planar/`` – the rocking semi-ellipse of docs/model.md: the planar rocking semi-ellipse,
   with the same modules;
 * ``jit`` – the compile policy every kernel uses.

@@ -52,6 +52,7 @@ from .workspace import (
     S_SPIN_SENSE,
     S_TSTOP,
     S_TURN,
+    S_TURN_BEFORE,
     S_UHX,
     S_UHY,
     S_USX,
@@ -141,6 +142,7 @@ def pass_step(W):
     for j in range(BLOCK):
         W[at(OFF_S, S_DPX, j)] = W[at(OFF_S, S_DCX, j)]
         W[at(OFF_S, S_DPY, j)] = W[at(OFF_S, S_DCY, j)]
+        W[at(OFF_S, S_TURN_BEFORE, j)] = W[at(OFF_S, S_TURN, j)]
 
 
 @kernel
@@ -180,6 +182,7 @@ def start_slip(W, j):
     W[at(OFF_S, S_DPX, j)] = ux
     W[at(OFF_S, S_DPY, j)] = uy
     W[at(OFF_S, S_TURN, j)] = 0.0
+    W[at(OFF_S, S_TURN_BEFORE, j)] = 0.0
 
 
 @inline_kernel

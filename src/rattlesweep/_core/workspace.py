@@ -220,6 +220,12 @@ SWITCH = Rows(
         "rate at which the consistent slip direction turns, over the last step (3-D model)",
     ),
     Row(
+        "consistent_turn_rate_before",
+        "rad s-1",
+        "the consistent slip direction's turn rate at the start of the step before "
+        "(3-D model)",
+    ),
+    Row(
         "spin_slipping",
         "1",
         "spin couple mode: 0 stuck (no spin about the normal), 1 slipping",
@@ -245,6 +251,7 @@ S_DCY = S_DCX + 1
 S_DPX = SWITCH.start("consistent_direction_before")
 S_DPY = S_DPX + 1
 S_TURN = SWITCH.start("consistent_turn_rate")
+S_TURN_BEFORE = SWITCH.start("consistent_turn_rate_before")
 S_SPIN = SWITCH.start("spin_slipping")
 S_SPIN_SENSE = SWITCH.start("spin_sense")
 S_ROLL = SWITCH.start("roll_slipping")

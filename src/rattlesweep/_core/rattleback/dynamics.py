@@ -19,7 +19,7 @@ import numba
 
 from ..jit import kernel
 from ..stages import first_stage
-from ..workspace import STAGE_FIRST, STAGE_START
+from ..workspace import STAGE_FIRST, STAGE_MID, STAGE_START
 from .accelerations import accelerations, divide_out
 from .contact import contact_kinematics
 from .derivative import store_derivative
@@ -73,17 +73,25 @@ def eval_block(W, slip_possible, stage, one_lane, lane):
     if stage == STAGE_START:
         contact_kinematics(W, True, OFF_Y, one_lane, lane)  # the slip velocity is an output
         if one_lane:
-            steer(W, slip_possible, OFF_Y, True, lane, False)
+            steer(W, slip_possible, OFF_Y, True, lane, False, 0.0)
         else:  # once per step: measure φ̇*
-            steer(W, slip_possible, OFF_Y, False, lane, True)
+            steer(W, slip_possible, OFF_Y, False, lane, True, 1.0)
         accelerations(W, slip_possible, OFF_Y, one_lane, lane)
     elif stage == STAGE_FIRST:
         contact_kinematics(W, slip_possible, OFF_Y, one_lane, lane)
-        steer(W, slip_possible, OFF_Y, one_lane, lane, False)
+        steer(W, slip_possible, OFF_Y, one_lane, lane, False, 0.0)
         accelerations(W, slip_possible, OFF_Y, one_lane, lane)
     else:
         contact_kinematics(W, slip_possible, OFF_T, one_lane, lane)
-        steer(W, slip_possible, OFF_T, one_lane, lane, False)
+        steer(
+            W,
+            slip_possible,
+            OFF_T,
+            one_lane,
+            lane,
+            False,
+            0.0 if one_lane else (0.5 if stage == STAGE_MID else 1.0),
+        )
         accelerations(W, slip_possible, OFF_T, one_lane, lane)
     if slip_possible or first_stage(stage):
         divide_out(W, True, one_lane, lane)

@@ -102,8 +102,10 @@ SPIN_LAMBDA = 20  # couple about the normal holding a stuck spin, per unit mass,
 SPIN_RATE = 21  # ω · n̂, rad/s
 ROLL_FRACTION = 22  # the rolling couple over its bound, |ω_h| / max(|ω_h|, floor)
 ROLL_MARGIN = 23  # the rolling couple's switching function, rad/s or m^2/s^2 (dynamics)
-SLIP_KIND = 24  # 0 sticking, FAST_SLIP or SLOW_SLIP (dynamics.slip_direction)
-N_SCRATCH = 25
+SLIP_KIND = 24  # 0 sticking, FAST_SLIP or SLOW_SLIP (slip.slip_direction)
+DSTAR_X, DSTAR_Y = 25, 26  # a slow slip's consistent direction d*, world (consistent.py)
+DSTAR_SLOPE = 27  # its attraction s, m/s^2, or -1 (consistent.block_directions)
+N_SCRATCH = 28
 
 # --- the block workspace: the shared regions, then this model's ------------------------
 OFF_E = OFF_P + N_PARAM  # derived parameters
