@@ -1,10 +1,16 @@
 import math
 import os
 import tomllib
+from pathlib import Path
 
 import pytest
 
 import rattlesweep as rs
+from rattlesweep._core import jit
+
+# the tests' own kernels (test_kernel_design.py) inline the package's, but numba keys
+# their cache on the test file alone: they go with any change of the package's kernels
+jit.drop_stale_cache(Path(__file__).parent, depends_on=(Path(jit.__file__).parent,))
 
 try:
     from hypothesis import HealthCheck, Phase, settings

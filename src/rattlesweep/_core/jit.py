@@ -117,16 +117,20 @@ def _numba_cache_dir(source: Path) -> Path:
     return Path(FunctionCache(namespace["probe"]).cache_path)
 
 
-def drop_stale_cache(root: Path = Path(__file__).parent) -> bool:
+def drop_stale_cache(
+    root: Path = Path(__file__).parent, depends_on: tuple[Path, ...] = ()
+) -> bool:
     """Delete the cached kernels (``*.nbi``/``*.nbc``) of the package at ``root``, in
     the directories numba caches its modules in, unless they were written from its
-    current sources; True when it deleted them. A read-only installation is left as it
-    is (numba caches its kernels elsewhere)."""
+    current sources and those of the packages at ``depends_on`` (whose kernels its own
+    inline); True when it deleted them. A read-only installation is left as it is
+    (numba caches its kernels elsewhere)."""
     sources = sorted(root.rglob("*.py"))
     digest = hashlib.sha256()
-    for path in sources:
-        digest.update(path.relative_to(root).as_posix().encode())
-        digest.update(path.read_bytes())
+    for base in (root, *depends_on):
+        for path in sorted(base.rglob("*.py")):
+            digest.update(path.relative_to(base).as_posix().encode())
+            digest.update(path.read_bytes())
     try:
         # root's own directory first: it holds the stamp
         caches = [
