@@ -260,10 +260,12 @@ def iterate(k_xx, k_yy, k_zz, k_xy, k_xz, k_yz, ax, ay, mu, ex, ey, dx, dy):
     # Halley's method towards those (Newton's where its correction is large, far from
     # the root); elsewhere the largest step along the turn
     halley = 2.0 * df * df - f * d2f
-    if (df > 0.0) & (halley > df * df) & (halley < 3.0 * df * df):
-        step = -2.0 * f * df / halley
-    else:
-        step = -f / df if df > 0.0 else (-0.5 if f > 0.0 else 0.5)
+    use_halley = (df > 0.0) & (halley > df * df) & (halley < 3.0 * df * df)
+    # one division for every case
+    over = halley if use_halley else (df if df > 0.0 else 1.0)
+    step = (
+        -2.0 * f * df if use_halley else (-f if df > 0.0 else -0.5 if f > 0.0 else 0.5)
+    ) / over
     step = min(max(step, -0.5), 0.5)
     ex, ey = turned(ex, ey, step)
     return ex, ey, (abs(step) < TOLERANCE) | (ex * dx + ey * dy <= 0.5)
