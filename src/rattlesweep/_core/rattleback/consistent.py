@@ -94,6 +94,10 @@ interval (−2.79, 0) of the real axis on which classic RK4 is stable."""
 ITERATIONS = 5
 """Bound on the iterations for d*; from the guess they stop after one or two."""
 
+PASS_ITERATIONS = 2
+"""Iterations of :func:`block_directions`, the vector pass: the few lanes whose
+iteration goes on are solved for alone."""
+
 TOLERANCE = 1e-6
 """The iteration stops after a step (rad) below this: Halley's method converges at third
 order, so the error left is of order its cube."""
@@ -316,14 +320,17 @@ def solve_inputs(W, j, history, ahead):
 
 
 @kernel
-def consistent_direction(W, j, state, history, ahead):
-    """Lane j's consistent slip direction at its state in the region at ``state``:
-    (d*_x, d*_y, s) as :func:`settle` gives them, or (dx, dy, −1) where the attraction
-    cannot steer and d* is not wanted (:func:`needless`)."""
-    mu, ex, ey, dx, dy, wanted = solve_inputs(W, j, history, ahead)
+def consistent_direction(W, j, state, mu, gx, gy, dx, dy, wanted):
+    """Lane j's consistent slip direction at its state in the region at ``state``, from
+    the inputs :func:`solve_inputs` gives (taken by value, so that one compiled variant
+    serves every evaluation of a state region): (d*_x, d*_y, s) as :func:`settle` gives
+    them, or (dx, dy, −1) where the attraction cannot steer and d* is not wanted
+    (:func:`needless`)."""
     k_xx, k_yy, k_zz, k_xy, k_xz, k_yz, ax, ay, press = response(W, j, state)
     if needless(k_xx, k_yy, k_zz, k_xy, k_xz, k_yz, ax, ay, press, mu, wanted):
         return dx, dy, -1.0
+    ex = gx
+    ey = gy
     for _ in range(ITERATIONS):
         ex, ey, last = iterate(
             k_xx, k_yy, k_zz, k_xy, k_xz, k_yz, ax, ay, mu, ex, ey, dx, dy
@@ -345,8 +352,10 @@ def masked(k_xx, k_yy, k_zz, k_xy, k_xz, k_yz, ax, ay, mu, ex, ey, dx, dy, done)
 def block_directions(W, state, history, ahead):
     """:func:`consistent_direction` for every lane of the block, into the rows DSTAR_X,
     DSTAR_Y and DSTAR_SLOPE (meaningless for a lane that does not slip slowly): the
-    same operations, with all ``ITERATIONS`` steps written out and each lane's iteration
-    ended by a mask rather than a branch, so that LLVM vectorises the pass."""
+    same operations, with ``PASS_ITERATIONS`` steps written out and each lane's
+    iteration ended by a mask rather than a branch, so that LLVM vectorises the pass. A
+    lane whose iteration has not ended by then gets DSTAR_SLOPE NaN: its caller solves
+    for it alone, as it would have without the pass."""
     for j in range(BLOCK):
         mu, ex, ey, dx, dy, wanted = solve_inputs(W, j, history, ahead)
         k_xx, k_yy, k_zz, k_xy, k_xz, k_yz, ax, ay, press = response(W, j, state)
@@ -357,18 +366,9 @@ def block_directions(W, state, history, ahead):
         ex, ey, done = masked(
             k_xx, k_yy, k_zz, k_xy, k_xz, k_yz, ax, ay, mu, ex, ey, dx, dy, done
         )
-        ex, ey, done = masked(
-            k_xx, k_yy, k_zz, k_xy, k_xz, k_yz, ax, ay, mu, ex, ey, dx, dy, done
-        )
-        ex, ey, done = masked(
-            k_xx, k_yy, k_zz, k_xy, k_xz, k_yz, ax, ay, mu, ex, ey, dx, dy, done
-        )
-        ex, ey, done = masked(
-            k_xx, k_yy, k_zz, k_xy, k_xz, k_yz, ax, ay, mu, ex, ey, dx, dy, done
-        )
         cx, cy, slope = settle(
             k_xx, k_yy, k_zz, k_xy, k_xz, k_yz, ax, ay, press, mu, ex, ey, dx, dy
         )
         W[at(OFF_G, DSTAR_X, j)] = dx if skip else cx
         W[at(OFF_G, DSTAR_Y, j)] = dy if skip else cy
-        W[at(OFF_G, DSTAR_SLOPE, j)] = -1.0 if skip else slope
+        W[at(OFF_G, DSTAR_SLOPE, j)] = -1.0 if skip else (slope if done else math.nan)

@@ -35,7 +35,12 @@ from ..workspace import (
     at,
     lane_range,
 )
-from .consistent import RELAX_STEPS, block_directions, consistent_direction
+from .consistent import (
+    RELAX_STEPS,
+    block_directions,
+    consistent_direction,
+    solve_inputs,
+)
 from .layout import (
     DSTAR_SLOPE,
     DSTAR_X,
@@ -183,12 +188,13 @@ def slip_direction(W, state, one_lane, lane, history, ahead):
         uy = W[at(OFF_G, SLIP_Y, j)]
         uu = math.sqrt(ux * ux + uy * uy)
         turn = W[at(OFF_S, S_TURN, j)]
-        if vector:
+        slope = W[at(OFF_G, DSTAR_SLOPE, j)] if vector else math.nan
+        if not math.isnan(slope):  # solved for by the vector pass
             cx = W[at(OFF_G, DSTAR_X, j)]
             cy = W[at(OFF_G, DSTAR_Y, j)]
-            slope = W[at(OFF_G, DSTAR_SLOPE, j)]
         else:
-            cx, cy, slope = consistent_direction(W, j, state, history, ahead)
+            mu, gx, gy, dx, dy, wanted = solve_inputs(W, j, history, ahead)
+            cx, cy, slope = consistent_direction(W, j, state, mu, gx, gy, dx, dy, wanted)
         if history:
             turn = turn_rate(W, j, cx, cy, h) if slope > 0.0 else 0.0
             W[at(OFF_X, X_TURN, j)] = turn
