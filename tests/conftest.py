@@ -10,6 +10,7 @@ from rattlesweep._core import jit
 
 # the tests' own kernels (test_kernel_design.py) inline the package's, but numba keys
 # their cache on the test file alone: they go with any change of the package's kernels
+# (and of any test file, which costs their compile only)
 jit.drop_stale_cache(Path(__file__).parent, depends_on=(Path(jit.__file__).parent,))
 
 try:

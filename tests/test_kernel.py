@@ -231,6 +231,24 @@ def test_cached_kernels_are_dropped_when_any_kernel_source_changes(tmp_path):
     assert drop_stale_cache(tmp_path) and not kernel_file.exists()
 
 
+def test_kernels_that_inline_another_package_go_with_its_changes(tmp_path):
+    """A cache of kernels that inline another package's (the tests' own) is dropped when
+    that package's sources change, and kept while neither changed."""
+    from rattlesweep._core.jit import drop_stale_cache
+
+    tests, package = tmp_path / "tests", tmp_path / "package"
+    tests.mkdir()
+    package.mkdir()
+    (tests / "test_design.py").write_text("x = 1\n")
+    (package / "model.py").write_text("y = 1\n")
+    kernel_file = tests / "__pycache__" / "test_design.rhs-1.py311.nbi"
+    assert drop_stale_cache(tests, depends_on=(package,))
+    kernel_file.write_bytes(b"compiled from the current sources")
+    assert not drop_stale_cache(tests, depends_on=(package,)) and kernel_file.exists()
+    (package / "model.py").write_text("y = 2\n")
+    assert drop_stale_cache(tests, depends_on=(package,)) and not kernel_file.exists()
+
+
 def test_stale_kernels_are_dropped_where_numba_caches_them(tmp_path, monkeypatch):
     """With NUMBA_CACHE_DIR set, or from a read-only installation (the user's cache),
     numba caches a package's kernels outside it, one directory per source directory:

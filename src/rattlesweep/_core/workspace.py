@@ -222,8 +222,8 @@ SWITCH = Rows(
     Row(
         "consistent_turn_rate_before",
         "rad s-1",
-        "the consistent slip direction's turn rate at the start of the step before "
-        "(3-D model)",
+        "rate at which the consistent slip direction turns, measured at the start of "
+        "the step before (3-D model)",
     ),
     Row(
         "spin_slipping",

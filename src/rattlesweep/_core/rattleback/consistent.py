@@ -94,9 +94,7 @@ interval (−2.79, 0) of the real axis on which classic RK4 is stable."""
 ITERATIONS = 5
 """Bound on the iterations for d*; from the guess they stop after one or two."""
 
-PASS_ITERATIONS = 2
-"""Iterations of :func:`block_directions`, the vector pass: the few lanes whose
-iteration goes on are solved for alone."""
+assert ITERATIONS >= 2  # block_directions' two steps are the first two of the solve
 
 TOLERANCE = 1e-6
 """The iteration stops after a step (rad) below this: Halley's method converges at third
@@ -106,19 +104,19 @@ BOUND_SLACK = 1.0 + 1e-9
 """Margin on :func:`needless`' bound on s for the rounding of its terms."""
 
 SERIES_TURN = 1e-2
-"""Below this angle (rad), :func:`turned` normalises by the series of 1/√(1 + a²) to
-its a⁶ term (truncation below 3e-17), which spares the iteration's chain a square root
-and a division."""
+"""Below this turn (its tangent a), :func:`turned` normalises by the series of
+(x² + y²)^(−1/2) about 1 to its third term (truncation below 1e-16), which spares the
+iteration's chain a square root and a division."""
 
 
 @inline_kernel
 def turned(ex, ey, a):
-    """The unit vector (ex, ey) turned by the angle arctan(a): (e + a e⊥) / √(1 + a²)."""
+    """The unit vector (ex, ey) turned by the angle arctan(a): (e + a e⊥) / |e + a e⊥|."""
     x = ex - a * ey
     y = ey + a * ex
-    a2 = a * a
-    if a2 < SERIES_TURN * SERIES_TURN:
-        norm = 1.0 - a2 * (0.5 - a2 * (0.375 - a2 * 0.3125))
+    if a * a < SERIES_TURN * SERIES_TURN:
+        r = x * x + y * y - 1.0  # a² for a unit e, and whatever |e| lost to rounding
+        norm = 1.0 - r * (0.5 - r * (0.375 - r * 0.3125))
     else:
         norm = 1.0 / math.sqrt(x * x + y * y)
     return x * norm, y * norm
@@ -150,10 +148,10 @@ def consistency(k_xx, k_yy, k_zz, k_xy, k_xz, k_yz, ax, ay, mu, ex, ey):
 
 @inline_kernel
 def response(W, j, state):
-    """Lane j's contact response K (its six entries, per unit mass) and free horizontal
-    acceleration over what the normal force holds up, a (two entries), at its state in
-    the region at ``state``; and press = −A_z (m/s²), the free acceleration the normal
-    force must hold up."""
+    """Lane j's contact response K (its six entries, per unit mass: 1/kg times kg) and
+    free horizontal acceleration over what the normal force holds up, a (two entries,
+    dimensionless), at its state in the region at ``state``; and press = −A_z (m/s²), the
+    free acceleration the normal force must hold up."""
     q0 = W[at(state, Q0, j)]
     q1 = W[at(state, Q1, j)]
     q2 = W[at(state, Q2, j)]
@@ -290,22 +288,20 @@ def settle(k_xx, k_yy, k_zz, k_xy, k_xz, k_yz, ax, ay, press, mu, ex, ey, dx, dy
 @inline_kernel
 def solve_inputs(W, j, history, ahead):
     """What lane j's solve starts from: (μ, the guess, the slip's direction (dx, dy),
-    the attraction wanted). The guess is the last step start's d* (at this step's start,
-    where the block may be evaluated again, the one before, so that each evaluation
-    solves alike), turned on at its turn rate then to the instant evaluated, ``ahead``
-    steps later; where there is none yet (the launch's step), the slip's direction. A
-    step-start evaluation (``history``) wants d* itself; any other only an attraction
-    that steers (:func:`.slip.slip_direction`)."""
+    the attraction wanted, m/s²). The guess is the last step start's d* (at this step's
+    start, where the block may be evaluated again, the one before, so that each
+    evaluation solves alike), turned on at its turn rate then by ``ahead`` steps; where
+    there is none yet (the launch's step), the slip's direction. A step-start
+    evaluation (``history``) wants d* itself; any other only an attraction that steers
+    (:func:`.slip.slip_direction`)."""
     h = W[at(OFF_P, DT, j)]
     rate = W[at(OFF_S, S_TURN_BEFORE, j)] if history else W[at(OFF_S, S_TURN, j)]
-    gx, gy = turned(
-        W[at(OFF_S, S_DPX, j)] if history else W[at(OFF_S, S_DCX, j)],
-        W[at(OFF_S, S_DPY, j)] if history else W[at(OFF_S, S_DCY, j)],
-        min(max(rate * ahead * h, -0.5), 0.5),
-    )
+    px = W[at(OFF_S, S_DPX, j)] if history else W[at(OFF_S, S_DCX, j)]
+    py = W[at(OFF_S, S_DPY, j)] if history else W[at(OFF_S, S_DCY, j)]
+    gx, gy = turned(px, py, min(max(rate * ahead * h, -0.5), 0.5))
     dx = W[at(OFF_S, S_UHX, j)]
     dy = W[at(OFF_S, S_UHY, j)]
-    none = gx * gx + gy * gy < 0.5
+    none = px * px + py * py < 0.5
     ux = W[at(OFF_G, SLIP_X, j)]
     uy = W[at(OFF_G, SLIP_Y, j)]
     wanted = 0.0 if history else RELAX_STEPS * math.sqrt(ux * ux + uy * uy) / h
@@ -352,10 +348,10 @@ def masked(k_xx, k_yy, k_zz, k_xy, k_xz, k_yz, ax, ay, mu, ex, ey, dx, dy, done)
 def block_directions(W, state, history, ahead):
     """:func:`consistent_direction` for every lane of the block, into the rows DSTAR_X,
     DSTAR_Y and DSTAR_SLOPE (meaningless for a lane that does not slip slowly): the
-    same operations, with ``PASS_ITERATIONS`` steps written out and each lane's
-    iteration ended by a mask rather than a branch, so that LLVM vectorises the pass. A
-    lane whose iteration has not ended by then gets DSTAR_SLOPE NaN: its caller solves
-    for it alone, as it would have without the pass."""
+    same operations, with the first two steps written out and each lane's iteration
+    ended by a mask rather than a branch, so that LLVM vectorises the pass. A lane whose
+    iteration has not ended by then gets DSTAR_SLOPE NaN: its caller solves for it
+    alone, as it would have without the pass."""
     for j in range(BLOCK):
         mu, ex, ey, dx, dy, wanted = solve_inputs(W, j, history, ahead)
         k_xx, k_yy, k_zz, k_xy, k_xz, k_yz, ax, ay, press = response(W, j, state)

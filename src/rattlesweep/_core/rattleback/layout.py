@@ -104,7 +104,7 @@ ROLL_FRACTION = 22  # the rolling couple over its bound, |ω_h| / max(|ω_h|, fl
 ROLL_MARGIN = 23  # the rolling couple's switching function, rad/s or m^2/s^2 (dynamics)
 SLIP_KIND = 24  # 0 sticking, FAST_SLIP or SLOW_SLIP (slip.slip_direction)
 DSTAR_X, DSTAR_Y = 25, 26  # a slow slip's consistent direction d*, world (consistent.py)
-DSTAR_SLOPE = 27  # its attraction s, m/s^2, or -1 (consistent.block_directions)
+DSTAR_SLOPE = 27  # its attraction s, m/s^2; -1: none; NaN: left to the lane's own solve
 N_SCRATCH = 28
 
 # --- the block workspace: the shared regions, then this model's ------------------------

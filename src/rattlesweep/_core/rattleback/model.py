@@ -125,7 +125,7 @@ __all__ = [
 LOCATES_SWITCHES = True
 """The rattleback's stick/slip switches are located inside the step (:mod:`..events`).
 Its slow slips, whose direction relaxes faster than the step follows, are steered onto
-their slow manifold (:func:`.dynamics.slip_direction`)."""
+their slow manifold (:func:`.slip.slip_direction`)."""
 
 
 @kernel

@@ -118,9 +118,10 @@ def slip_direction(W, state, one_lane, lane, history, ahead):
     fast and slow ones (``SLIP_KIND``); the scalar work, steering and the history, then
     visits only the lanes that need it. d* is solved for lane by lane, or, from
     ``VECTOR_SLOW`` slow slips on, for the whole block in one vector pass
-    (:mod:`.consistent`); ``ahead`` is the fraction of the step by which the state
-    evaluated lies past the step start (0 where unknown: a located step's pieces), to
-    which the solve's guess is turned on. Sticking lanes keep their stored direction;
+    (:mod:`.consistent`). ``ahead`` is the number of steps from the step start whose d*
+    the solve's guess starts from (the one before for a step-start evaluation, this
+    one's otherwise) to the state evaluated (0 where unknown: a located step's pieces).
+    Sticking lanes keep their stored direction;
     the stepper reads it only in slip.
     """
     numba.literally(state)
@@ -193,8 +194,8 @@ def slip_direction(W, state, one_lane, lane, history, ahead):
             cx = W[at(OFF_G, DSTAR_X, j)]
             cy = W[at(OFF_G, DSTAR_Y, j)]
         else:
-            mu, gx, gy, dx, dy, wanted = solve_inputs(W, j, history, ahead)
-            cx, cy, slope = consistent_direction(W, j, state, mu, gx, gy, dx, dy, wanted)
+            mu, gx, gy, sx, sy, wanted = solve_inputs(W, j, history, ahead)
+            cx, cy, slope = consistent_direction(W, j, state, mu, gx, gy, sx, sy, wanted)
         if history:
             turn = turn_rate(W, j, cx, cy, h) if slope > 0.0 else 0.0
             W[at(OFF_X, X_TURN, j)] = turn
