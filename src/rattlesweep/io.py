@@ -27,6 +27,7 @@ __all__ = [
     "recorded_digest_matches",
     "stale_temporaries",
     "write_netcdf",
+    "write_text_atomic",
 ]
 
 NETCDF_LOCK = threading.RLock()
@@ -63,7 +64,7 @@ def write_netcdf(ds: xr.Dataset, path: str | os.PathLike, *, digest: bool = Fals
             if digest:
                 # before the rename: the file renamed into place has its digest beside
                 # it already (killed in between, an older file there reads as damaged)
-                _write_atomic(
+                write_text_atomic(
                     digest_path(path), f"{_file_digest(Path(tmp))}  {path.name}\n"
                 )
             os.replace(tmp, path)
@@ -188,24 +189,24 @@ def read(group):
     for g in group.groups.values():
         read(g)
 
+def first_line(exc):
+    return (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+
 for i, path in enumerate(sys.stdin.read().split("\\0")[:-1]):
     try:
         nc = netCDF4.Dataset(path)
     except OSError as exc:
         kind = "other" if "Unknown file format" in str(exc) else "bad"
-        line = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
-        print(kind, i, line, sep="\\t", flush=True)
+        print(kind, i, first_line(exc), sep="\\t", flush=True)
         continue
     except Exception as exc:
-        line = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
-        print("bad", i, line, sep="\\t", flush=True)
+        print("bad", i, first_line(exc), sep="\\t", flush=True)
         continue
     try:
         with nc:
             read(nc)
     except Exception as exc:
-        line = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
-        print("bad", i, line, sep="\\t", flush=True)
+        print("bad", i, first_line(exc), sep="\\t", flush=True)
     else:
         print("ok", i, sep="\\t", flush=True)
 """
@@ -320,12 +321,12 @@ def _file_digest(path: Path) -> str:
     return h.hexdigest()
 
 
-def _write_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file of :func:`stale_temporaries`'s
-    form, renamed into place."""
+def write_text_atomic(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` (UTF-8) through a temporary file of
+    :func:`stale_temporaries`'s form, renamed into place."""
     fd, tmp = _temporary(path)
     try:
-        with os.fdopen(fd, "w", encoding="ascii") as f:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
             f.write(text)
         os.replace(tmp, path)
     except BaseException:
@@ -383,11 +384,13 @@ def _temporary_prefix(name: str) -> str:
 
 def stale_temporaries(directory: str | os.PathLike[str], name_glob: str) -> list[Path]:
     """The temporary files :func:`write_netcdf` left in ``directory`` (killed before the
-    rename) for files whose names match ``name_glob``. Only names of exactly the form
-    it creates are listed, so a user's file that merely looks alike is never one."""
+    rename) for files whose names match ``name_glob``, and for their digests
+    (:func:`digest_path`). Only names of exactly the form it creates are listed, so a
+    user's file that merely looks alike is never one."""
     found = []
-    for path in Path(directory).glob(f".{name_glob}.*.tmp"):
-        match = _TEMPORARY.fullmatch(path.name)
-        if match and fnmatch.fnmatchcase(match["name"], name_glob) and path.is_file():
-            found.append(path)
+    for pattern in (name_glob, name_glob + DIGEST_SUFFIX):
+        for path in Path(directory).glob(f".{pattern}.*.tmp"):
+            match = _TEMPORARY.fullmatch(path.name)
+            if match and fnmatch.fnmatchcase(match["name"], pattern) and path.is_file():
+                found.append(path)
     return found

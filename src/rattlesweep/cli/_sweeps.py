@@ -81,14 +81,15 @@ def _kept(out: str | Path, interrupt: KeyboardInterrupt, existed: bool) -> str:
     its merged result complete (written atomically, and not older than any tile),
     nothing of a sweep at all, or the tiles kept (the runner's count when it says, as
     :class:`~rattlesweep.sweep._outputs.store.SweepInterrupted`)."""
+    from ..sweep._outputs.directory import CONFIG_NAME, RESULT_NAME
     from ..sweep._outputs.store import SweepInterrupted
     from ..sweep._outputs.zarr_store import is_zarr_store
 
     location, out = out, Path(out)
-    merged = out / "sweep.nc"
+    merged = out / RESULT_NAME
     if _complete(out, merged):
         return f"the result is complete: {merged} is written"
-    if not (out / "sweep.toml").is_file() and not is_zarr_store(location):
+    if not (out / CONFIG_NAME).is_file() and not is_zarr_store(location):
         if not existed:  # the directory this command made, empty but for its lock
             with contextlib.suppress(OSError):
                 out.rmdir()
@@ -102,12 +103,17 @@ def _complete(out: Path, merged: Path) -> bool:
     """Whether the sweep directory ``out`` holds its merged file whole (the digest
     written with it matches) and not older than any of its tiles."""
     from ..io import recorded_digest_matches
+    from ..sweep._outputs.directory import TILES_DIR
+    from ..sweep._outputs.refined import LEVELS_DIR
 
     try:
         if recorded_digest_matches(merged) is not True:
             return False
         made = merged.stat().st_mtime_ns
-        tiles = (*out.glob("tiles/tile-*.nc"), *out.glob("levels/level-*/tile-*.nc"))
+        tiles = (
+            *out.glob(f"{TILES_DIR}/tile-*.nc"),
+            *out.glob(f"{LEVELS_DIR}/level-*/tile-*.nc"),
+        )
         return all(t.stat().st_mtime_ns <= made for t in tiles)
     except OSError:
         return False

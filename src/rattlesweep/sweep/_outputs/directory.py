@@ -18,6 +18,7 @@ from ...io import (
     stale_temporaries,
     unreadable_files,
     write_netcdf,
+    write_text_atomic,
 )
 from .._execution.lock import LOCK_NAME, SweepLock
 from .merge import merge_arrays
@@ -36,7 +37,6 @@ __all__ = [
     "read_tile",
     "tile_path",
     "tile_state",
-    "write_text_atomic",
 ]
 
 CONFIG_NAME = "sweep.toml"
@@ -310,9 +310,7 @@ class TileDirectory(SweepDirectory):
         if config.exists():
             for stale in (
                 *stale_temporaries(self.tiles_dir, "tile-*.nc"),
-                *stale_temporaries(self.tiles_dir, "tile-*.nc" + DIGEST_SUFFIX),
                 *stale_temporaries(self.out, RESULT_NAME),
-                *stale_temporaries(self.out, RESULT_NAME + DIGEST_SUFFIX),
             ):
                 stale.unlink(missing_ok=True)
         todo, damaged, foreign = [], [], []
@@ -371,9 +369,3 @@ class TileDirectory(SweepDirectory):
                 self.sweep.tile_range(tile),
                 read_tile(tile_path(self.tiles_dir, tile), names),
             )
-
-
-def write_text_atomic(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)

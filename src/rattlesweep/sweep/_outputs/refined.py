@@ -19,7 +19,12 @@ import netCDF4
 import numpy as np
 import xarray as xr
 
-from ...io import DIGEST_SUFFIX, NETCDF_LOCK, stale_temporaries, unreadable_files
+from ...io import (
+    NETCDF_LOCK,
+    stale_temporaries,
+    unreadable_files,
+    write_text_atomic,
+)
 from ...rattleback import batch
 from .._config.spec import Sweep
 from .._execution.stage import Stage
@@ -32,7 +37,7 @@ from .._execution.tiles import (
     result_names,
     variable_attrs,
 )
-from .directory import CONFIG_NAME, RESULT_NAME, SweepDirectory, write_text_atomic
+from .directory import CONFIG_NAME, RESULT_NAME, SweepDirectory
 from .merge import grid_coords, result_attrs
 
 __all__ = [
@@ -80,16 +85,11 @@ class RefinedDirectory(SweepDirectory):
         self.make_tiles_dir()
         self.check_digests_in_way()
         levels = (d for d in self.tiles_dir.glob("level-*") if d.is_dir())
-        for level in levels:
-            for stale in (
-                *stale_temporaries(level, "tile-*.nc"),
-                *stale_temporaries(level, "tile-*.nc" + DIGEST_SUFFIX),
-            ):
-                stale.unlink(missing_ok=True)
+        for stale in (p for d in levels for p in stale_temporaries(d, "tile-*.nc")):
+            stale.unlink(missing_ok=True)
         if config.exists():  # a merge of this sweep killed before its rename
-            for name in (RESULT_NAME, RESULT_NAME + DIGEST_SUFFIX):
-                for stale in stale_temporaries(self.out, name):
-                    stale.unlink(missing_ok=True)
+            for stale in stale_temporaries(self.out, RESULT_NAME):
+                stale.unlink(missing_ok=True)
         if not config.exists():
             write_text_atomic(config, self.sweep.to_toml())
         self.written = len(list(self.tiles_dir.glob("level-*/tile-*.nc")))

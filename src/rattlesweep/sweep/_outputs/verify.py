@@ -141,41 +141,19 @@ def _verify_refined(out: Path, sweep: Any) -> Verification:
     after one with a tile missing or damaged cannot be planned; their files are only
     checked for damage."""
     from ...io import unreadable_files
-    from .._refinement.plan import Levels, plan_level
+    from .._refinement.stages import level_tiles, sweep_levels
     from .directory import RESULT_NAME
     from .refined import LEVELS_DIR, RefinedDirectory, level_tile_path
-    from .._execution.tiles import LevelTile
 
-    refine = sweep.refine
     directory = RefinedDirectory(sweep, out)  # not opened: no lock taken, nothing written
-    fine = directory.fine
-    levels = Levels(
-        fine.shape,
-        tuple(list(fine.axes).index(k) for k in refine["axes"]),
-        refine["levels"],
-    )
+    levels = sweep_levels(directory)
     missing: list[int | str] = []
     damaged: dict[int | str, str] = {}
     n_tiles, planned = 0, set()
     for level in range(levels.levels + 1):
         if missing or damaged:
             break
-        index = (
-            levels.level0()
-            if level == 0
-            else plan_level(
-                directory.values,
-                directory.computed,
-                levels,
-                level,
-                refine.get("reversal_time_jump"),
-            )
-        )
-        size = sweep.tile_size
-        items = [
-            LevelTile(level, t, index[a : a + size])
-            for t, a in enumerate(range(0, len(index), size))
-        ]
+        items = level_tiles(directory, levels, level)
         paths = [level_tile_path(out / LEVELS_DIR, level, t.tile) for t in items]
         planned.update(paths)
         unread = unreadable_files([p for p in paths if p.exists()])

@@ -13,7 +13,42 @@ from .plan import Levels, plan_level
 if TYPE_CHECKING:
     from .._outputs.refined import RefinedDirectory
 
-__all__ = ["level_stages"]
+__all__ = ["level_stages", "level_tiles", "sweep_levels"]
+
+
+def sweep_levels(directory: RefinedDirectory) -> Levels:
+    """The levels of the refined sweep of ``directory`` over its finest grid."""
+    refine = directory.sweep.refine
+    assert refine is not None, "a refined sweep's directory"
+    fine = directory.fine
+    return Levels(
+        fine.shape,
+        tuple(list(fine.axes).index(k) for k in refine["axes"]),
+        refine["levels"],
+    )
+
+
+def level_tiles(directory: RefinedDirectory, levels: Levels, level: int) -> list[LevelTile]:
+    """Level ``level``'s tiles of at most ``tile_size`` points on the finest grid,
+    planned from the results ``directory`` holds (those of the levels before it)."""
+    refine = directory.sweep.refine
+    assert refine is not None, "a refined sweep's directory"
+    index = (
+        levels.level0()
+        if level == 0
+        else plan_level(
+            directory.values,
+            directory.computed,
+            levels,
+            level,
+            refine.get("reversal_time_jump"),
+        )
+    )
+    size = directory.sweep.tile_size
+    return [
+        LevelTile(level, t, index[a : a + size])
+        for t, a in enumerate(range(0, len(index), size))
+    ]
 
 
 def level_stages(directory: RefinedDirectory) -> Iterator[Stage]:
@@ -21,37 +56,15 @@ def level_stages(directory: RefinedDirectory) -> Iterator[Stage]:
     ``tile_size`` points on the finest grid. A level's points follow from the results the
     directory holds when it is asked for the level, so each is planned only once the
     levels before it are written; tiles an earlier run wrote are read back, not run."""
-    sweep, fine = directory.sweep, directory.fine
-    refine = sweep.refine
-    assert refine is not None, "a refined sweep's directory"
-    levels = Levels(
-        fine.shape,
-        tuple(list(fine.axes).index(k) for k in refine["axes"]),
-        refine["levels"],
-    )
-    size = sweep.tile_size
+    levels = sweep_levels(directory)
     for level in range(levels.levels + 1):
-        index = (
-            levels.level0()
-            if level == 0
-            else plan_level(
-                directory.values,
-                directory.computed,
-                levels,
-                level,
-                refine.get("reversal_time_jump"),
-            )
-        )
-        items = [
-            LevelTile(level, t, index[a : a + size])
-            for t, a in enumerate(range(0, len(index), size))
-        ]
+        items = level_tiles(directory, levels, level)
         done, todo = directory.scan(items)
         yield Stage(
-            fine,
+            directory.fine,
             todo,
             len(items),
-            len(index),
+            sum(len(item.index) for item in items),
             len(done),
             sum(len(r.index) for r in done),
             compute=compute_level_tile,
