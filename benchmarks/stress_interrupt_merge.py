@@ -32,17 +32,10 @@ import threading
 import time
 from pathlib import Path
 
-CONFIG = """\
-name = "many small tiles"
-tile_size = 2
-[axes]
-spin = { start = -20, stop = 20, num = 30 }
-delta_deg = { start = -6, stop = 6, num = 20 }
-[fixed]
-t_end = 0.05
-mu = 0.3
-roll_deg = 0.5
-"""
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "tests"))
+from sweep_helpers import MANY_TILES_TOML as CONFIG  # noqa: E402  (the test's sweep)
+
 TILES = 300
 
 # the CLI's entry point, with every thread's stack printed on SIGUSR1

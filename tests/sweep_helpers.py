@@ -22,6 +22,35 @@ roll_deg = 0.5
 """
 """Eight tiles of about a second each on one core: long enough to act mid-sweep."""
 
+MANY_TILES_TOML = """\
+name = "many small tiles"
+tile_size = 2
+[axes]
+spin = { start = -20, stop = 20, num = 30 }
+delta_deg = { start = -6, stop = 6, num = 20 }
+[fixed]
+t_end = 0.05
+mu = 0.3
+roll_deg = 0.5
+"""
+"""300 tiles of 2 short launches: a tile is written every few milliseconds, so an
+interrupt often lands in a write."""
+
+REFINED_TOML = """\
+name = "refined toy"
+tile_size = 64
+[axes]
+spin = { start = -24, stop = 24, num = 9 }
+delta_deg = { start = -8, stop = 8, num = 5 }
+[fixed]
+t_end = 3.0
+roll_deg = 0.5
+mu = 0.3
+[refine]
+levels = 2
+"""
+"""A refined sweep of toy semi-ellipsoids over 9 x 5 points, two levels finer."""
+
 
 def small_sweep(**overrides) -> Sweep:
     """A few dozen short launches of toy semi-ellipsoids, a random roll per repeat."""

@@ -3,7 +3,6 @@
 
 import math
 import os
-import textwrap
 
 import numpy as np
 import pytest
@@ -14,7 +13,7 @@ from rattlesweep.sweep import Sweep, run_sweep
 from rattlesweep.sweep._outputs.compare import compare_with_full
 from rattlesweep.sweep._refinement.plan import Levels, plan_level
 from rattlesweep.sweep._outputs.refined import COMPUTED_ATTRS
-from sweep_helpers import assert_same_file, file_stats
+from sweep_helpers import REFINED_TOML, assert_same_file, file_stats
 
 
 # --- the level algorithm on synthetic maps ----------------------------------------------
@@ -153,23 +152,9 @@ def test_reversal_time_jump_refines_inside_one_outcome():
 
 # --- the specification ------------------------------------------------------------------
 
-SMALL = textwrap.dedent("""\
-    name = "refined toy"
-    tile_size = 64
-    [axes]
-    spin = { start = -24, stop = 24, num = 9 }
-    delta_deg = { start = -8, stop = 8, num = 5 }
-    [fixed]
-    t_end = 3.0
-    roll_deg = 0.5
-    mu = 0.3
-    [refine]
-    levels = 2
-""")
-
 
 def test_refine_and_stop_in_the_configuration():
-    s = Sweep.from_toml(SMALL)
+    s = Sweep.from_toml(REFINED_TOML)
     assert s.refine == {"levels": 2, "axes": ["spin", "delta_deg"]}
     assert s.stop is None and "stop" not in s.to_dict()
     assert Sweep.from_toml(s.to_toml()) == s
@@ -219,11 +204,11 @@ def test_refine_and_stop_in_the_configuration():
 )
 def test_bad_refine_tables_name_the_key(refine, message):
     with pytest.raises(ValueError, match=message):
-        Sweep(**{**Sweep.from_toml(SMALL).to_dict(), "refine": refine})
+        Sweep(**{**Sweep.from_toml(REFINED_TOML).to_dict(), "refine": refine})
 
 
 def test_refine_needs_ranges_and_netcdf():
-    base = Sweep.from_toml(SMALL).to_dict()
+    base = Sweep.from_toml(REFINED_TOML).to_dict()
     with pytest.raises(ValueError, match="'mu' is not a range"):
         Sweep(
             **{
@@ -245,7 +230,7 @@ def test_refine_needs_ranges_and_netcdf():
 @pytest.fixture(scope="module")
 def small_runs(tmp_path_factory):
     root = tmp_path_factory.mktemp("refined")
-    s = Sweep.from_toml(SMALL)
+    s = Sweep.from_toml(REFINED_TOML)
     refined = run_sweep(s, root / "refined", progress=False, workers=2)
     full = run_sweep(s.finest(), root / "full", progress=False, workers=2)
     return s, root, refined, full
@@ -316,7 +301,7 @@ def test_refined_sweep_resumes_level_by_level(small_runs, tmp_path):
 
 def test_cli_refine_stop_info_plot(tmp_path, capsys):
     config = tmp_path / "small.toml"
-    config.write_text(SMALL)
+    config.write_text(REFINED_TOML)
     out = tmp_path / "run"
     assert (
         main(

@@ -15,7 +15,7 @@ from rattlesweep.cli import main
 from rattlesweep.sweep import run_sweep
 from rattlesweep.sweep._execution.run import RESULT_NAME
 from rattlesweep.sweep._outputs.verify import verify
-from sweep_helpers import small_sweep
+from sweep_helpers import REFINED_TOML, small_sweep
 
 
 def _checksummed(path):
@@ -172,19 +172,7 @@ def test_damaged_files_without_digests_are_read_by_a_child_first(tmp_path):
     assert all("reading it crashes the netCDF library" in w for w in found.values())
 
 
-REFINED = """\
-name = "refined toy"
-tile_size = 8
-[axes]
-spin = { start = -24, stop = 24, num = 9 }
-delta_deg = { start = -8, stop = 8, num = 5 }
-[fixed]
-t_end = 3.0
-roll_deg = 0.5
-mu = 0.3
-[refine]
-levels = 2
-"""
+REFINED = REFINED_TOML.replace("tile_size = 64", "tile_size = 8")
 
 
 def test_verify_reads_every_level_tile_of_a_refined_sweep(tmp_path):

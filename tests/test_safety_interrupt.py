@@ -14,21 +14,7 @@ from rattlesweep.sweep import Sweep, run_sweep
 from rattlesweep.sweep._outputs.directory import tile_path, tile_state
 from rattlesweep.sweep._execution.run import RESULT_NAME
 from rattlesweep.sweep._outputs.verify import verify
-from sweep_helpers import start_sweep, without_history
-
-MANY_TILES_TOML = """\
-name = "many small tiles"
-tile_size = 2
-[axes]
-spin = { start = -20, stop = 20, num = 30 }
-delta_deg = { start = -6, stop = 6, num = 20 }
-[fixed]
-t_end = 0.05
-mu = 0.3
-roll_deg = 0.5
-"""
-"""300 tiles of 2 short launches: a tile is written every few milliseconds, so an
-interrupt often lands in a write."""
+from sweep_helpers import MANY_TILES_TOML, start_sweep, without_history
 
 EXIT_WITHIN = 15.0
 """Seconds a process may take to stop after Ctrl-C (measured: under 1 s on a loaded

@@ -9,7 +9,8 @@ import time
 from rattlesweep.cli import main
 from rattlesweep.sweep._execution.run import RESULT_NAME
 from sweep_helpers import start_sweep
-from test_safety_interrupt import EXIT_WITHIN, MANY_TILES_TOML
+from sweep_helpers import MANY_TILES_TOML
+from test_safety_interrupt import EXIT_WITHIN
 
 
 def test_ctrl_c_around_the_merge_always_ends_in_130_with_a_message(tmp_path):

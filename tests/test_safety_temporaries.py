@@ -54,3 +54,16 @@ def test_write_netcdf_temporaries_have_the_format_resume_removes(tmp_path, monke
     assert tmp.name.startswith(f".tile-000003.nc.{os.getpid()}.")
     tmp.write_bytes(b"partial")
     assert rio.stale_temporaries(tmp_path, "tile-*.nc") == [tmp]
+
+
+def test_a_digest_temporary_goes_with_its_file(tmp_path):
+    """A kill between a digest's temporary and its rename leaves one; it is listed with
+    the temporaries of the file it belongs to, and a look-alike is not."""
+    import rattlesweep.io as rio
+
+    fd, name = rio._temporary(rio.digest_path(tmp_path / "tile-000003.nc"))
+    os.close(fd)
+    digest_tmp = Path(name)
+    assert digest_tmp.name.startswith(".tile-000003.nc.b2sum.")
+    (tmp_path / ".tile-000003.nc.b2sum.x.tmp").write_text("")  # not of the form
+    assert rio.stale_temporaries(tmp_path, "tile-*.nc") == [digest_tmp]
