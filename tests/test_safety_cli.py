@@ -60,6 +60,33 @@ def test_plot_of_a_file_that_is_not_netcdf_says_so(tmp_path, capsys):
     assert "engine" not in err and "Traceback" not in err
 
 
+def test_plot_of_a_sweep_directory_draws_its_result(tmp_path, config, capsys):
+    out = tmp_path / "o"
+    assert main(["sweep", str(config), "--out", str(out), "--quiet"]) == 0
+    capsys.readouterr()
+    assert main(["plot", str(out)]) == 0  # what `info DIR` reads, plot draws
+    png = out / "sweep_outcome.png"
+    shown, wrote = capsys.readouterr().out.strip().splitlines()
+    # the dimensions not drawn are shown at their first values, and it says so
+    assert shown.startswith(f"{out}: outcome at mu = 0.3, repeat = 0 (the first values")
+    assert wrote == f"wrote {png}"
+    assert png.read_bytes().startswith(b"\x89PNG")
+    assert main(["plot", str(out), "--facet", "mu", "--select", "repeat=1"]) == 0
+    assert capsys.readouterr().out.strip() == f"wrote {png}"
+    (out / "sweep.nc").unlink()  # and a tile not written yet: an unfinished sweep
+    (out / "tiles" / "tile-000001.nc").unlink()
+    assert main(["plot", str(out)]) == 2
+    assert (
+        f"cannot plot {out}: the sweep is unfinished (no sweep.nc yet); "
+        f"`rattlesweep resume {out}` completes it" in capsys.readouterr().err
+    )
+    assert main(["plot", str(tmp_path)]) == 2
+    assert (
+        f"cannot plot {tmp_path}: a directory without sweep.nc or sweep.toml"
+        in capsys.readouterr().err
+    )
+
+
 def test_info_counts_only_complete_tiles(tmp_path, config, capsys):
     out = tmp_path / "o"
     assert main(["sweep", str(config), "--out", str(out), "--quiet"]) == 0

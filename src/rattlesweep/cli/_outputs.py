@@ -76,7 +76,7 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
         if found is not None and found.unread:
             raise ValueError(found.unreadable(path))
         try:
-            return _open_netcdf(path)
+            return _open_netcdf(_plotted_file(Path(path)))
         except ValueError:
             if found is None:
                 raise
@@ -96,27 +96,76 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
                 y = args.y or next((d for d in dims if d != x), None)
                 if y is None:
                     raise ValueError(f"{path}: a map needs two dimensions, found {dims}")
+                first = _first_values(ds, var, (x, y, args.facet), select, args.reduce)
+                if first:
+                    print(
+                        f"{path}: {var} at "
+                        + ", ".join(f"{d} = {v}" for d, v in first.items())
+                        + " (the first values of the dimensions not drawn; --select "
+                        "DIM=VALUE picks another, --facet DIM draws each)"
+                    )
                 fig = reversal_map(
                     ds,
                     x=x,
                     y=y,
                     var=var,
                     facet=args.facet,
-                    select=select or None,
+                    select={**first, **select} or None,
                     reduce=args.reduce,
                     overlay=overlay,
                 )
                 name = var
+            drawn = _plotted_file(Path(path))
             png = (
                 Path(args.out)
                 if args.out and len(args.files) == 1
-                else Path(path).with_name(f"{Path(path).stem}_{name}.png")
+                else Path(drawn).with_name(f"{Path(drawn).stem}_{name}.png")
             )
             fig.savefig(png, dpi=args.dpi)
             print(f"wrote {png}")
     if overlay is not None:
         overlay.close()
     return 0
+
+
+def _first_values(
+    ds: xr.Dataset,
+    var: str,
+    drawn: tuple[str | None, ...],
+    select: dict,
+    reduce: str | None,
+) -> dict:
+    """The first value of each dimension of ``var`` neither drawn nor selected: what a
+    map shows of it by default (none where ``reduce`` averages over them)."""
+    if var not in ds.data_vars or (reduce == "mean" and "flag_values" not in ds[var].attrs):
+        return {}  # reversal_map names a missing variable
+    return {
+        str(dim): ds[var][dim].values[0].item()
+        for dim in ds[var].dims
+        if dim not in drawn and dim not in select
+    }
+
+
+def _plotted_file(path: Path) -> str:
+    """The file ``plot`` draws for ``path``: a sweep directory's merged result, else the
+    path itself; ValueError for an unfinished sweep directory or another directory."""
+    from ..sweep._outputs.directory import CONFIG_NAME, RESULT_NAME
+    from ..sweep._outputs.zarr_store import is_zarr_store
+
+    if not path.is_dir() or is_zarr_store(path):  # a zarr store is refused when read
+        return str(path)
+    if (path / RESULT_NAME).is_file():
+        return str(path / RESULT_NAME)
+    if (path / CONFIG_NAME).is_file():
+        raise ValueError(
+            f"cannot plot {path}: the sweep is unfinished (no {RESULT_NAME} yet); "
+            f"`rattlesweep resume {path}` completes it"
+        )
+    raise ValueError(
+        f"cannot plot {path}: a directory without {RESULT_NAME} or {CONFIG_NAME}; "
+        "expected a result file or a sweep directory (what 'rattlesweep sweep --out "
+        "DIR' writes)"
+    )
 
 
 def _sweep_output(path: Path) -> Path | None:

@@ -140,7 +140,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_verify)
 
     p = sub.add_parser("plot", help="draw a map of a sweep result to PNG")
-    p.add_argument("files", nargs="+", help="sweep result netCDF file(s)")
+    p.add_argument(
+        "files",
+        nargs="+",
+        help="sweep result netCDF file(s), or sweep directories (their sweep.nc)",
+    )
     p.add_argument(
         "--var",
         default=None,
