@@ -70,6 +70,30 @@ def test_ctrl_c_after_the_merge_says_the_result_is_complete(
     assert "kept in" in err and f"`rattlesweep resume {out}` finishes it" in err
 
 
+def test_ctrl_c_after_the_last_tile_of_a_zarr_sweep_says_the_result_is_complete(
+    tmp_path, monkeypatch, capsys
+):
+    # a store has nothing left to do after its last tile: it said "8 of 8 tiles kept …
+    # `rattlesweep resume` finishes it"
+    config = tmp_path / "z.toml"
+    config.write_text(as_zarr(small_sweep(tile_size=8)).to_toml())
+    store = tmp_path / "s.zarr"
+    run_tiles = run_module.run_tiles
+    # before its first tile: the store is laid out, and resume finishes it
+    monkeypatch.setattr(run_module, "run_tiles", _interrupt)
+    assert main(["sweep", str(config), "--out", str(store), "--quiet"]) == 130
+    err = capsys.readouterr().err
+    assert "tiles kept in" in err and f"`rattlesweep resume {store}` finishes it" in err
+    monkeypatch.setattr(run_module, "run_tiles", _then_interrupt(run_tiles))
+    assert main(["resume", str(store), "--quiet"]) == 130
+    err = capsys.readouterr().err
+    assert err == (
+        f"rattlesweep: interrupted; the result is complete: every tile of {store} is "
+        "written\n"
+    )
+    assert verify(store).ok
+
+
 def test_ctrl_c_of_an_export_says_whether_the_file_is_written(
     tmp_path, monkeypatch, capsys
 ):

@@ -83,12 +83,14 @@ def _kept(out: str | Path, interrupt: KeyboardInterrupt, existed: bool) -> str:
     :class:`~rattlesweep.sweep._outputs.store.SweepInterrupted`)."""
     from ..sweep._outputs.directory import CONFIG_NAME, RESULT_NAME
     from ..sweep._outputs.store import SweepInterrupted
-    from ..sweep._outputs.zarr_store import is_zarr_store
+    from ..sweep._outputs.zarr_store import every_tile_done, is_zarr_store
 
     location, out = out, Path(out)
     merged = out / RESULT_NAME
     if _complete(out, merged):
         return f"the result is complete: {merged} is written"
+    if is_zarr_store(location) and every_tile_done(str(location)):
+        return f"the result is complete: every tile of {location} is written"
     if not (out / CONFIG_NAME).is_file() and not is_zarr_store(location):
         if not existed:  # the directory this command made, empty but for its lock
             with contextlib.suppress(OSError):

@@ -318,6 +318,20 @@ def tiles_done(
         return np.ones(n_tiles, dtype=bool)
 
 
+def every_tile_done(
+    location: str, storage_options: Mapping[str, Any] | None = None
+) -> bool:
+    """Whether the store at ``location`` holds every tile of its sweep (each tile's done
+    flag set, the flags read cleanly): nothing is left to compute. False when it cannot
+    tell."""
+    try:
+        n_tiles = stored_sweep(location, storage_options).n_tiles
+        done: Any = _group(location, storage_options)[DONE_ARRAY]
+        return done.shape == (n_tiles,) and bool(done[:].all())
+    except Exception:  # no store, another one, a damaged flag: not known to be done
+        return False
+
+
 class ZarrStore:
     """The zarr output of ``sweep`` at ``location`` (see the module's description)."""
 
