@@ -61,6 +61,13 @@ def test_ctrl_c_after_the_merge_says_the_result_is_complete(
     assert main(["resume", str(out), "--quiet"]) == 130
     assert "the result is complete" in capsys.readouterr().err
 
+    # interrupted while reading what to resume: the output is as it was
+    stored = run_module.stored_sweep
+    monkeypatch.setattr(run_module, "stored_sweep", _interrupt)
+    assert main(["resume", str(out), "--quiet"]) == 130
+    assert capsys.readouterr().err == f"rattlesweep: interrupted; {out} is unchanged\n"
+    monkeypatch.setattr(run_module, "stored_sweep", stored)
+
     # interrupted during the tiles, with no merged file: the tiles are kept
     (out / "sweep.nc").unlink()
     (out / "tiles" / "tile-000001.nc").unlink()

@@ -226,7 +226,11 @@ def _dry_run(sweep: Sweep, args: argparse.Namespace) -> int:
 def _cmd_resume(args: argparse.Namespace, argv: list[str] | None) -> int:
     from ..sweep._execution.run import stored_sweep
 
-    return _run(stored_sweep(args.dir), args.dir, args, argv)
+    try:
+        sweep = stored_sweep(args.dir)
+    except KeyboardInterrupt:  # while its configuration was read: nothing touched yet
+        return _interrupted(f"{args.dir} is unchanged")
+    return _run(sweep, args.dir, args, argv)
 
 
 def _cmd_export(args: argparse.Namespace, argv: list[str] | None) -> int:
