@@ -5,7 +5,7 @@ import pytest
 
 from rattlesweep.cli import main
 from rattlesweep.sweep._execution import run as run_module
-from rattlesweep.sweep._outputs import directory, zarr_store
+from rattlesweep.sweep._outputs import directory, zarr_export
 from rattlesweep.sweep._outputs.verify import verify
 from sweep_helpers import as_zarr, small_sweep
 
@@ -107,11 +107,11 @@ def test_ctrl_c_of_an_export_says_whether_the_file_is_written(
     store = tmp_path / "s.zarr"
     run_module.run_sweep(as_zarr(small_sweep(tile_size=8)), store, progress=False)
     out = tmp_path / "s.nc"
-    export = zarr_store.export_netcdf
-    monkeypatch.setattr(zarr_store, "export_netcdf", _interrupt)
+    export = zarr_export.export_netcdf
+    monkeypatch.setattr(zarr_export, "export_netcdf", _interrupt)
     assert main(["export", str(store), str(out)]) == 130
     assert capsys.readouterr().err.endswith(f"nothing was written to {out}\n")
-    monkeypatch.setattr(zarr_store, "export_netcdf", _then_interrupt(export))
+    monkeypatch.setattr(zarr_export, "export_netcdf", _then_interrupt(export))
     assert main(["export", str(store), str(out)]) == 130
     assert capsys.readouterr().err.endswith(f"the export is complete: {out} is written\n")
     assert out.is_file()

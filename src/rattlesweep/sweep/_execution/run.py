@@ -274,6 +274,6 @@ def export(
 ) -> Path:
     """Write the finished zarr store ``store`` as one netCDF file ``out`` (the file a
     netCDF sweep writes as ``sweep.nc``)."""
-    from .._outputs.zarr_store import export_netcdf
+    from .._outputs.zarr_export import export_netcdf
 
     return export_netcdf(str(store), out, storage_options)
