@@ -56,6 +56,22 @@ def test_every_help_shows_the_defaults(name, parser):
         assert "--spin SPIN rad/s about the vertical" in text and "(default: 5.0)" in text
 
 
+@pytest.mark.parametrize("name,parser", _parsers(), ids=[n for n, _ in _parsers()])
+def test_no_command_takes_an_abbreviated_option(name, parser):
+    assert not parser.allow_abbrev
+
+
+@pytest.mark.parametrize("option", ["--roll", "--delta"])
+def test_an_angle_without_its_units_suffix_is_refused_not_taken_as_degrees(
+    option, capsys
+):
+    # argparse took --roll 0.3 as --roll-deg 0.3: 0.3 degrees where radians were meant
+    with pytest.raises(SystemExit) as exit_:
+        main(["simulate", option, "0.3", "--t-end", "0.1"])
+    assert exit_.value.code == 2
+    assert f"unrecognized arguments: {option} 0.3" in capsys.readouterr().err
+
+
 def test_simulate_takes_every_launch_and_friction_input_and_a_body_file(tmp_path, capsys):
     (tmp_path / "coins.toml").write_text(COINS)
     out = tmp_path / "run.nc"

@@ -46,10 +46,13 @@ class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
 
 
 class _Parser(argparse.ArgumentParser):
-    """Every parser and subcommand parser shows the defaults in its --help."""
+    """Every parser and subcommand parser shows the defaults in its --help, and takes
+    options by their full names only: argparse's abbreviations would take ``--roll 0.3``
+    as ``--roll-deg 0.3``, an angle in degrees where radians were meant."""
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         kwargs.setdefault("formatter_class", _HelpFormatter)
+        kwargs.setdefault("allow_abbrev", False)
         super().__init__(*args, **kwargs)
 
 
