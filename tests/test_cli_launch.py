@@ -62,9 +62,7 @@ def test_no_command_takes_an_abbreviated_option(name, parser):
 
 
 @pytest.mark.parametrize("option", ["--roll", "--delta"])
-def test_an_angle_without_its_units_suffix_is_refused_not_taken_as_degrees(
-    option, capsys
-):
+def test_an_angle_without_its_units_suffix_is_refused_not_taken_as_degrees(option, capsys):
     # argparse took --roll 0.3 as --roll-deg 0.3: 0.3 degrees where radians were meant
     with pytest.raises(SystemExit) as exit_:
         main(["simulate", option, "0.3", "--t-end", "0.1"])
