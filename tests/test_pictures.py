@@ -224,3 +224,40 @@ def test_a_map_over_mu_with_rolling_among_the_values(tmp_path):
         == 0
     )
     assert (tmp_path / "map.png").stat().st_size > 0
+
+
+def test_a_map_names_a_selected_value_that_is_not_on_its_axis():
+    """A body not on the body axis raised pandas' KeyError; a word for a number, numpy's
+    'could not convert string to float'."""
+    import xarray as xr
+
+    from rattlesweep.plot import reversal_map
+
+    ds = xr.Dataset(
+        {"first_reversal_time": (("body", "x", "y"), np.ones((2, 2, 2)))},
+        coords={"body": ["toy", "kane_levinson"], "x": [0.0, 1.0], "y": [0.0, 1.0]},
+    )
+    with pytest.raises(ValueError, match=r"select: 'toyy' is not a value of body "):
+        reversal_map(ds, x="x", y="y", var="first_reversal_time", select={"body": "toyy"})
+    ds = ds.rename(body="mu").assign_coords(mu=[0.3, math.inf])
+    with pytest.raises(ValueError, match="select: mu takes a number, got 'abc'"):
+        reversal_map(ds, x="x", y="y", var="first_reversal_time", select={"mu": "abc"})
+    fig = reversal_map(ds, x="x", y="y", var="first_reversal_time", select={"mu": 0.31})
+    assert fig.axes  # a number near a value still selects it
+
+
+def test_predicted_against_simulated_needs_shared_grid_points():
+    """Grids with no point in common were reported as 'no grid point both reversed in
+    the sweep and is unstable', blaming the physics."""
+    import xarray as xr
+
+    from rattlesweep.plot import reversal_vs_growth
+
+    stability = xr.Dataset({"e_folding_time": ("launch_spin", [1.0, 2.0])})
+    stability = stability.assign_coords(launch_spin=[1.0, 2.0])
+    sweep = xr.Dataset({"first_reversal_time": ("launch_spin", [1.0, 2.0])})
+    with pytest.raises(ValueError, match="no grid point: their values along launch_spin"):
+        reversal_vs_growth(stability, sweep.assign_coords(launch_spin=[3.0, 4.0]))
+    with pytest.raises(ValueError, match="the stability result has no e_folding_time"):
+        reversal_vs_growth(sweep, sweep)
+    assert reversal_vs_growth(stability, sweep.assign_coords(launch_spin=[1.0, 2.0])).axes

@@ -87,6 +87,40 @@ def test_plot_of_a_sweep_directory_draws_its_result(tmp_path, config, capsys):
     )
 
 
+def test_plot_options_that_cannot_be_drawn_are_named_before_anything_is_written(
+    tmp_path, config, capsys
+):
+    out = tmp_path / "o"
+    assert main(["sweep", str(config), "--out", str(out), "--quiet"]) == 0
+    capsys.readouterr()
+    refused = {
+        # the configuration's name for the axis, not the result's
+        ("--x", "spin"): "--x spin: results name it launch_spin",
+        ("--select", "mu=abc"): "select: mu takes a number, got 'abc'",
+        ("--select", "delta_deg=x"): "select: delta_deg takes a number, got 'x'",
+        ("--versus", str(out)): "the stability result has no e_folding_time",
+        ("--out", str(tmp_path / "a.png")): "--out names one PNG, for one file; got 2",
+    }
+    for (option, value), message in refused.items():
+        files = [str(out), str(out)] if option == "--out" else [str(out)]
+        assert main(["plot", *files, option, value]) == 2, option
+        captured = capsys.readouterr()
+        assert message in captured.err and "Traceback" not in captured.err
+        assert captured.out == ""  # no note about what would have been drawn
+    assert not list(tmp_path.glob("*.png")) and not list(out.glob("*.png"))
+    # a one-axis sweep: a map needs two (its dimensions were read as letters)
+    one = tmp_path / "one.toml"
+    one.write_text("[axes]\nspin = [1.0, 2.0]\n[fixed]\nt_end = 0.2\n")
+    assert main(["sweep", str(one), "--out", str(tmp_path / "one"), "--quiet"]) == 0
+    capsys.readouterr()
+    assert main(["plot", str(tmp_path / "one")]) == 2
+    assert "a map needs two dimensions, found ['launch_spin']" in capsys.readouterr().err
+    # a PNG path without its suffix is written with it, and named so
+    assert main(["plot", str(out), "--out", str(tmp_path / "map")]) == 0
+    assert capsys.readouterr().out.endswith(f"wrote {tmp_path / 'map.png'}\n")
+    assert (tmp_path / "map.png").is_file()
+
+
 def test_info_counts_only_complete_tiles(tmp_path, config, capsys):
     out = tmp_path / "o"
     assert main(["sweep", str(config), "--out", str(out), "--quiet"]) == 0

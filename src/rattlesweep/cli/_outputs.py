@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     import xarray as xr
 
-from ._sweeps import _summary
+from ._sweeps import _summary, _sweep_dims
 
 
 def _open_netcdf(path: str) -> xr.Dataset:
@@ -67,6 +67,11 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
             select[key] = float(value)
         except ValueError:
             select[key] = value
+    if args.out and len(args.files) > 1:
+        raise ValueError(
+            f"--out names one PNG, for one file; got {len(args.files)} files (leave "
+            "--out out to write each map next to its file)"
+        )
     damage = {}
     for path in (*args.files, *filter(None, (args.overlay, args.versus))):
         damage[path] = _warn_damaged(Path(path), "plot")
@@ -91,19 +96,13 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
                 name = "reversal_vs_growth"
             else:
                 var = args.var or ("outcome" if "outcome" in ds else "growth_rate")
-                dims = [d for d in ds.attrs.get("sweep_dims", list(ds.dims))]
+                dims = _sweep_dims(ds)
                 x = args.x or dims[0]
                 y = args.y or next((d for d in dims if d != x), None)
                 if y is None:
                     raise ValueError(f"{path}: a map needs two dimensions, found {dims}")
+                _check_names(ds, var, {"--x": x, "--y": y, "--facet": args.facet}, select)
                 first = _first_values(ds, var, (x, y, args.facet), select, args.reduce)
-                if first:
-                    print(
-                        f"{path}: {var} at "
-                        + ", ".join(f"{d} = {v}" for d, v in first.items())
-                        + " (the first values of the dimensions not drawn; --select "
-                        "DIM=VALUE picks another, --facet DIM draws each)"
-                    )
                 fig = reversal_map(
                     ds,
                     x=x,
@@ -114,6 +113,13 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
                     reduce=args.reduce,
                     overlay=overlay,
                 )
+                if first:
+                    print(
+                        f"{path}: {var} at "
+                        + ", ".join(f"{d} = {v}" for d, v in first.items())
+                        + " (the first values of the dimensions not drawn; --select "
+                        "DIM=VALUE picks another, --facet DIM draws each)"
+                    )
                 name = var
             drawn = _plotted_file(Path(path))
             png = (
@@ -121,11 +127,28 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
                 if args.out and len(args.files) == 1
                 else Path(drawn).with_name(f"{Path(drawn).stem}_{name}.png")
             )
+            if not png.suffix:  # matplotlib adds it
+                png = png.with_suffix(".png")
             fig.savefig(png, dpi=args.dpi)
             print(f"wrote {png}")
     if overlay is not None:
         overlay.close()
     return 0
+
+
+def _check_names(ds: xr.Dataset, var: str, named: dict, select: dict) -> None:
+    """Refuse a parameter named as the configuration names it (``spin``, ``roll``)
+    where the result calls it otherwise (``launch_spin``, ``roll_deg``), saying so."""
+    from ..sweep._config.params import result_name
+
+    if var not in ds.data_vars:
+        return  # reversal_map names a missing variable
+    for option, name in [*named.items(), *(("--select", d) for d in select)]:
+        if name is None or name in ds[var].dims:
+            continue
+        known = result_name(name)
+        if known != name and known in ds[var].dims:
+            raise ValueError(f"{option} {name}: results name it {known}")
 
 
 def _first_values(

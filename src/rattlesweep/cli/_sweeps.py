@@ -21,10 +21,17 @@ def _command(argv: list[str] | None) -> str:
     return "rattlesweep " + shlex.join(sys.argv[1:] if argv is None else argv)
 
 
+def _sweep_dims(ds: xr.Dataset) -> list[str]:
+    """The sweep's dimensions in its own order (a file's attribute; netCDF gives a list
+    of one name back as the name), else the dataset's."""
+    dims = ds.attrs.get("sweep_dims", list(ds.dims))
+    return [dims] if isinstance(dims, str) else [str(d) for d in dims]
+
+
 def _save_map(ds: xr.Dataset, png: Path, var: str = "outcome") -> Path:
     from ..plot import reversal_map
 
-    dims = [d for d in ds.attrs.get("sweep_dims", list(ds.dims)) if d in ds[var].dims]
+    dims = [d for d in _sweep_dims(ds) if d in ds[var].dims]
     if len(dims) < 2:
         raise ValueError(f"a map needs two sweep dimensions; this sweep has {dims}")
     facet = dims[2] if len(dims) > 2 else None

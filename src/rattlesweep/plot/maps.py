@@ -50,7 +50,15 @@ def _select(da: xr.DataArray, select: Mapping[str, Any]) -> xr.DataArray:
     coordinate (exact first, so that inf selects inf)."""
     for dim, value in select.items():
         values = da[dim].values
-        if value in values or values.dtype.kind not in "fiu":
+        numeric = values.dtype.kind in "fiu"
+        if numeric and isinstance(value, str):
+            raise ValueError(f"select: {dim} takes a number, got {value!r}")
+        if not numeric and value not in values:
+            raise ValueError(
+                f"select: {value!r} is not a value of {dim} "
+                f"({', '.join(str(v) for v in values)})"
+            )
+        if value in values or not numeric:
             da = da.sel({dim: value})
         else:
             da = da.sel({dim: value}, method="nearest")
@@ -381,6 +389,14 @@ def reversal_vs_growth(
     8 values, a colour bar when it has more."""
     import numpy as np
 
+    for ds, role, name, made_by in (
+        (stability, "stability", "e_folding_time", "rattlesweep stability"),
+        (sweep, "sweep", "first_reversal_time", "a sweep"),
+    ):
+        if name not in ds.data_vars:
+            raise ValueError(
+                f"the {role} result has no {name}: expected what {made_by} writes"
+            )
     t_rev = sweep.first_reversal_time
     efold = stability.e_folding_time
     shared = [d for d in efold.dims if d in t_rev.dims]
@@ -390,6 +406,10 @@ def reversal_vs_growth(
             f"sweep {list(t_rev.dims)}"
         )
     efold, t_rev = xr.align(efold, t_rev, join="inner")
+    if efold.size == 0 or t_rev.size == 0:
+        raise ValueError(
+            f"the files share no grid point: their values along {', '.join(shared)} differ"
+        )
     efold, t_rev = xr.broadcast(efold, t_rev)
     ok = np.isfinite(t_rev.values) & np.isfinite(efold.values) & (efold.values > 0)
     if not ok.any():
