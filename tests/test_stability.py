@@ -244,7 +244,16 @@ def test_stability_dataset_on_a_sweep_grid_and_cli(tmp_path, capsys):
 
     out = tmp_path / "stab.nc"
     assert main(["stability", str(toml), "--out", str(out)]) == 0
-    assert "unstable" in capsys.readouterr().out
+    # counted by the mode: the delta_deg = 0 row (growth rates of rounding size) and
+    # the zero spin are neutral, not unstable (the summary counted them unstable)
+    modes = rs.decode(ds["mode"]).values.ravel()
+    unstable = np.isin(modes, ["pitch_unstable", "roll_unstable"]).mean()
+    neutral = (modes == "neutral").mean()
+    assert 0 < neutral and 0 < unstable < 1 - neutral
+    assert (
+        f"; {unstable:.0%} unstable, {neutral:.0%} neutral, largest growth rate"
+        in capsys.readouterr().out
+    )
     assert (
         main(
             [

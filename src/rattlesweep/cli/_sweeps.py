@@ -311,16 +311,20 @@ def _cmd_demo(args: argparse.Namespace, argv: list[str] | None) -> int:
 
 def _cmd_stability(args: argparse.Namespace, argv: list[str] | None) -> int:
     from ..io import write_netcdf
-    from ..stability import stability_dataset
+    from ..stability import NEUTRAL, PITCH_UNSTABLE, ROLL_UNSTABLE, stability_dataset
     from ..sweep import Sweep
 
     t0 = time.perf_counter()
     ds = stability_dataset(Sweep.from_toml(Path(args.config)), command=_command(argv))
     path = write_netcdf(ds, args.out)
-    unstable = float((ds.growth_rate > 0).mean())
+    # by the mode, as the file classifies each point: a growth rate of rounding size
+    # (a symmetric body, zero spin) is neutral, not unstable
+    unstable = float(ds["mode"].isin([PITCH_UNSTABLE, ROLL_UNSTABLE]).mean())
+    neutral = float((ds["mode"] == NEUTRAL).mean())
     print(
         f"wrote {path}: {int(ds.growth_rate.size)} grid points in "
-        f"{time.perf_counter() - t0:.2f} s; {unstable:.0%} unstable, largest growth rate "
-        f"{float(ds.growth_rate.max()):.4g} s-1"
+        f"{time.perf_counter() - t0:.2f} s; {unstable:.0%} unstable"
+        + (f", {neutral:.0%} neutral" if neutral else "")
+        + f", largest growth rate {float(ds.growth_rate.max()):.4g} s-1"
     )
     return 0
