@@ -3,6 +3,7 @@ call into the batch layer, the tile-size choice, and the value object's immutabi
 
 import math
 import pickle
+import warnings
 import tomllib
 
 import numpy as np
@@ -443,3 +444,27 @@ def test_a_default_step_too_small_names_the_body_it_comes_from():
             axes={"spin": {"start": 0.0, "stop": 0.0, "num": 1}},
             fixed={"c": 1e-300, "t_end": 0.015625},
         )
+
+
+def test_a_tilt_in_radians_that_can_only_be_degrees_warns_as_run_batch_does():
+    """roll = 30 in a sweep (radians, the default) is 1719 degrees: run_batch warns of
+    it, and a sweep, which passes its angles on in radians, did not (it launched at
+    -81 degrees)."""
+    fixed = {"t_end": 0.5}
+    with pytest.warns(rs.UnitsWarning, match=r"roll = 30 rad \(1719 degrees\)") as seen:
+        Sweep(axes={"spin": [1.0]}, fixed={**fixed, "roll": 30})
+    assert seen[0].filename == __file__  # at the caller's line
+    for where in (
+        {"random": {"pitch": {"uniform": [0.0, 1.7]}}, "repeats": 2},
+        {"axes": {"spin": [1.0], "roll": {"values": [0.2, 1.6]}}},
+    ):
+        with pytest.warns(rs.UnitsWarning, match="is more than 90 degrees from upright"):
+            try:
+                Sweep(**{"axes": {"spin": [1.0]}, "fixed": fixed, **where})
+            except ValueError:
+                pass  # and refused where a corner puts the rim on the floor
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for tilt in ({"roll_deg": 30}, {"roll": {"value": 30, "units": "deg"}}):
+            Sweep(axes={"spin": [1.0]}, fixed={**fixed, **tilt})
+        Sweep(axes={"spin": [1.0]}, fixed={**fixed, "yaw": 30})  # yaw turns freely

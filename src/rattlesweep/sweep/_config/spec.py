@@ -184,6 +184,7 @@ class Sweep:
         shape = tuple(len(a.values) for a in grid_axes) + (
             (config["repeats"],) if random_params else ()
         )
+        _warn_radians_as_degrees(config["fixed"], grid_axes, random_params)
         max_steps = check_corners(
             grid_axes,
             random_params,
@@ -501,6 +502,34 @@ def _fixed_si(fixed: Mapping[str, Any]) -> dict[str, float]:
         param, factor, _ = resolve(key, units, f"fixed.{key}")
         out[param.name] = value * factor
     return out
+
+
+def _warn_radians_as_degrees(
+    fixed: Mapping[str, Any],
+    grid_axes: tuple[Axis, ...],
+    random_params: tuple[RandomParam, ...],
+) -> None:
+    """Warn (:class:`~rattlesweep.UnitsWarning`) of a roll or pitch given in radians that
+    can only be degrees typed as radians (``roll = 30``), by the rule and with the
+    message of :func:`rattlesweep.run_batch`; a sweep passes its angles on in radians,
+    past the check that keyword makes."""
+    from ...rattleback.launch import angles_in_radians
+
+    given: dict[str, list[float]] = {}
+    for key, value, units in _fixed_numbers(fixed):
+        param, factor, _ = resolve(key, units, f"fixed.{key}")
+        if factor == 1.0:
+            given.setdefault(param.name, []).append(value)
+    for item in (*grid_axes, *random_params):
+        if item.param != "body" and item.factor == 1.0:
+            values = item.values if isinstance(item, Axis) else item.bounds()
+            given.setdefault(item.param, []).extend(float(v) for v in values)
+    body = _fixed_body(fixed)
+    full = isinstance(body, Body) and body.full_ellipsoid
+    # only the tilts are checked; yaw and the others are passed through untouched
+    tilts = {k: np.array(v) for k, v in given.items() if k in ("roll", "pitch")}
+    if tilts:
+        angles_in_radians(tilts, full_ellipsoid=full, stacklevel=4)
 
 
 def _fixed_shown(fixed: Mapping[str, Any]) -> str:
