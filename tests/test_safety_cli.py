@@ -306,3 +306,40 @@ def test_a_long_run_warning_is_one_line_of_the_command(tmp_path):
     assert warning.startswith("rattlesweep: warning: this sweep takes up to ")
     assert "core-minutes" in warning
     assert error.startswith(f"rattlesweep: error: output {in_the_way} exists")
+
+
+def test_a_netcdf_output_never_replaces_another_kind_of_file(tmp_path, config, capsys):
+    """``stability CONFIG --out CONFIG`` wrote netCDF over the configuration; ``export``
+    into a directory failed with the name of its temporary file."""
+    kept = config.read_bytes()
+    for argv in (
+        ["stability", str(config), "--out", str(config)],
+        ["simulate", "--t-end", "0.05", "--out", str(config)],
+    ):
+        assert main(argv) == 2
+        assert (
+            f"output {config} exists and is not a netCDF file: not overwriting it"
+            in capsys.readouterr().err
+        )
+        assert config.read_bytes() == kept
+    store = tmp_path / "s.zarr"
+    assert (
+        main(["sweep", str(config), "--out", str(store), "--output", "zarr", "--quiet"])
+        == 0
+    )
+    assert main(["export", str(store), str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert f"output {tmp_path} is a directory; give the netCDF file's path" in err
+    assert ".tmp" not in err
+    # a netCDF file, or an empty one, is replaced as before; folders are made for both
+    # kinds of output
+    nc = tmp_path / "new" / "e.nc"
+    for _ in range(2):
+        assert main(["export", str(store), str(nc)]) == 0
+    empty = tmp_path / "empty.nc"
+    empty.touch()
+    png = tmp_path / "pictures" / "spin.png"
+    assert (
+        main(["simulate", "--t-end", "0.05", "--out", str(empty), "--png", str(png)]) == 0
+    )
+    assert png.is_file() and empty.stat().st_size > 0

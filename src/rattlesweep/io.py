@@ -21,6 +21,7 @@ __all__ = [
     "DIGEST_SUFFIX",
     "DamagedFile",
     "NETCDF_LOCK",
+    "check_netcdf_target",
     "check_readable",
     "digest_path",
     "unreadable_files",
@@ -35,6 +36,30 @@ NETCDF_LOCK = threading.RLock()
 (concurrent writes crash it), and sweep tiles finish on several threads at once."""
 
 
+_NETCDF_MAGIC = (b"CDF\x01", b"CDF\x02", b"CDF\x05", b"\x89HDF\r\n\x1a\n")
+
+
+def check_netcdf_target(path: str | os.PathLike) -> None:
+    """Raise ValueError when ``path`` cannot take a netCDF file without losing something
+    else: a directory, or an existing file that is not netCDF (a configuration given as
+    the output by mistake). An existing netCDF file, or an empty one, is replaced."""
+    path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"output {path} is a directory; give the netCDF file's path")
+    try:
+        with open(path, "rb") as f:
+            head = f.read(8)
+    except FileNotFoundError:
+        return
+    except OSError as exc:
+        raise ValueError(f"output {path} cannot be read to check it: {exc}") from None
+    if head and not head.startswith(_NETCDF_MAGIC):
+        raise ValueError(
+            f"output {path} exists and is not a netCDF file: not overwriting it; give "
+            "another path, or remove it first"
+        )
+
+
 def write_netcdf(ds: xr.Dataset, path: str | os.PathLike, *, digest: bool = False) -> Path:
     """Write ``ds`` to ``path`` (netCDF4, zlib-compressed, every numeric array with HDF5's
     fletcher32 checksums) atomically.
@@ -44,9 +69,11 @@ def write_netcdf(ds: xr.Dataset, path: str | os.PathLike, *, digest: bool = Fals
     waits until the file is in place (:func:`_interrupts_held`). With ``digest``, the
     BLAKE2b digest of the complete file is written beside it first (:func:`digest_path`),
     so that a damaged file is recognised before the netCDF library opens it
-    (:func:`check_readable`). Returns the path.
+    (:func:`check_readable`). A directory or another kind of file at ``path`` is refused
+    (:func:`check_netcdf_target`). Returns the path.
     """
     path = Path(path)
+    check_netcdf_target(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     # fletcher32: HDF5 checksums every chunk, so a byte changed on disk fails the read
     # instead of reading as another value (a scalar is not chunked: it has none)

@@ -7,6 +7,7 @@ import argparse
 import math
 import sys
 import time
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 
@@ -91,8 +92,10 @@ def _simulate_from_args(args: argparse.Namespace) -> xr.Dataset:
 
 
 def _cmd_simulate(args: argparse.Namespace, argv: list[str] | None) -> int:
-    from ..io import write_netcdf
+    from ..io import check_netcdf_target, write_netcdf
 
+    if args.out:
+        check_netcdf_target(args.out)  # before the launch runs
     ds = _simulate_from_args(args)
     if args.out:
         write_netcdf(ds, args.out)
@@ -100,11 +103,13 @@ def _cmd_simulate(args: argparse.Namespace, argv: list[str] | None) -> int:
     if args.png:
         from ..plot import spin_history
 
-        spin_history(
+        figure = spin_history(
             [ds],
             [f"spin {args.spin:+g} rad/s"],
             title=f"{ds.attrs.get('body_name', 'body')}, mu={args.mu:g}",
-        ).savefig(args.png, dpi=120)
+        )
+        Path(args.png).parent.mkdir(parents=True, exist_ok=True)
+        figure.savefig(args.png, dpi=120)
         print(f"wrote {args.png}")
     t_rev = float(ds.first_reversal_time)
     print(

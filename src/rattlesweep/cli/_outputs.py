@@ -129,6 +129,7 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
             )
             if not png.suffix:  # matplotlib adds it
                 png = png.with_suffix(".png")
+            png.parent.mkdir(parents=True, exist_ok=True)  # as a netCDF output's
             fig.savefig(png, dpi=args.dpi)
             print(f"wrote {png}")
     if overlay is not None:

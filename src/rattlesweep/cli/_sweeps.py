@@ -241,6 +241,9 @@ def _cmd_resume(args: argparse.Namespace, argv: list[str] | None) -> int:
 
 
 def _cmd_export(args: argparse.Namespace, argv: list[str] | None) -> int:
+    from ..io import check_netcdf_target
+
+    check_netcdf_target(args.out)
     out = Path(args.out)
     before = _stamp(out)
     try:
@@ -310,10 +313,11 @@ def _cmd_demo(args: argparse.Namespace, argv: list[str] | None) -> int:
 
 
 def _cmd_stability(args: argparse.Namespace, argv: list[str] | None) -> int:
-    from ..io import write_netcdf
+    from ..io import check_netcdf_target, write_netcdf
     from ..stability import NEUTRAL, PITCH_UNSTABLE, ROLL_UNSTABLE, stability_dataset
     from ..sweep import Sweep
 
+    check_netcdf_target(args.out)
     t0 = time.perf_counter()
     ds = stability_dataset(Sweep.from_toml(Path(args.config)), command=_command(argv))
     path = write_netcdf(ds, args.out)
