@@ -159,6 +159,17 @@ def test_a_misspelt_option_is_refused_with_the_option_it_meant(
     assert f"; its options are {', '.join(_options(function, inputs))}" in message
 
 
+def test_a_body_parameter_given_to_a_launch_says_it_belongs_to_the_body():
+    # delta_deg to simulate was answered with "did you mean 'yaw_deg'?"
+    for key in ("delta_deg", "mass"):
+        with pytest.raises(TypeError) as refused:
+            rs.simulate(rs.Body.preset("toy"), t_end=0.1, **{key: 3.0})
+        assert (
+            f"simulate() got an unknown keyword {key!r} (it describes the body: give it "
+            "where the body is made)" in str(refused.value)
+        )
+
+
 @pytest.mark.parametrize("function,inputs,required,body", FUNCTIONS, ids=IDS)
 def test_a_missing_required_input_is_a_type_error_and_none_a_value_error(
     function, inputs, required, body

@@ -122,6 +122,14 @@ def test_ranges_are_inclusive_linear_or_log():
             r"axes\.spni: unknown parameter 'spni' \(did you mean 'spin'",
         ),
         (dict(axes={"spin": []}), r"axes\.spin: axis is empty"),
+        (  # it said 'a random parameter is a table {uniform = [low, high]}'
+            dict(axes={"spin": [1.0]}, random={"body": {"uniform": [0, 1]}}, repeats=2),
+            r"random\.body: the body cannot be random; give it in \[fixed\], or as an",
+        ),
+        (  # it said 'refine.axes must name at least one range axis'
+            dict(axes={"spin": [1.0, 2.0]}, refine=2),
+            r"refine: a refined sweep needs a range axis .* this sweep's axes are lists",
+        ),
         (
             dict(axes={"spin": {"start": 5, "stop": -5, "num": 3}}),
             r"axes\.spin: range is inverted",

@@ -15,7 +15,7 @@ import inspect
 import textwrap
 from typing import Any, Callable, Mapping, Sequence, TypeVar
 
-from .inputs import Input
+from .inputs import INPUTS, Input
 
 __all__ = [
     "LAUNCH_GROUPS",
@@ -75,6 +75,9 @@ def check_keywords(
             ]
             close = difflib.get_close_matches(key, [*names, *options], n=1)
             hint = f" (did you mean {close[0]!r}?)" if close else ""
+            described = INPUTS.get(key.removesuffix("_deg"))
+            if described is not None and described.group == "body":
+                hint = " (it describes the body: give it where the body is made)"
             takes = f"its inputs are {', '.join(names)}"
             if options:
                 takes += f"; its options are {', '.join(options)}"

@@ -299,7 +299,12 @@ def normalise_random(key: str, spec: Any) -> dict[str, Any]:
     """A random parameter as ``{"uniform": [low, high]}`` or ``{"normal": [mean, std]}``
     (with ``units`` when not the default); every value it can draw is checked."""
     where = f"random.{key}"
-    if key == "body" or not isinstance(spec, Mapping):
+    if key == "body":
+        raise ValueError(
+            f"{where}: the body cannot be random; give it in [fixed], or as an axis "
+            "of preset names"
+        )
+    if not isinstance(spec, Mapping):
         raise ValueError(
             f"{where}: a random parameter is a table {{uniform = [low, high]}} "
             f"or {{normal = [mean, std]}} (optionally with units); got {spec!r}"
@@ -404,6 +409,11 @@ def normalise_refine(
                 f"refine.axes: {key!r} is not a range of more than one value "
                 "({start, stop, num}); only ranges can be refined"
             )
+    if not ranges and "axes" not in spec:
+        raise ValueError(
+            "refine: a refined sweep needs a range axis ({start, stop, num} with num > "
+            f"1) to refine; this sweep's axes are lists ({', '.join(axes)})"
+        )
     if not chosen or len(set(chosen)) != len(chosen):
         raise ValueError(
             f"refine.axes must name at least one range axis, each once; got "
