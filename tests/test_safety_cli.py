@@ -343,3 +343,18 @@ def test_a_netcdf_output_never_replaces_another_kind_of_file(tmp_path, config, c
         main(["simulate", "--t-end", "0.05", "--out", str(empty), "--png", str(png)]) == 0
     )
     assert png.is_file() and empty.stat().st_size > 0
+
+
+def test_verify_and_resume_take_a_merged_file_for_its_directory(tmp_path, config, capsys):
+    """``verify DIR/sweep.nc`` said 'DIR/sweep.nc/sweep.toml not found', where info and
+    plot take that path; and a path that holds no sweep stopped verify's other paths."""
+    out = tmp_path / "o"
+    assert main(["sweep", str(config), "--out", str(out), "--quiet"]) == 0
+    capsys.readouterr()
+    missing = tmp_path / "nothing"
+    assert main(["verify", str(missing), str(out / "sweep.nc")]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == f"{out}: 4 of 4 tiles verified\n"
+    assert f"rattlesweep verify: {missing} holds no sweep" in captured.err
+    assert main(["resume", str(out / "sweep.nc"), "--quiet"]) == 0
+    assert capsys.readouterr().out.startswith(f"wrote {out / 'sweep.nc'}: ")

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     import xarray as xr
 
-from ._sweeps import _summary, _sweep_dims
+from ._sweeps import _summary, _sweep_dims, _sweep_output
 
 
 def _open_netcdf(path: str) -> xr.Dataset:
@@ -190,19 +190,6 @@ def _plotted_file(path: Path) -> str:
         "expected a result file or a sweep directory (what 'rattlesweep sweep --out "
         "DIR' writes)"
     )
-
-
-def _sweep_output(path: Path) -> Path | None:
-    """The sweep output ``path`` is or belongs to: a zarr store, a sweep directory, or
-    the directory of a merged ``sweep.nc``; None for a file of no sweep directory."""
-    from ..sweep._outputs.directory import CONFIG_NAME, RESULT_NAME
-    from ..sweep._outputs.zarr_store import is_zarr_store
-
-    if is_zarr_store(path) or (path / CONFIG_NAME).is_file():
-        return path
-    if path.name == RESULT_NAME and (path.parent / CONFIG_NAME).is_file():
-        return path.parent
-    return None
 
 
 @dataclass(frozen=True)

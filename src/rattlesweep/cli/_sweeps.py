@@ -21,6 +21,19 @@ def _command(argv: list[str] | None) -> str:
     return "rattlesweep " + shlex.join(sys.argv[1:] if argv is None else argv)
 
 
+def _sweep_output(path: Path) -> Path | None:
+    """The sweep output ``path`` is or belongs to: a zarr store, a sweep directory, or
+    the directory of a merged ``sweep.nc``; None for a file of no sweep directory."""
+    from ..sweep._outputs.directory import CONFIG_NAME, RESULT_NAME
+    from ..sweep._outputs.zarr_store import is_zarr_store
+
+    if is_zarr_store(path) or (path / CONFIG_NAME).is_file():
+        return path
+    if path.name == RESULT_NAME and (path.parent / CONFIG_NAME).is_file():
+        return path.parent
+    return None
+
+
 def _sweep_dims(ds: xr.Dataset) -> list[str]:
     """The sweep's dimensions in its own order (a file's attribute; netCDF gives a list
     of one name back as the name), else the dataset's."""
@@ -233,11 +246,19 @@ def _dry_run(sweep: Sweep, args: argparse.Namespace) -> int:
 def _cmd_resume(args: argparse.Namespace, argv: list[str] | None) -> int:
     from ..sweep._execution.run import stored_sweep
 
+    out = _output_named(args.dir)
     try:
-        sweep = stored_sweep(args.dir)
+        sweep = stored_sweep(out)
     except KeyboardInterrupt:  # while its configuration was read: nothing touched yet
-        return _interrupted(f"{args.dir} is unchanged")
-    return _run(sweep, args.dir, args, argv)
+        return _interrupted(f"{out} is unchanged")
+    return _run(sweep, out, args, argv)
+
+
+def _output_named(name: str) -> str:
+    """The sweep output a command line argument names: the directory of a merged
+    ``sweep.nc`` given in its place, else the argument as given."""
+    out = _sweep_output(Path(name))
+    return str(out) if out is not None and Path(name).name != out.name else name
 
 
 def _cmd_export(args: argparse.Namespace, argv: list[str] | None) -> int:
@@ -275,12 +296,17 @@ def _stamp(path: Path) -> tuple[int, int] | None:
 def _cmd_verify(args: argparse.Namespace, argv: list[str] | None) -> int:
     from ..sweep._outputs.verify import verify
 
-    failed = 0
-    for out in args.outputs:
-        found = verify(out)
+    failed = refused = 0
+    for name in args.outputs:
+        try:
+            found = verify(_output_named(name))
+        except ValueError as exc:  # the others are still verified
+            print(f"rattlesweep verify: {exc}", file=sys.stderr)
+            refused += 1
+            continue
         print(found.report())
         failed += not found.ok
-    return 1 if failed else 0
+    return 2 if refused else (1 if failed else 0)
 
 
 def _cmd_demo(args: argparse.Namespace, argv: list[str] | None) -> int:
