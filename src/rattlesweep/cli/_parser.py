@@ -104,7 +104,7 @@ def build_parser() -> argparse.ArgumentParser:
         "resume",
         help="finish an interrupted sweep in DIR (a sweep directory or zarr store)",
     )
-    p.add_argument("dir")
+    p.add_argument("dir", help="sweep directory (or its sweep.nc) or zarr store")
     _add_run_options(p)
     p.set_defaults(func=_cmd_resume)
 
@@ -132,13 +132,13 @@ def build_parser() -> argparse.ArgumentParser:
         "verify",
         help="read back every tile of sweep outputs (sweep "
         "directories or zarr stores) and name what is missing or damaged; "
-        "exit status 1 if anything is",
+        "exit status 1 if anything is, 2 if an output holds no sweep",
     )
     p.add_argument(
         "outputs",
         nargs="+",
         metavar="OUT",
-        help="sweep directory or zarr store (a path or URL)",
+        help="sweep directory (or its sweep.nc) or zarr store (a path or URL)",
     )
     p.set_defaults(func=_cmd_verify)
 
