@@ -66,3 +66,34 @@ def test_the_runner_shows_every_tile_written_while_it_waits_for_the_next():
     lines = [line.split("] ")[1].split(" tiles")[0] for line in out.getvalue().splitlines()]
     # tile 1, written within 0.2 s of tile 0, is shown before tile 2 ends
     assert lines == ["1/3", "2/3", "3/3"]
+
+
+def test_a_wait_for_long_tiles_after_ctrl_c_is_explained_and_a_short_one_is_not():
+    """After a first Ctrl-C the tiles running finish, which for long launches took as
+    long as they had left without a word: the wait looked like a hang."""
+    import os
+    import signal
+    import threading
+
+    import pytest
+
+    from rattlesweep.sweep._execution import execute
+    from sweep_helpers import small_sweep
+
+    def interrupt_after(*delays):
+        for delay in delays:
+            threading.Timer(delay, os.kill, (os.getpid(), signal.SIGINT)).start()
+
+    for seconds, expected in ((0.3, []), (execute.STOPPING_NOTE + 1.5, [1])):
+        told = []
+        interrupt_after(0.2) if seconds < 1 else interrupt_after(0.2, seconds - 0.5)
+        with pytest.raises(KeyboardInterrupt):
+            execute.run_tiles(
+                small_sweep(),
+                [0, 1, 2, 3],
+                lambda result: None,
+                workers=1,
+                compute=lambda sweep, tile: time.sleep(seconds),
+                on_stopping=told.append,
+            )
+        assert told == expected  # the one tile running; queued ones were dropped

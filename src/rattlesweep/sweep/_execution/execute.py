@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import signal
 import threading
+import time
 from concurrent.futures import FIRST_COMPLETED, Future, ThreadPoolExecutor, wait
 from typing import Any, Callable
 
@@ -27,6 +28,7 @@ def run_tiles(
     workers: int = 1,
     compute: Callable[[Sweep, Any], Any] = compute_tile,
     on_wait: Callable[[], None] | None = None,
+    on_stopping: Callable[[int], None] | None = None,
 ) -> None:
     """Compute the tiles ``todo`` of ``sweep`` and call ``on_result`` with each result as
     it arrives. ``client`` (a ``distributed.Client``) runs them on its cluster; without
@@ -40,10 +42,12 @@ def run_tiles(
     handed over when Ctrl-C comes is handed over in full.
     An exception in ``on_result`` or a task stops the run and propagates.
     On local threads ``on_wait`` (a progress bar's ``tick``) is called in the calling
-    thread about every 0.1 s while tiles run.
+    thread about every 0.1 s while tiles run, and ``on_stopping`` once with the number
+    of tiles still running when they have not finished ``STOPPING_NOTE`` s after the
+    first Ctrl-C (so that a wait for long tiles is explained, and a short one is not).
     """
     if client is None:
-        _run_threads(sweep, todo, on_result, workers, compute, on_wait)
+        _run_threads(sweep, todo, on_result, workers, compute, on_wait, on_stopping)
     else:
         _run_cluster(sweep, todo, on_result, client, compute)
 
@@ -93,6 +97,10 @@ _END = object()
 _POLL = 0.1
 """Seconds between checks for Ctrl-C while tiles run."""
 
+STOPPING_NOTE = 2.0
+"""Seconds after a first Ctrl-C from which the wait for the tiles still running is
+explained (``on_stopping``)."""
+
 
 def _run_threads(
     sweep: Sweep,
@@ -101,6 +109,7 @@ def _run_threads(
     workers: int,
     compute: Callable[[Sweep, Any], Any],
     on_wait: Callable[[], None] | None = None,
+    on_stopping: Callable[[int], None] | None = None,
 ) -> None:
     # a few tiles queued per thread keeps the threads busy while this thread writes;
     # the rest are handed out as tiles finish, so results never pile up in memory
@@ -116,6 +125,7 @@ def _run_threads(
                 return
             running.add(pool.submit(compute, sweep, tile))
 
+    stop_seen = None  # when the first Ctrl-C was seen (monotonic s); then None again
     with _Interrupts() as interrupts:
         try:
             refill()
@@ -134,6 +144,11 @@ def _run_threads(
                     for future in list(running):
                         if future.cancel():
                             running.discard(future)
+                    now = time.monotonic()
+                    stop_seen = now if stop_seen is None else stop_seen
+                    if running and on_stopping and now - stop_seen >= STOPPING_NOTE:
+                        on_stopping(len(running))
+                        on_stopping = None
         finally:
             pool.shutdown(wait=not interrupts.count, cancel_futures=True)
         if interrupts.count:

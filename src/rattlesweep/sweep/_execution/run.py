@@ -201,6 +201,10 @@ def _run_stage(
             workers=workers,
             compute=stage.compute,
             on_wait=bar.tick,
+            on_stopping=lambda running: bar.note(
+                f"stopping: no tile is started; the {running} running finish and are "
+                "written (Ctrl-C again stops at once, without them)"
+            ),
         )
     except KeyboardInterrupt:
         bar.interrupted()
