@@ -358,3 +358,28 @@ def test_verify_and_resume_take_a_merged_file_for_its_directory(tmp_path, config
     assert f"rattlesweep verify: {missing} holds no sweep" in captured.err
     assert main(["resume", str(out / "sweep.nc"), "--quiet"]) == 0
     assert capsys.readouterr().out.startswith(f"wrote {out / 'sweep.nc'}: ")
+
+
+def test_info_and_verify_of_an_output_being_written_name_its_writer(
+    tmp_path, config, capsys
+):
+    """They advised `rattlesweep resume DIR` for a sweep still running, which the lock
+    would refuse."""
+    import os
+
+    from rattlesweep.sweep._execution.lock import LOCK_NAME, SweepLock
+
+    out = tmp_path / "o"
+    assert main(["sweep", str(config), "--out", str(out), "--quiet"]) == 0
+    (out / "sweep.nc").unlink()
+    (out / "tiles" / "tile-000001.nc").unlink()
+    capsys.readouterr()
+    writing = f"a sweep is writing it now: process {os.getpid()} on this host"
+    with SweepLock(out.resolve() / LOCK_NAME):  # as a sweep running in this process
+        assert main(["info", str(out)]) == 0
+        assert f"3 of 4 (complete and readable); {writing}" in capsys.readouterr().out
+        assert main(["verify", str(out)]) == 1
+        report = capsys.readouterr().out
+        assert writing in report and "rattlesweep resume" not in report
+    assert main(["info", str(out)]) == 0
+    assert f"'rattlesweep resume {out}' completes it" in capsys.readouterr().out

@@ -275,6 +275,7 @@ def _info_directory(path: Path) -> Path | None:
             "sweep directory (what 'rattlesweep sweep --out DIR' writes)"
         )
     from ..sweep._outputs.directory import read_config
+    from ..sweep._outputs.verify import finish_advice
 
     sweep = read_config(path / "sweep.toml")
     print(f"{path} (unfinished sweep: no sweep.nc yet)")
@@ -293,7 +294,7 @@ def _info_directory(path: Path) -> Path | None:
         print(
             f"  levels started: {len(levels)} of {sweep.refine['levels'] + 1}, {done} "
             "tiles "
-            f"written; 'rattlesweep resume {path}' completes it"
+            f"written; {finish_advice(path)}"
         )
         return None
     from ..sweep._outputs.verify import verify
@@ -303,7 +304,7 @@ def _info_directory(path: Path) -> Path | None:
     damaged = f", {len(found.damaged)} damaged" if found.damaged else ""
     print(
         f"  tiles written: {done} of {sweep.n_tiles} (complete and readable){damaged}; "
-        f"'rattlesweep resume {path}' completes it"
+        f"{finish_advice(path)}"
     )
     return None
 
@@ -311,6 +312,7 @@ def _info_directory(path: Path) -> Path | None:
 def _open_result(path: Path) -> xr.Dataset:
     import xarray as xr
 
+    from ..sweep._outputs.verify import finish_advice
     from ..sweep._outputs.zarr_store import (
         is_zarr_store,
         open_result,
@@ -327,7 +329,7 @@ def _open_result(path: Path) -> xr.Dataset:
     if done is not None and not done.all():
         print(
             f"{path} (unfinished zarr store: {int(done.sum())} of {sweep.n_tiles} tiles "
-            f"written; 'rattlesweep resume {path}' completes it)"
+            f"written; {finish_advice(path)})"
         )
     ds = open_result(str(path))
     for name in ("outcome", "computed", *ds.coords):  # what info reads, read here: a

@@ -129,15 +129,27 @@ class SweepLock:
             return True
         return not _running(pid, holder.get("started"))
 
+    def in_use(self) -> str | None:
+        """Who holds the lock, when a sweep that is running does (the process, its host,
+        since when and its command); None when nobody does or its holder is gone."""
+        holder, _ = self._holder()
+        if not holder or self._stale(holder):
+            return None
+        return self._who(holder)
+
+    def _who(self, holder: dict[str, Any]) -> str:
+        here = holder.get("host") == socket.gethostname()
+        return (
+            f"process {holder.get('pid')} on {'this host' if here else holder.get('host')}"
+            f", since {holder.get('since')} ({holder.get('command', '')})"
+        )
+
     def _refusal(self, holder: dict[str, Any]) -> str:
         where = (
             self.path.parent if self.path.name == LOCK_NAME else self.path.with_suffix("")
         )
         here = holder.get("host") == socket.gethostname()
-        who = (
-            f"process {holder.get('pid')} on {'this host' if here else holder.get('host')}"
-            f", since {holder.get('since')} ({holder.get('command', '')})"
-        )
+        who = self._who(holder)
         advice = (
             "wait for it to finish or stop it"
             if here

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
 
-__all__ = ["Verification", "verify"]
+__all__ = ["Verification", "finish_advice", "verify", "writer"]
 
 
 @dataclass(frozen=True)
@@ -52,11 +52,38 @@ class Verification:
             lines.append(f"  damaged: {_tiles(len(self.damaged) - 10)} more")
         lines.extend(f"  {p}" for p in self.problems)
         if not self.ok:
+            writing = writer(self.location)
             lines.append(
-                f"  `rattlesweep resume {self.location}` recomputes what is "
+                f"  a sweep is writing it now: {writing}"
+                if writing
+                else f"  `rattlesweep resume {self.location}` recomputes what is "
                 "missing or damaged"
             )
         return "\n".join(lines)
+
+
+def writer(out: str | os.PathLike) -> str | None:
+    """Who is writing the local sweep output ``out`` now (the process that holds its
+    lock, as :meth:`~rattlesweep.sweep._execution.lock.SweepLock.in_use` says); None
+    when no sweep is, or ``out`` is a URL (an object store has no lock)."""
+    from .._execution.lock import LOCK_NAME, SweepLock
+    from .zarr_store import is_zarr_store
+
+    location = str(out)
+    if "://" in location and not location.startswith("file://"):
+        return None
+    root = Path(location.removeprefix("file://")).resolve()
+    lock = root.with_name(root.name + ".lock") if is_zarr_store(out) else root / LOCK_NAME
+    return SweepLock(lock).in_use()
+
+
+def finish_advice(out: str | os.PathLike) -> str:
+    """How an unfinished output gets finished: by ``resume``, or by the sweep writing
+    it now."""
+    writing = writer(out)
+    if writing:
+        return f"a sweep is writing it now: {writing}"
+    return f"'rattlesweep resume {out}' completes it"
 
 
 def _tiles(n: int) -> str:
