@@ -383,3 +383,18 @@ def test_info_and_verify_of_an_output_being_written_name_its_writer(
         assert writing in report and "rattlesweep resume" not in report
     assert main(["info", str(out)]) == 0
     assert f"'rattlesweep resume {out}' completes it" in capsys.readouterr().out
+
+
+def test_info_gives_the_fixed_values_with_their_units(tmp_path, capsys):
+    # t_end given in ms was listed as t_end=2000.0, read as seconds
+    path = tmp_path / "ms.toml"
+    path.write_text(
+        '[axes]\nspin = [1.0, 2.0]\n[fixed]\nt_end = { value = 200, units = "ms" }\n'
+        "mu = 0.3\nroll_deg = 0.5\n"
+    )
+    assert main(["sweep", str(path), "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    capsys.readouterr()
+    assert main(["info", str(tmp_path / "o")]) == 0
+    fixed = next(line for line in capsys.readouterr().out.splitlines() if "fixed:" in line)
+    assert "t_end=200.0 ms" in fixed and "roll_deg=0.5 degree" in fixed
+    assert "mu=0.3," in fixed + ","  # dimensionless: no unit

@@ -403,7 +403,13 @@ def _cmd_info(args: argparse.Namespace, argv: list[str] | None) -> int:
                         else ", ".join(map(str, vals))
                     )
                     print(f"    {name}: {span} {units}  ({c.attrs.get('long_name', '')})")
-            scalars = [f"{c}={ds[c].values.item()}" for c in ds.coords if ds[c].ndim == 0]
+            scalars = [
+                f"{c}={ds[c].values.item()} {ds[c].attrs.get('units', '1')}".removesuffix(
+                    " 1"  # CF's dimensionless
+                )
+                for c in ds.coords
+                if ds[c].ndim == 0
+            ]
             if scalars:
                 print("  fixed: " + ", ".join(scalars))
             print("  variables: " + ", ".join(map(str, ds.data_vars)))
