@@ -261,3 +261,22 @@ def test_predicted_against_simulated_needs_shared_grid_points():
     with pytest.raises(ValueError, match="the stability result has no e_folding_time"):
         reversal_vs_growth(sweep, sweep)
     assert reversal_vs_growth(stability, sweep.assign_coords(launch_spin=[1.0, 2.0])).axes
+
+
+def test_a_map_title_names_the_values_shown_the_selected_first(tmp_path):
+    """A map of a slice did not say which (mu = 0.3 of two), and a store's
+    alphabetical coordinates pushed the configuration's t_end and roll out of the title's
+    first six values."""
+    import xarray as xr
+
+    from rattlesweep.plot import reversal_map
+    from rattlesweep.sweep import Sweep, run_sweep
+
+    s = Sweep(
+        axes={"spin": [-10.0, 10.0], "delta_deg": [-3.0, 3.0], "mu": [0.3, math.inf]},
+        fixed={"t_end": 0.5, "roll_deg": 0.5},
+    )
+    ds = run_sweep(s, tmp_path / "o", progress=False)
+    ds = xr.Dataset(ds.data_vars, coords=dict(sorted(ds.coords.items())), attrs=ds.attrs)
+    fig = reversal_map(ds, x="launch_spin", y="delta_deg", select={"mu": 0.3})
+    assert fig.get_suptitle().startswith("μ = 0.3, t_end = 0.5 s, roll_deg = 0.5°")

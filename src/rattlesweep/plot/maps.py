@@ -280,13 +280,28 @@ def reversal_map(
             loc="outside right center" if categorical else "outside lower center",
             title=da.attrs.get("long_name", var) if categorical else None,
         )
-    fixed = [
-        _fmt_coord(ds, c, ds[c].values.item())
-        for c in ds.coords
-        if ds[c].ndim == 0 and c in ds.coords and ds[c].dtype.kind in "fiu"
-    ]
+    # the values selected, then the configuration's fixed values (a store sorts its
+    # coordinates), then the defaults
+    order = [*(select or {}), *_given_fixed(ds)]
+    scalars = [c for c in da.coords if da[c].ndim == 0 and da[c].dtype.kind in "fiu"]
+    scalars.sort(key=lambda c: order.index(c) if c in order else len(order))
+    fixed = [_fmt_coord(da, c, da[c].values.item()) for c in scalars]
     fig.suptitle(title or _wrap_items(fixed[:6], fig), fontsize="small")
     return fig
+
+
+def _given_fixed(ds: xr.Dataset) -> list[str]:
+    """The result names of the fixed values a sweep's configuration (its
+    ``sweep_config`` attribute) gives, in its order; none for other datasets."""
+    import tomllib
+
+    from ..sweep._config.params import result_name
+
+    try:
+        fixed = tomllib.loads(str(ds.attrs.get("sweep_config", ""))).get("fixed", {})
+    except tomllib.TOMLDecodeError:
+        return []
+    return [result_name(key) for key in fixed if key != "body"]
 
 
 def _wrap_items(items: list[str], fig: Figure) -> str:
