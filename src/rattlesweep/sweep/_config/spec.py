@@ -520,10 +520,12 @@ def _warn_radians_as_degrees(
         param, factor, _ = resolve(key, units, f"fixed.{key}")
         if factor == 1.0:
             given.setdefault(param.name, []).append(value)
-    for item in (*grid_axes, *random_params):
-        if item.param != "body" and item.factor == 1.0:
-            values = item.values if isinstance(item, Axis) else item.bounds()
-            given.setdefault(item.param, []).extend(float(v) for v in values)
+    for axis in grid_axes:
+        if axis.param != "body" and axis.factor == 1.0:
+            given.setdefault(axis.param, []).extend(float(v) for v in axis.values)
+    for random in random_params:
+        if random.factor == 1.0:
+            given.setdefault(random.param, []).extend(random.bounds())
     body = _fixed_body(fixed)
     full = isinstance(body, Body) and body.full_ellipsoid
     # only the tilts are checked; yaw and the others are passed through untouched

@@ -97,9 +97,12 @@ class SweepLock:
         """Take the lock, taking over a stale one; SweepLocked when a running sweep holds
         it."""
         for _ in range(3):
+            # held before the link, so that an interrupt just after it still releases
+            # it (release removes only a lock this process wrote)
+            self.held = True
             if self._create():
-                self.held = True
                 return self
+            self.held = False
             holder, text = self._holder()
             if holder is None:
                 continue  # released meanwhile
@@ -162,6 +165,12 @@ class SweepLock:
         the file stays and the next sweep finds it stale."""
         if self.held:
             self.held = False
+            holder, _ = self._holder()
+            if not holder or (holder.get("host"), holder.get("pid")) != (
+                socket.gethostname(),
+                os.getpid(),
+            ):
+                return  # not written (an interrupt before the link), or not ours
             try:
                 self.path.unlink(missing_ok=True)
             except OSError:

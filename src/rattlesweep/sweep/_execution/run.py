@@ -147,9 +147,9 @@ def run_sweep(
     check_size(sweep)
     announce(sweep)
     store = open_output(sweep, out, command=command, storage_options=storage_options)
-    store.open()
     own_client = None
-    try:
+    try:  # open inside: an interrupt just after it still releases the lock
+        store.open()
         if scheduler is not None:
             client = own_client = _client(scheduler)
         notes = list(getattr(store, "notes", ()))
