@@ -78,7 +78,7 @@ def test_plot_of_a_sweep_directory_draws_its_result(tmp_path, config, capsys):
     assert main(["plot", str(out)]) == 2
     assert (
         f"cannot plot {out}: the sweep is unfinished (no sweep.nc yet); "
-        f"`rattlesweep resume {out}` completes it" in capsys.readouterr().err
+        f"'rattlesweep resume {out}' completes it" in capsys.readouterr().err
     )
     assert main(["plot", str(tmp_path)]) == 2
     assert (
@@ -93,20 +93,31 @@ def test_plot_options_that_cannot_be_drawn_are_named_before_anything_is_written(
     out = tmp_path / "o"
     assert main(["sweep", str(config), "--out", str(out), "--quiet"]) == 0
     capsys.readouterr()
-    refused = {
+    refused = [
         # the configuration's name for the axis, not the result's
-        ("--x", "spin"): "--x spin: results name it launch_spin",
-        ("--select", "mu=abc"): "select: mu takes a number, got 'abc'",
-        ("--select", "delta_deg=x"): "select: delta_deg takes a number, got 'x'",
-        ("--versus", str(out)): "the stability result has no e_folding_time",
-        ("--out", str(tmp_path / "a.png")): "--out names one PNG, for one file; got 2",
-    }
-    for (option, value), message in refused.items():
-        files = [str(out), str(out)] if option == "--out" else [str(out)]
-        assert main(["plot", *files, option, value]) == 2, option
+        (["--x", "spin"], "--x spin: results name it launch_spin"),
+        (["--select", "mu=abc"], "select: mu takes a number, got 'abc'"),
+        (["--select", "repeat=x"], "select: repeat takes a number, got 'x'"),
+        (["--select", "mu=nan"], "select: mu = nan is not within its axis, 0.3 .. inf"),
+        (["--select", "launch_spin=100"], "select: 'launch_spin' is drawn (as x)"),
+        (["--facet", "mu", "--select", "mu=0.3"], "select: 'mu' is drawn (as facet)"),
+        (["--select", "mu=0.3", "--select", "mu=inf"], "--select mu is given twice"),
+        (["--versus", str(out)], "the stability result has no e_folding_time"),
+        (["--versus", str(out), "--select", "mu=0.3"], "--select does not apply to it"),
+        ([str(out), "--out", str(tmp_path / "a.png")], "--out names one PNG, for one"),
+    ]
+    for options, message in refused:
+        assert main(["plot", str(out), *options]) == 2, options
         captured = capsys.readouterr()
         assert message in captured.err and "Traceback" not in captured.err
         assert captured.out == ""  # no note about what would have been drawn
+    # a value between two of an axis is drawn at the nearer, and said so
+    assert main(["plot", str(out), "--select", "mu=0.5", "--select", "repeat=0"]) == 0
+    assert f"{out}: mu = 0.5 is not on its axis: drawn at the nearest value, 0.3" in (
+        capsys.readouterr().out
+    )
+    for png in out.glob("*.png"):
+        png.unlink()
     assert not list(tmp_path.glob("*.png")) and not list(out.glob("*.png"))
     # a one-axis sweep: a map needs two (its dimensions were read as letters)
     one = tmp_path / "one.toml"
@@ -322,6 +333,19 @@ def test_a_netcdf_output_never_replaces_another_kind_of_file(tmp_path, config, c
             in capsys.readouterr().err
         )
         assert config.read_bytes() == kept
+    # a sweep's own files, which carry their digest
+    sweep_dir = tmp_path / "o"
+    assert main(["sweep", str(config), "--out", str(sweep_dir), "--quiet"]) == 0
+    merged = (sweep_dir / "sweep.nc").read_bytes()
+    assert main(["stability", str(config), "--out", str(sweep_dir / "sweep.nc")]) == 2
+    assert f"output {sweep_dir / 'sweep.nc'} is a sweep's file (its digest" in (
+        capsys.readouterr().err
+    )
+    assert (sweep_dir / "sweep.nc").read_bytes() == merged
+    assert main(["export", str(sweep_dir), str(tmp_path / "x.nc")]) == 2
+    assert "is a netCDF sweep's directory, not a zarr store: its result is" in (
+        capsys.readouterr().err
+    )
     store = tmp_path / "s.zarr"
     assert (
         main(["sweep", str(config), "--out", str(store), "--output", "zarr", "--quiet"])
@@ -352,10 +376,13 @@ def test_verify_and_resume_take_a_merged_file_for_its_directory(tmp_path, config
     assert main(["sweep", str(config), "--out", str(out), "--quiet"]) == 0
     capsys.readouterr()
     missing = tmp_path / "nothing"
-    assert main(["verify", str(missing), str(out / "sweep.nc")]) == 2
+    assert main(["verify", str(missing), str(out / "sweep.nc"), str(config)]) == 2
     captured = capsys.readouterr()
     assert captured.out == f"{out}: 4 of 4 tiles verified\n"
-    assert f"rattlesweep verify: {missing} holds no sweep" in captured.err
+    assert f"rattlesweep verify: {missing} does not exist" in captured.err
+    assert f"rattlesweep verify: {config} is a file: expected a sweep directory" in (
+        captured.err
+    )
     assert main(["resume", str(out / "sweep.nc"), "--quiet"]) == 0
     assert capsys.readouterr().out.startswith(f"wrote {out / 'sweep.nc'}: ")
 

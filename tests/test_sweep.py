@@ -440,8 +440,11 @@ def test_run_sweep_argument_errors(tmp_path):
         run_sweep(s, tmp_path, workers=0)
     with pytest.raises(ValueError, match="either client or scheduler"):
         run_sweep(s, tmp_path, client=object(), scheduler="tcp://x:1")
-    with pytest.raises(ValueError, match="holds no sweep"):
+    with pytest.raises(ValueError, match="nothing does not exist"):
         resume(tmp_path / "nothing")
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(ValueError, match="empty holds no sweep"):
+        resume(tmp_path / "empty")
     with pytest.raises(ValueError, match=r"fixed\.t_end: the end time \(s\) is required"):
         run_sweep(Sweep(axes={"spin": [1.0]}), tmp_path / "no_t_end")
     assert not (tmp_path / "no_t_end").exists()

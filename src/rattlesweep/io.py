@@ -39,13 +39,20 @@ NETCDF_LOCK = threading.RLock()
 _NETCDF_MAGIC = (b"CDF\x01", b"CDF\x02", b"CDF\x05", b"\x89HDF\r\n\x1a\n")
 
 
-def check_netcdf_target(path: str | os.PathLike) -> None:
+def check_netcdf_target(path: str | os.PathLike, *, digest: bool = False) -> None:
     """Raise ValueError when ``path`` cannot take a netCDF file without losing something
-    else: a directory, or an existing file that is not netCDF (a configuration given as
-    the output by mistake). An existing netCDF file, or an empty one, is replaced."""
+    else: a directory, an existing file that is not netCDF (a configuration given as the
+    output by mistake), or, unless the new file gets a ``digest`` too, a file with its
+    digest beside it (a sweep's tile or merged result). Another netCDF file, or an empty
+    one, is replaced."""
     path = Path(path)
     if path.is_dir():
         raise ValueError(f"output {path} is a directory; give the netCDF file's path")
+    if not digest and digest_path(path).is_file():
+        raise ValueError(
+            f"output {path} is a sweep's file (its digest {digest_path(path).name} is "
+            "beside it): not overwriting it; give another path"
+        )
     try:
         with open(path, "rb") as f:
             head = f.read(8)
@@ -73,7 +80,7 @@ def write_netcdf(ds: xr.Dataset, path: str | os.PathLike, *, digest: bool = Fals
     (:func:`check_netcdf_target`). Returns the path.
     """
     path = Path(path)
-    check_netcdf_target(path)
+    check_netcdf_target(path, digest=digest)
     path.parent.mkdir(parents=True, exist_ok=True)
     # fletcher32: HDF5 checksums every chunk, so a byte changed on disk fails the read
     # instead of reading as another value (a scalar is not chunked: it has none)

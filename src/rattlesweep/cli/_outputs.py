@@ -63,10 +63,31 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
         key, _, value = item.partition("=")
         if not _:
             raise ValueError(f"--select takes DIM=VALUE, got {item!r}")
+        if key in select:
+            raise ValueError(f"--select {key} is given twice")
         try:
             select[key] = float(value)
         except ValueError:
             select[key] = value
+    if args.versus:
+        unused = [
+            option
+            for option, value in (
+                ("--x", args.x),
+                ("--y", args.y),
+                ("--var", args.var),
+                ("--select", args.select),
+                ("--reduce", args.reduce),
+                ("--overlay", args.overlay),
+            )
+            if value
+        ]
+        if unused:
+            raise ValueError(
+                f"--versus draws every grid point the files share, coloured by --facet; "
+                f"{', '.join(unused)} {'does' if len(unused) == 1 else 'do'} not apply "
+                "to it"
+            )
     if args.out and len(args.files) > 1:
         raise ValueError(
             f"--out names one PNG, for one file; got {len(args.files)} files (leave "
@@ -91,6 +112,7 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
     for path in args.files:
         with read(path) as ds:
             if args.versus:
+                _check_names(ds, "growth_rate", {"--facet": args.facet}, {})
                 with read(args.versus) as sweep:
                     fig = reversal_vs_growth(ds, sweep, color_by=args.facet)
                 name = "reversal_vs_growth"
@@ -119,6 +141,11 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
                         + ", ".join(f"{d} = {v}" for d, v in first.items())
                         + " (the first values of the dimensions not drawn; --select "
                         "DIM=VALUE picks another, --facet DIM draws each)"
+                    )
+                for dim, value in _snapped(ds, select).items():
+                    print(
+                        f"{path}: {dim} = {select[dim]} is not on its axis: drawn at "
+                        f"the nearest value, {value}"
                     )
                 name = var
             drawn = _plotted_file(Path(path))
@@ -152,6 +179,19 @@ def _check_names(ds: xr.Dataset, var: str, named: dict, select: dict) -> None:
             raise ValueError(f"{option} {name}: results name it {known}")
 
 
+def _snapped(ds: xr.Dataset, select: dict) -> dict:
+    """The nearest axis value of each numeric ``select`` value not on its axis (which
+    the map draws instead)."""
+    import numpy as np
+
+    out = {}
+    for dim, value in select.items():
+        values = ds[dim].values
+        if values.dtype.kind in "fiu" and value not in values:
+            out[dim] = values[np.argmin(np.abs(values - value))].item()
+    return out
+
+
 def _first_values(
     ds: xr.Dataset,
     var: str,
@@ -181,9 +221,11 @@ def _plotted_file(path: Path) -> str:
     if (path / RESULT_NAME).is_file():
         return str(path / RESULT_NAME)
     if (path / CONFIG_NAME).is_file():
+        from ..sweep._outputs.verify import finish_advice
+
         raise ValueError(
             f"cannot plot {path}: the sweep is unfinished (no {RESULT_NAME} yet); "
-            f"`rattlesweep resume {path}` completes it"
+            f"{finish_advice(path)}"
         )
     raise ValueError(
         f"cannot plot {path}: a directory without {RESULT_NAME} or {CONFIG_NAME}; "

@@ -48,6 +48,8 @@ flag (simulated points dark, filled ones light)."""
 def _select(da: xr.DataArray, select: Mapping[str, Any]) -> xr.DataArray:
     """Select exact matches as they are and other numeric values by the nearest
     coordinate (exact first, so that inf selects inf)."""
+    import numpy as np
+
     for dim, value in select.items():
         values = da[dim].values
         numeric = values.dtype.kind in "fiu"
@@ -57,6 +59,12 @@ def _select(da: xr.DataArray, select: Mapping[str, Any]) -> xr.DataArray:
             raise ValueError(
                 f"select: {value!r} is not a value of {dim} "
                 f"({', '.join(str(v) for v in values)})"
+            )
+        if numeric and not (np.min(values) <= value <= np.max(values)):
+            # the nearest value of an axis is taken for a value within it only
+            raise ValueError(
+                f"select: {dim} = {value} is not within its axis, "
+                f"{np.min(values):g} .. {np.max(values):g}"
             )
         if value in values or not numeric:
             da = da.sel({dim: value})
@@ -172,11 +180,22 @@ def reversal_map(
         )
     if select:
         for dim in select:
+            if dim in (x, y, facet):
+                role = {x: "x", y: "y", facet: "facet"}[dim]
+                raise ValueError(
+                    f"select: {dim!r} is drawn (as {role}); select fixes only the "
+                    "dimensions not drawn"
+                )
             if dim not in da.dims:
                 raise ValueError(
                     f"select: {dim!r} is not a dimension of {var!r} ({list(da.dims)})"
                 )
         da = _select(da, select)
+    if overlay is not None and "outcome" not in overlay.data_vars:
+        raise ValueError(
+            "overlay: expected a sweep result (with outcome), to draw its simulated "
+            "reversal boundary"
+        )
     categorical = "flag_values" in da.attrs
     extra = [d for d in da.dims if d not in (x, y, facet)]
     if extra:
@@ -422,8 +441,13 @@ def reversal_vs_growth(
         )
     efold, t_rev = xr.align(efold, t_rev, join="inner")
     if efold.size == 0 or t_rev.size == 0:
+        apart = [
+            d
+            for d in shared
+            if not np.intersect1d(stability[d].values, sweep[d].values).size
+        ]
         raise ValueError(
-            f"the files share no grid point: their values along {', '.join(shared)} differ"
+            f"the files share no grid point: no value of {', '.join(apart)} is in both"
         )
     efold, t_rev = xr.broadcast(efold, t_rev)
     ok = np.isfinite(t_rev.values) & np.isfinite(efold.values) & (efold.values > 0)

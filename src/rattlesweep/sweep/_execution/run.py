@@ -258,6 +258,13 @@ def stored_sweep(
 
         return from_store(str(out), storage_options)
     config = Path(out) / CONFIG_NAME
+    if not Path(out).exists():
+        raise ValueError(f"{out} does not exist")
+    if not Path(out).is_dir():
+        raise ValueError(
+            f"{out} is a file: expected a sweep directory (or its {RESULT_NAME}) or a "
+            "zarr store"
+        )
     if not config.exists():
         raise ValueError(
             f"{out} holds no sweep ({config} not found, and it is no zarr store)"
@@ -279,5 +286,11 @@ def export(
     """Write the finished zarr store ``store`` as one netCDF file ``out`` (the file a
     netCDF sweep writes as ``sweep.nc``)."""
     from .._outputs.zarr_export import export_netcdf
+    from .._outputs.zarr_store import is_zarr_store
 
+    if not is_zarr_store(store) and (Path(store) / CONFIG_NAME).is_file():
+        raise ValueError(
+            f"{store} is a netCDF sweep's directory, not a zarr store: its result is "
+            f"{Path(store) / RESULT_NAME} already"
+        )
     return export_netcdf(str(store), out, storage_options)

@@ -325,9 +325,11 @@ def every_tile_done(
     flag set, the flags read cleanly): nothing is left to compute. False when it cannot
     tell."""
     try:
-        n_tiles = stored_sweep(location, storage_options).n_tiles
-        done: Any = _group(location, storage_options)[DONE_ARRAY]
-        return done.shape == (n_tiles,) and bool(done[:].all())
+        with _quiet(), warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # zarr's, on reading the metadata
+            n_tiles = stored_sweep(location, storage_options).n_tiles
+            done: Any = _group(location, storage_options)[DONE_ARRAY]
+            return done.shape == (n_tiles,) and bool(done[:].all())
     except Exception:  # no store, another one, a damaged flag: not known to be done
         return False
 
