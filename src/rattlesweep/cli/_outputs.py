@@ -31,9 +31,8 @@ def _open_netcdf(path: str) -> xr.Dataset:
         if isinstance(exc, RuntimeError):  # netCDF4's report of an HDF5 read failure
             raise ValueError(f"cannot read {path}: {_DAMAGED.format(reason)}") from None
         raise ValueError(
-            f"cannot read {path}: expected a rattlesweep result file "
-            f"(netCDF; a zarr store: `rattlesweep export` it first); "
-            f"{reason}"
+            f"cannot read {path}: expected a rattlesweep result file (netCDF), "
+            f"sweep directory or zarr store; {reason}"
         ) from None
 
 
