@@ -215,7 +215,7 @@ def _plotted_file(path: Path) -> str:
     from ..sweep._outputs.directory import CONFIG_NAME, RESULT_NAME
     from ..sweep._outputs.zarr_store import is_zarr_store
 
-    if not path.is_dir() or is_zarr_store(path):  # a zarr store is refused when read
+    if not path.is_dir() or is_zarr_store(path):  # a zarr store is read as it is
         return str(path)
     if (path / RESULT_NAME).is_file():
         return str(path / RESULT_NAME)
