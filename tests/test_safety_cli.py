@@ -425,3 +425,23 @@ def test_info_gives_the_fixed_values_with_their_units(tmp_path, capsys):
     fixed = next(line for line in capsys.readouterr().out.splitlines() if "fixed:" in line)
     assert "t_end=200.0 ms" in fixed and "roll_deg=0.5 degree" in fixed
     assert "mu=0.3," in fixed + ","  # dimensionless: no unit
+
+
+def test_plot_of_an_unfinished_zarr_store_says_so(tmp_path, config, capsys, monkeypatch):
+    # it drew the points not computed yet without a word
+    from rattlesweep.sweep._execution import run as run_module
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    store = tmp_path / "s.zarr"
+    monkeypatch.setattr(run_module, "run_tiles", interrupted)  # laid out, no tile
+    argv = ["sweep", str(config), "--out", str(store), "--output", "zarr", "--quiet"]
+    assert main(argv) == 130
+    monkeypatch.undo()
+    capsys.readouterr()
+    assert main(["plot", str(store), "--out", str(tmp_path / "m.png")]) == 0
+    assert (
+        f"{store} is unfinished (0 of 4 tiles written; 'rattlesweep resume {store}' "
+        "completes it): its points not computed yet are drawn as such"
+    ) in capsys.readouterr().out

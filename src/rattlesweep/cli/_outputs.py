@@ -101,11 +101,13 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
         if found is not None and found.unread:
             raise ValueError(found.unreadable(path))
         try:
-            return _open_netcdf(_plotted_file(Path(path)))
+            ds = _open_netcdf(_plotted_file(Path(path)))
         except ValueError:
             if found is None:
                 raise
             raise ValueError(found.unreadable(path)) from None
+        _note_unfinished_store(Path(path))
+        return ds
 
     overlay = read(args.overlay) if args.overlay else None
     for path in args.files:
@@ -161,6 +163,22 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
     if overlay is not None:
         overlay.close()
     return 0
+
+
+def _note_unfinished_store(path: Path) -> None:
+    """Say so when ``path`` is a zarr store not every tile of which is written: its
+    points not computed yet are drawn as such."""
+    from ..sweep._outputs.verify import finish_advice
+    from ..sweep._outputs.zarr_store import is_zarr_store, stored_sweep, tiles_done
+
+    if path.is_dir() and is_zarr_store(path):
+        n_tiles = stored_sweep(str(path)).n_tiles
+        done = tiles_done(str(path), n_tiles)
+        if done is not None and not done.all():
+            print(
+                f"{path} is unfinished ({int(done.sum())} of {n_tiles} tiles written; "
+                f"{finish_advice(path)}): its points not computed yet are drawn as such"
+            )
 
 
 def _check_names(ds: xr.Dataset, var: str, named: dict, select: dict) -> None:
