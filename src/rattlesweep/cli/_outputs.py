@@ -106,7 +106,12 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
             if found is None:
                 raise
             raise ValueError(found.unreadable(path)) from None
-        _note_unfinished_store(Path(path))
+        unfinished = _unfinished_store(Path(path))
+        if unfinished:
+            print(
+                f"{path} is unfinished ({unfinished}): its points not computed yet are "
+                "drawn as such"
+            )
         return ds
 
     overlay = read(args.overlay) if args.overlay else None
@@ -165,20 +170,19 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
     return 0
 
 
-def _note_unfinished_store(path: Path) -> None:
-    """Say so when ``path`` is a zarr store not every tile of which is written: its
-    points not computed yet are drawn as such."""
+def _unfinished_store(path: Path) -> str | None:
+    """For a zarr store not every tile of which is written, how many are and who
+    finishes it ("N of M tiles written; ..."); None otherwise."""
     from ..sweep._outputs.verify import finish_advice
     from ..sweep._outputs.zarr_store import is_zarr_store, stored_sweep, tiles_done
 
-    if path.is_dir() and is_zarr_store(path):
-        n_tiles = stored_sweep(str(path)).n_tiles
-        done = tiles_done(str(path), n_tiles)
-        if done is not None and not done.all():
-            print(
-                f"{path} is unfinished ({int(done.sum())} of {n_tiles} tiles written; "
-                f"{finish_advice(path)}): its points not computed yet are drawn as such"
-            )
+    if not is_zarr_store(path):
+        return None
+    n_tiles = stored_sweep(str(path)).n_tiles
+    done = tiles_done(str(path), n_tiles)
+    if done is None or done.all():
+        return None
+    return f"{int(done.sum())} of {n_tiles} tiles written; {finish_advice(path)}"
 
 
 def _check_names(ds: xr.Dataset, var: str, named: dict, select: dict) -> None:
@@ -371,25 +375,15 @@ def _info_directory(path: Path) -> Path | None:
 def _open_result(path: Path) -> xr.Dataset:
     import xarray as xr
 
-    from ..sweep._outputs.verify import finish_advice
-    from ..sweep._outputs.zarr_store import (
-        is_zarr_store,
-        open_result,
-        stored_sweep,
-        tiles_done,
-    )
+    from ..sweep._outputs.zarr_store import is_zarr_store, open_result
 
     if not is_zarr_store(path):
         _check_readable(path)
         with xr.open_dataset(path) as ds:
             return ds.load()  # all read here: a damaged chunk fails now
-    sweep = stored_sweep(str(path))
-    done = tiles_done(str(path), sweep.n_tiles)
-    if done is not None and not done.all():
-        print(
-            f"{path} (unfinished zarr store: {int(done.sum())} of {sweep.n_tiles} tiles "
-            f"written; {finish_advice(path)})"
-        )
+    unfinished = _unfinished_store(path)
+    if unfinished:
+        print(f"{path} (unfinished zarr store: {unfinished})")
     ds = open_result(str(path))
     for name in ("outcome", "computed", *ds.coords):  # what info reads, read here: a
         if name in ds:  # damaged chunk fails now, where it is named

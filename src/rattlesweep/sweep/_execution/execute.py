@@ -125,7 +125,7 @@ def _run_threads(
                 return
             running.add(pool.submit(compute, sweep, tile))
 
-    stop_seen = None  # when the first Ctrl-C was seen (monotonic s); then None again
+    stop_seen = None  # when the first Ctrl-C was seen (monotonic s); None before it
     with _Interrupts() as interrupts:
         try:
             refill()

@@ -52,13 +52,8 @@ class Verification:
             lines.append(f"  damaged: {_tiles(len(self.damaged) - 10)} more")
         lines.extend(f"  {p}" for p in self.problems)
         if not self.ok:
-            writing = writer(self.location)
-            lines.append(
-                f"  a sweep is writing it now: {writing}"
-                if writing
-                else f"  `rattlesweep resume {self.location}` recomputes what is "
-                "missing or damaged"
-            )
+            resume = f"`rattlesweep resume {self.location}` recomputes what is "
+            lines.append("  " + finish_advice(self.location, resume + "missing or damaged"))
         return "\n".join(lines)
 
 
@@ -77,13 +72,13 @@ def writer(out: str | os.PathLike) -> str | None:
     return SweepLock(lock).in_use()
 
 
-def finish_advice(out: str | os.PathLike) -> str:
-    """How an unfinished output gets finished: by ``resume``, or by the sweep writing
-    it now."""
+def finish_advice(out: str | os.PathLike, resume: str | None = None) -> str:
+    """How an unfinished output gets finished: by the sweep writing it now, else as
+    ``resume`` says (by default: ``rattlesweep resume OUT`` completes it)."""
     writing = writer(out)
     if writing:
         return f"a sweep is writing it now: {writing}"
-    return f"'rattlesweep resume {out}' completes it"
+    return resume or f"'rattlesweep resume {out}' completes it"
 
 
 def _tiles(n: int) -> str:

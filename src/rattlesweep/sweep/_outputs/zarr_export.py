@@ -6,7 +6,7 @@ import os
 from pathlib import Path
 from typing import Any, Mapping
 
-from .verify import writer
+from .verify import finish_advice
 from .zarr_store import (
     check_coords,
     check_tiles,
@@ -34,15 +34,10 @@ def export_netcdf(
     done = tiles_done(location, sweep.n_tiles, storage_options)
     if done is None or not done.all():
         missing = sweep.n_tiles if done is None else int((~done).sum())
-        writing = writer(location)
         raise ValueError(
             f"{location} is unfinished ({missing} of {sweep.n_tiles} tiles "
             "not computed); "
-            + (
-                f"a sweep is writing it now: {writing}"
-                if writing
-                else f"complete it with `rattlesweep resume {location}`"
-            )
+            + finish_advice(location, f"complete it with `rattlesweep resume {location}`")
         )
     bad = check_tiles(location, sweep, None, storage_options)
     if bad:
