@@ -281,8 +281,8 @@ def test_stale_kernels_are_dropped_where_numba_caches_them(tmp_path, monkeypatch
 
 
 def test_kernels_compiled_says_whether_a_first_call_compiles(tmp_path):
-    """Here the kernels are cached (a run just used the serial entry); in a process whose
-    numba cache is an empty directory they are not."""
+    """Here the kernels are cached (a run just used the entry); in a process whose numba
+    cache is an empty directory they are not."""
     import os
     import subprocess
     import sys
@@ -292,10 +292,10 @@ def test_kernels_compiled_says_whether_a_first_call_compiles(tmp_path):
     from rattlesweep._core.workspace import ROLLING
 
     rs.simulate(rs.Body.preset("toy"), spin=5.0, t_end=0.01)  # rolling: mu = inf
-    assert kernels_compiled(parallel=False, level=ROLLING)
+    assert kernels_compiled(level=ROLLING)
     probe = (
         "from rattlesweep._run import kernels_compiled; "
-        "print(kernels_compiled(False, level=0), kernels_compiled(True))"
+        "print(kernels_compiled(level=0), kernels_compiled())"
     )
     out = subprocess.run(
         [sys.executable, "-c", probe],

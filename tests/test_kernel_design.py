@@ -2,6 +2,7 @@
 but its outputs, and the compiled variants are a counted, bounded set."""
 
 import math
+import re
 
 import numba
 import numpy as np
@@ -174,54 +175,61 @@ def test_a_slow_slip_solves_alike_in_the_block_pass_and_alone(evaluate):
 
 
 # --- the compile budget ------------------------------------------------------------------
-# Every specialisation is a design decision: these are the variants each level compiles.
-# A right-hand side variant is (friction level of the evaluation, stage, one lane).
-_BLOCK_STAGES = ("start", "first", "mid", "last")
-RHS_VARIANTS = {
-    ROLLING: {(ROLLING, stage, False) for stage in range(len(_BLOCK_STAGES))},
-    SLIDING: {(SLIDING, stage, one) for stage in (0, 2, 3) for one in (False, True)},
-    COUPLES: {(COUPLES, stage, one) for stage in (0, 2, 3) for one in (False, True)},
-}
-"""The right-hand side variants each friction level adds; a batch at a level compiles
-its own and those of the levels below it (a block without couples, or where no lane
-slips, steps at a lower level)."""
+# Every specialisation is a design decision, declared in _core/specialisations.py: a
+# batch at any level compiles nothing beyond it, and `rattlesweep compile` builds it.
+USED = """
+import json
+import rattlesweep as rs
+from rattlesweep.planar import PlanarBody, run_planar_batch
+from rattlesweep._core import stepper
 
-ENTRY_BUDGET = {
-    "integrate_serial": 1,
-    "integrate_parallel": 1,
-    "contact_slip_velocity": 1,
-    "rolling_derivative": 1,
-}
-"""Compiled specialisations per entry point, per model and friction level."""
+for friction in ({}, {"mu": 0.3}, {"mu": 0.3, "mu_roll": 1e-4}):
+    for parallel in (False, True):
+        rs.run_batch(rs.Body.preset("toy"), spin=[-5.0, 5.0], roll_deg=1.0, t_end=0.02,
+                     parallel=parallel, **friction)
+        run_planar_batch(PlanarBody(a=0.1, b=0.05, mass=0.1), theta=[0.1, 0.3],
+                         t_end=0.02, parallel=parallel, **friction)
+rs.simulate(rs.Body.preset("toy"), spin=5.0, t_end=0.01, mu=0.3, record_every=1)
+print(json.dumps({
+    name: [[str(t) for t in sig] for sig in kernel.signatures]
+    for name, kernel in [("entry", stepper.integrate_serial),
+                         ("launch", stepper.contact_slip_velocity)]
+}))
+"""
 
 
-def _cached(dispatcher):
+def _on_disk(dispatcher):
     """The signatures numba's on-disk cache holds for a kernel, from the current sources."""
     return [key[0] for key in dispatcher._cache._cache_file._load_index()]
 
 
-def test_compiled_variants_stay_within_the_budget():
-    """Running a batch at each friction level compiles exactly the designed right-hand
-    side variants, and one specialisation of each entry point per model and level."""
-    body = rs.Body.preset("toy")
-    for friction in ({}, {"mu": 0.3}, {"mu": 0.3, "mu_roll": 1e-4}):
-        rs.run_batch(
-            body, spin=[-5.0, 5.0], roll_deg=1.0, t_end=0.01, parallel=False, **friction
-        )
-    variants = {
-        tuple(t.literal_value for t in sig[1:4]) for sig in _cached(dynamics.eval_block)
-    }
-    designed = set().union(*RHS_VARIANTS.values())
-    assert variants == designed, (
-        f"compiled right-hand side variants {sorted(variants - designed)} beyond the "
-        f"design, or {sorted(designed - variants)} missing"
+def test_batches_use_only_the_declared_specialisations():
+    """In a fresh process, batches of both models at every friction level, serial and
+    parallel, and a recorded run call exactly the entries of specialisations.JOBS; and
+    the cache holds no right-hand side variant beyond RHS_VARIANTS (one a batch compiled
+    outside them would be there: `rattlesweep compile` would not have built it)."""
+    import json
+    import subprocess
+    import sys
+
+    from rattlesweep._core import specialisations
+    from rattlesweep._core.planar import dynamics as planar
+
+    out = subprocess.run(
+        [sys.executable, "-c", USED], capture_output=True, text=True, check=True
     )
-    for name, budget in ENTRY_BUDGET.items():
-        per_literals: dict = {}
-        for sig in _cached(getattr(stepper, name)):
-            key = tuple(t.literal_value for t in sig if isinstance(t, numba.types.Literal))
-            per_literals[key] = per_literals.get(key, 0) + 1
-        assert all(count <= budget for count in per_literals.values()), (name, per_literals)
+    used = json.loads(out.stdout.splitlines()[-1])
+    declared = {
+        tuple(str(t) for t in job.signature)
+        for job in specialisations.JOBS
+        if not job.name.startswith("rhs:")
+    }
+    called = {tuple(sig) for sig in used["entry"] + used["launch"]}
+    assert called == declared  # 2 models x 3 levels, and the launch velocity
+    designed = set().union(*specialisations.RHS_VARIANTS.values())
+    for kernel in (dynamics.eval_block, planar.eval_block):
+        cached = {tuple(t.literal_value for t in sig[1:4]) for sig in _on_disk(kernel)}
+        assert cached <= designed, cached - designed
 
 
 PROBE = """
@@ -251,3 +259,14 @@ def test_a_rolling_run_compiles_no_slip_work(tmp_path):
         check=True,
     )
     assert out.stdout.split("\n")[0] == f"[{ROLLING}] 0 0 [{ROLLING}]"
+    # a cold call is not silent: it says what compiles, for how long, and what does it
+    # ahead, once (the launch velocity's compile after the stepper's says nothing more)
+    told = [line for line in out.stderr.splitlines() if "compiling" in line]
+    assert len(told) == 1, out.stderr
+    assert re.fullmatch(
+        r"compiling the simulation kernels for rattleback launches with rolling contact "
+        r"\(first use after installing: about \d+ s on one core; later processes load "
+        r"them in about a second\)\. 'rattlesweep compile' builds every kernel ahead, in "
+        r"parallel\.",
+        told[0],
+    ), told

@@ -1,4 +1,5 @@
-"""The sweep's progress bar: what it says while the first run compiles the kernels."""
+"""The sweep's progress bar: what it says while the first run compiles the kernels,
+and a rate without the compile time."""
 
 import io
 import time
@@ -6,10 +7,10 @@ import time
 from rattlesweep.sweep._execution.progress import Progress
 
 
-def test_a_compiling_first_tile_is_announced_and_left_out_of_the_eta():
+def test_a_compiling_first_tile_on_workers_is_announced_and_left_out_of_the_eta():
     out = io.StringIO()
     bar = Progress(4, 400, 0, 0, stream=out, every=0.0, compiling=True)
-    assert "compiling the simulation kernels (first run only" in out.getvalue()
+    assert "the workers compile the simulation kernels first" in out.getvalue()
     time.sleep(0.2)  # the first tile: compile and compute
     bar.update({"n": 100})
     assert bar.rate == 0.0 and out.getvalue().rstrip().endswith("ETA ?")
@@ -17,6 +18,22 @@ def test_a_compiling_first_tile_is_announced_and_left_out_of_the_eta():
     bar.update({"n": 100})  # the second tile: the rate is that of this tile alone
     assert 100 / 0.2 < bar.rate <= 100 / 0.05
     assert "ETA ?" not in out.getvalue().splitlines()[-1]
+
+
+def test_time_compiling_in_this_process_is_left_out_of_the_rate_and_said_apart():
+    compiled = [0.0]
+    out = io.StringIO()
+    bar = Progress(2, 200, 0, 0, stream=out, every=0.0, compile_clock=lambda: compiled[0])
+    time.sleep(0.3)
+    compiled[0] = 0.25  # of the 0.3 s, 0.25 s went to compiling
+    bar.update({"n": 100})
+    assert 100 / 0.3 * 2 < bar.rate < 100 / 0.04  # the 0.05 s computing alone
+    bar.close()
+    last = out.getvalue().splitlines()[-1]
+    assert "100 trajectories in 0.1 s" in last or "100 trajectories in 0.0 s" in last
+    assert last.endswith(", and 0.2 s compiling the kernels") or last.endswith(
+        ", and 0.3 s compiling the kernels"
+    )
 
 
 def test_without_compiling_the_rate_counts_every_tile():

@@ -65,11 +65,11 @@ def test_readme_is_a_front_page_with_the_two_commands():
     commands = re.findall(r"^```bash\n(.*?)\n```", text, flags=re.S | re.M)
     main_job = (
         "python3 -m venv .venv && .venv/bin/pip install -e . && "
-        ".venv/bin/rattlesweep demo --out rattlesweep-demo"
+        ".venv/bin/rattlesweep compile && .venv/bin/rattlesweep demo --out rattlesweep-demo"
     )
     tests = (
         "python3 -m venv .venv && .venv/bin/pip install -e '.[test,docs]' && "
-        ".venv/bin/python -m pytest"
+        ".venv/bin/rattlesweep compile && .venv/bin/python -m pytest"
     )
     assert commands == [main_job, tests]
     assert tests in (ROOT / ".ci" / "run").read_text()  # CI runs the README's command

@@ -27,10 +27,12 @@ __all__ = [
     "SweepLocked",
     "SweepWriteError",
     "UnitsWarning",
+    "compile_kernels",
     "decode",
     "design",
     "explore",
     "inputs",
+    "kernel_cache",
     "planar",
     "plot",
     "rattleback",
@@ -69,14 +71,17 @@ _FROM = {
     "SweepWriteError": ".sweep._outputs.store",
     "SweepLocked": ".sweep._execution.lock",
     "DesignRefused": ".design.constraints",
+    "compile_kernels": ".kernel_cache",
 }
 """Each name of the package and the module it comes from."""
 
 if TYPE_CHECKING:
     # what __getattr__ imports on first use, seen by type checkers as it is
-    from . import design, explore, inputs, planar, plot, rattleback, stability, sweep
+    from . import design, explore, inputs, kernel_cache, planar, plot, rattleback
+    from . import stability, sweep
     from . import io as io  # documented; out of __all__, not to shadow the stdlib's
     from .design.constraints import DesignRefused
+    from .kernel_cache import compile_kernels
     from ._steps import CoarseStepWarning, LongRunWarning
     from .planar import PlanarBody, run_planar_batch, simulate_planar
     from .rattleback import PRESETS, Body, UnitsWarning, run_batch

@@ -4,10 +4,9 @@ the friction level the batch's coefficients need."""
 
 from __future__ import annotations
 
-import contextlib
 import os
 import threading
-from typing import Any, Iterator
+from typing import Any
 
 import numba
 import numpy as np
@@ -16,18 +15,20 @@ from numba import types
 from ._model import Model, Prepared, Raw
 from ._pack import unblock
 from ._validation import check_boolean
-from ._core import stepper
+from ._cold_start import announce, compiling
+from ._core import specialisations, stepper
 from ._core.jit import on_disk
 from ._core.models import RATTLEBACK as RATTLEBACK_MODEL
 from ._core.workspace import BLOCK, MU_ROLL, MU_S, MU_SPIN, SLIDING, friction_level
 
 __all__ = [
+    "announce_compile",
     "batch_level",
     "check_record_size",
     "contact_slip_velocity",
     "execute",
     "kernels_compiled",
-    "numba_threads",
+    "worker_count",
     "physical_memory",
     "run_kernel",
 ]
@@ -50,9 +51,23 @@ def run_kernel(kernel: Any, literals: int | tuple[int, ...], *args: Any) -> None
     entry = _COMPILED.get(key)
     if entry is None:
         signature = (*(types.literal(value) for value in leading), *key[2:])
-        kernel.compile(signature)  # or loads it from the cache
+        if on_disk(kernel, signature):
+            kernel.compile(signature)  # loads it
+        else:
+            with compiling(_job_of(kernel, leading)):
+                kernel.compile(signature)
         entry = _COMPILED[key] = kernel.get_overload(signature)
     entry(*leading, *args)
+
+
+def _job_of(kernel: Any, leading: tuple[int, ...]) -> str | None:
+    """The name of the job of :data:`._core.specialisations.JOBS` that compiles
+    ``kernel`` at the literals ``leading``; None for a kernel outside them."""
+    if kernel is stepper.integrate_serial:
+        return specialisations.entry_job(*leading)
+    if kernel is stepper.contact_slip_velocity:
+        return specialisations.LAUNCH_JOB
+    return None
 
 
 def contact_slip_velocity(model: Model, P: np.ndarray, Y: np.ndarray) -> np.ndarray:
@@ -63,26 +78,20 @@ def contact_slip_velocity(model: Model, P: np.ndarray, Y: np.ndarray) -> np.ndar
     return U.transpose(1, 0, 2).reshape(2, -1)
 
 
-@contextlib.contextmanager
-def numba_threads(threads: int | None) -> Iterator[None]:
-    """Run the block with numba's thread count set to ``threads`` (None: unchanged)."""
-    if threads is None:
-        yield
-        return
+def worker_count(threads: int | None) -> int:
+    """The threads a parallel batch runs on: ``threads``, or numba's thread count (every
+    core unless ``NUMBA_NUM_THREADS`` or ``numba.set_num_threads`` says fewer)."""
     # numba sets its config attributes from the environment at import, out of mypy's sight
     limit = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]
+    if threads is None:
+        return int(numba.get_num_threads())
     if not (
         isinstance(threads, (int, np.integer))
         and not isinstance(threads, bool)
         and 1 <= threads <= limit
     ):
         raise ValueError(f"threads must be an integer from 1 to {limit}, got {threads!r}")
-    old = numba.get_num_threads()
-    numba.set_num_threads(int(threads))
-    try:
-        yield
-    finally:
-        numba.set_num_threads(old)
+    return int(threads)
 
 
 def physical_memory() -> int | None:
@@ -111,17 +120,22 @@ def check_record_size(prep: Prepared, n_rec: int, record_every: int) -> None:
         )
 
 
-def kernels_compiled(
-    parallel: bool = True, model: int = RATTLEBACK_MODEL, level: int = SLIDING
-) -> bool:
-    """True when the machine code of the kernel entry that :func:`execute` calls
-    (``parallel`` or serial) for the model number ``model`` at the friction level
-    ``level`` (:func:`friction_level`; the default: Coulomb friction without couples) is
-    in numba's on-disk cache: a first call in this process then loads it in about a
-    second; otherwise it compiles the kernels first."""
-    return on_disk(
-        stepper.integrate_parallel if parallel else stepper.integrate_serial, model, level
-    )
+def kernels_compiled(model: int = RATTLEBACK_MODEL, level: int = SLIDING) -> bool:
+    """True when the machine code of the kernel entry that :func:`execute` calls for the
+    model number ``model`` at the friction level ``level`` (:func:`friction_level`; the
+    default: Coulomb friction without couples) is in numba's on-disk cache: a first call
+    in this process then loads it in about a second; otherwise it compiles the kernels
+    first."""
+    return on_disk(stepper.integrate_serial, (types.literal(model), types.literal(level)))
+
+
+def announce_compile(prep: Prepared) -> None:
+    """Say, once per process, that running ``prep`` compiles kernels, when it does
+    (:func:`._cold_start.announce`)."""
+    names = [specialisations.entry_job(prep.model.number, batch_level(prep))]
+    if prep.model.number == RATTLEBACK_MODEL:
+        names.append(specialisations.LAUNCH_JOB)
+    announce(names)
 
 
 def batch_level(prep: Prepared) -> int:
@@ -131,11 +145,78 @@ def batch_level(prep: Prepared) -> int:
     return friction_level(mu_s, mu_spin, mu_roll)
 
 
-_PARALLEL = threading.Lock()
-"""Held by a parallel kernel call. numba's ``workqueue`` threading layer (the one it uses
-where neither TBB nor OpenMP is available) aborts the interpreter when two threads
-launch parallel regions at once; a parallel call already occupies every core, so calls
-from several threads take turns at no cost in throughput."""
+_CHUNKS_PER_WORKER = 8
+"""A parallel batch is cut into about this many pieces per thread, so that threads whose
+launches end early take more pieces (launches that stop at a reversal end unevenly), and
+a Ctrl-C waits for one piece per thread rather than the whole batch."""
+_MAX_CHUNK = 64  # blocks: a piece of a large batch stays a fraction of a second or so
+
+
+def _integrate(
+    literals: tuple[int, int], blocked: tuple[np.ndarray, ...], scalars: tuple, workers: int
+) -> None:
+    """Run ``stepper.integrate_serial`` over the blocks of ``blocked`` (P, Y, nsteps, O,
+    REC, each with a leading block axis), on ``workers`` threads taking pieces of
+    consecutive blocks in turn; each block is stepped by the same machine code whatever
+    thread or piece it falls in, so results do not depend on ``workers``. A Ctrl-C (or
+    an error) stops the threads from starting new pieces and waits for the running ones,
+    which write only their own blocks."""
+    P, Y, nsteps, O, REC = blocked
+    method, record_every, band = scalars
+
+    def run(a: int, b: int) -> None:
+        run_kernel(
+            stepper.integrate_serial,
+            literals,
+            P[a:b],
+            Y[a:b],
+            nsteps[a:b],
+            method,
+            record_every,
+            band,
+            O[a:b],
+            REC[a:b],
+        )
+
+    n_blocks = P.shape[0]
+    if workers <= 1 or n_blocks <= 1:
+        run(0, n_blocks)
+        return
+    run(0, 0)  # compiles (or loads) the entry once, on this thread, before the workers
+    chunk = min(_MAX_CHUNK, max(1, -(-n_blocks // (workers * _CHUNKS_PER_WORKER))))
+    pieces = iter(range(0, n_blocks, chunk))
+    take = threading.Lock()
+    stop = threading.Event()
+    errors: list[BaseException] = []
+
+    def work() -> None:
+        while not stop.is_set():
+            with take:
+                a = next(pieces, None)
+            if a is None:
+                return
+            try:
+                run(a, a + chunk)
+            except BaseException as error:  # re-raised on the calling thread
+                errors.append(error)
+                stop.set()
+
+    pool = [
+        threading.Thread(target=work, name=f"rattlesweep-batch-{i}", daemon=True)
+        for i in range(min(workers, -(-n_blocks // chunk)))
+    ]
+    for thread in pool:
+        thread.start()
+    try:
+        for thread in pool:
+            thread.join()
+    except BaseException:
+        stop.set()
+        for thread in pool:
+            thread.join()
+        raise
+    if errors:
+        raise errors[0]
 
 
 def execute(
@@ -158,20 +239,13 @@ def execute(
     REC = np.empty((n_blocks, n_rec, layout.N_REC, BLOCK))
     O = np.empty((n_blocks, layout.N_OBS, BLOCK))
     Y = prep.Y.copy()
-    entry = stepper.integrate_parallel if parallel else stepper.integrate_serial
-    with _PARALLEL if parallel else contextlib.nullcontext(), numba_threads(threads):
-        run_kernel(
-            entry,
-            (prep.model.number, batch_level(prep)),
-            prep.P,
-            Y,
-            prep.nsteps,
-            method,
-            record_every or 1,
-            band,
-            O,
-            REC,
-        )
+    announce_compile(prep)
+    _integrate(
+        (prep.model.number, batch_level(prep)),
+        (prep.P, Y, prep.nsteps, O, REC),
+        (method, record_every or 1, band),
+        worker_count(threads) if parallel else 1,
+    )
     rec = None
     if n_rec:
         rec = REC.transpose(0, 3, 1, 2).reshape(n_blocks * BLOCK, n_rec, layout.N_REC)[

@@ -25,5 +25,7 @@ Where things live:
   supplies to the stepper);
 * ``planar/`` – the rocking semi-ellipse of docs/model.md: the planar rocking semi-ellipse,
   with the same modules;
-* ``jit`` – the compile policy every kernel uses.
+* ``jit`` – the compile policy every kernel uses, and the locked on-disk cache;
+* ``specialisations`` – every compiled variant the library calls, as the jobs
+  ``rattlesweep compile`` builds.
 """

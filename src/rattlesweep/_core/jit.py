@@ -3,7 +3,8 @@
 All kernels are compiled with the same options so that the whole engine has one
 behaviour:
 
-* ``nogil=True`` so callers may run kernels from their own threads (the sweep layer).
+* ``nogil=True`` so callers may run kernels from their own threads (a parallel batch
+  spreads its blocks over threads; so does the sweep layer its tiles).
 * ``cache=True`` so the first call in a new process loads machine code from disk.
 * ``error_model="numpy"``: division by zero gives inf/NaN instead of raising. Besides
   matching the "bad trajectories get a status flag" rule, the Python error model puts a
@@ -17,15 +18,15 @@ behaviour:
   operation is IEEE-exact in every variant and lane, and results do not depend on the
   position in the batch or the batch size (a test checks this).
 * Two kinds of function. Only the block drivers own arrays: they allocate the block
-  workspace with NumPy, so they are compiled with :data:`allocating_kernel` (or
-  :data:`parallel_kernel`) and use numba's reference-counting runtime (NRT). Every helper
-  they call only reads and writes arrays it is given, and is compiled without NRT
-  (``_nrt=False``), so it takes no references: with NRT each helper call would increment
-  and decrement its array arguments' reference counts with atomic instructions, and the
-  threads of the parallel entry point would contend for the shared observables array's
-  count. Such a helper cannot allocate an array or return one it was not given: numba
-  refuses to compile either without NRT. The option is set explicitly on both kinds,
-  because a function that leaves it unset inherits its caller's.
+  workspace with NumPy, so they are compiled with :data:`allocating_kernel` and use
+  numba's reference-counting runtime (NRT). Every helper they call only reads and writes
+  arrays it is given, and is compiled without NRT (``_nrt=False``), so it takes no
+  references: with NRT each helper call would increment and decrement its array
+  arguments' reference counts with atomic instructions, which threads stepping blocks
+  of one batch at once would contend for. Such a helper cannot allocate an array or
+  return one it was not given: numba refuses to compile either without NRT. The option
+  is set explicitly on both kinds, because a function that leaves it unset inherits its
+  caller's.
 * The model hooks of :mod:`.models` and the accessor ``workspace.at`` are numba
   overloads compiled with :data:`OVERLOAD_OPTIONS`, the helpers' options.
 
@@ -39,36 +40,48 @@ next to the sources, or outside the package (``NUMBA_CACHE_DIR``, or the user's 
 directory when the package is read-only, where an upgrade in place would otherwise
 meet the kernels of the previous version). Kernels elsewhere that inline this package's,
 such as the tests' own, are dropped the same way by naming it in ``depends_on``.
+
+Several processes may compile into one cache at once (``rattlesweep compile`` runs
+several; so may a cluster's workers sharing ``NUMBA_CACHE_DIR``). Numba writes each file
+atomically, but it numbers a new signature's data file by reading the index, and two
+processes adding different signatures of one kernel at once would both pick the same
+number: the index would then name the other signature's machine code. So every cached
+kernel here saves through :class:`LockedCacheFile`, which holds an exclusive lock on a
+file beside the index for the whole read-choose-write, and writes the data before the
+index that names it, so that a reader never finds an entry whose data is not there yet.
 """
 
 from __future__ import annotations
 
-import functools
+import contextlib
+import fcntl
 import hashlib
+import itertools
 import os
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable, Iterator
 
 import numba
-from numba.core.caching import FunctionCache
+from numba.core.caching import FunctionCache, IndexDataCacheFile
 
 __all__ = [
     "FASTMATH",
     "JIT_OPTIONS",
+    "LockedCacheFile",
     "OVERLOAD_OPTIONS",
     "allocating_kernel",
+    "cache_directories",
     "drop_stale_cache",
     "inline_kernel",
     "kernel",
     "on_disk",
-    "parallel_kernel",
 ]
 
 FASTMATH = {"nsz"}  # see the module docstring for what is left out, and why
 
-JIT_OPTIONS = dict(
-    nogil=True, cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=False
-)
+_COMMON = dict(nogil=True, cache=True, error_model="numpy", fastmath=FASTMATH)
+
+JIT_OPTIONS = dict(**_COMMON, _nrt=False)
 """Options of every helper kernel."""
 
 # Any: numba's stubs type an overload's jit_options as a TypedDict of the public options,
@@ -77,36 +90,62 @@ OVERLOAD_OPTIONS: Any = {k: v for k, v in JIT_OPTIONS.items() if k != "cache"}
 """Options of the overloads (``at``, the model hooks): they are compiled into their
 callers, which are cached themselves."""
 
-kernel = functools.partial(numba.njit, **JIT_OPTIONS)
+
+class LockedCacheFile(IndexDataCacheFile):
+    """numba's index-and-data cache file, saved under an exclusive lock (``fcntl.flock``
+    on ``<index>.lock``) so that processes compiling into one cache at once never give
+    two signatures the same data file; the data is written before the index names it."""
+
+    @contextlib.contextmanager
+    def _locked(self) -> Iterator[None]:
+        os.makedirs(self._cache_path, exist_ok=True)
+        with open(self._index_path + ".lock", "a") as handle:
+            fcntl.flock(handle, fcntl.LOCK_EX)
+            try:
+                yield
+            finally:
+                fcntl.flock(handle, fcntl.LOCK_UN)
+
+    def save(self, key: Any, data: Any) -> None:
+        with self._locked():
+            overloads = self._load_index()
+            data_name = overloads.get(key)
+            if data_name is None:
+                used = set(overloads.values())
+                data_name = next(
+                    name
+                    for name in map(self._data_name, itertools.count(1))
+                    if name not in used
+                )
+            self._save_data(data_name, data)
+            if overloads.get(key) != data_name:
+                overloads[key] = data_name
+                self._save_index(overloads)
+
+
+def _jit(**options: Any) -> Callable[[Callable[..., Any]], Any]:
+    """A decorator compiling with ``options`` whose on-disk cache saves through
+    :class:`LockedCacheFile`."""
+
+    def decorate(function: Callable[..., Any]) -> Any:
+        dispatcher = numba.njit(**options)(function)
+        cache_file = dispatcher._cache._cache_file
+        if type(cache_file) is IndexDataCacheFile:  # the same file, saved under the lock
+            cache_file.__class__ = LockedCacheFile
+        return dispatcher
+
+    return decorate
+
+
+kernel = _jit(**JIT_OPTIONS)
 """Decorator for helpers and scalar functions: no NRT, so no allocation (see above)."""
 
-allocating_kernel = functools.partial(
-    numba.njit, nogil=True, cache=True, error_model="numpy", fastmath=FASTMATH, _nrt=True
-)
+allocating_kernel = _jit(**_COMMON, _nrt=True)
 """Decorator for a serial function that allocates a block workspace (with NRT)."""
 
-inline_kernel = functools.partial(
-    numba.njit,
-    nogil=True,
-    cache=True,
-    error_model="numpy",
-    fastmath=FASTMATH,
-    inline="always",
-    _nrt=False,
-)
+inline_kernel = _jit(**_COMMON, inline="always", _nrt=False)
 """Decorator for a lane body that callers specialise with literal flags: inlined in numba
 IR, so LLVM folds the flag's branches away in each copy."""
-
-parallel_kernel = functools.partial(
-    numba.njit,
-    nogil=True,
-    cache=True,
-    error_model="numpy",
-    fastmath=FASTMATH,
-    parallel=True,
-    _nrt=True,
-)
-"""Decorator for the one entry point that spreads blocks over numba threads."""
 
 
 def _numba_cache_dir(source: Path) -> Path:
@@ -118,6 +157,23 @@ def _numba_cache_dir(source: Path) -> Path:
     return Path(FunctionCache(namespace["probe"]).cache_path)
 
 
+NOT_COMPILED = ("specialisations.py",)
+"""Modules of this package that hold no kernel code (the list of what to compile): an
+edit of one keeps the cached kernels."""
+
+
+def _kernel_sources(root: Path) -> list[Path]:
+    return sorted(p for p in root.rglob("*.py") if p.name not in NOT_COMPILED)
+
+
+def cache_directories(root: Path = Path(__file__).parent) -> list[Path]:
+    """The directories numba caches the kernels of the package at ``root`` in, one per
+    source directory, root's own first (it holds the stamp of :func:`drop_stale_cache`);
+    RuntimeError when numba can cache in none of them."""
+    directories = sorted({path.parent for path in root.rglob("*.py")})
+    return [_numba_cache_dir(next(directory.glob("*.py"))) for directory in directories]
+
+
 def drop_stale_cache(
     root: Path = Path(__file__).parent, depends_on: tuple[Path, ...] = ()
 ) -> bool:
@@ -126,20 +182,14 @@ def drop_stale_cache(
     current sources and those of the packages at ``depends_on`` (whose kernels its own
     inline); True when it deleted them. A read-only installation is left as it is
     (numba caches its kernels elsewhere)."""
-    sources = sorted(root.rglob("*.py"))
+    sources = _kernel_sources(root)
     digest = hashlib.sha256()
-    for base, paths in [(root, sources)] + [
-        (d, sorted(d.rglob("*.py"))) for d in depends_on
-    ]:
+    for base, paths in [(root, sources)] + [(d, _kernel_sources(d)) for d in depends_on]:
         for path in paths:
             digest.update(path.relative_to(base).as_posix().encode())
             digest.update(path.read_bytes())
     try:
-        # root's own directory first: it holds the stamp
-        caches = [
-            _numba_cache_dir(next(directory.glob("*.py")))
-            for directory in sorted({path.parent for path in sources})
-        ]
+        caches = cache_directories(root)
     except (RuntimeError, OSError):  # numba cannot cache there at all: nothing to drop
         return False
     stamp = caches[0] / "kernel-sources.sha256"
@@ -160,14 +210,14 @@ def drop_stale_cache(
     return True
 
 
-def on_disk(dispatcher: Any, *literals: int) -> bool:
+def on_disk(dispatcher: Any, signature: tuple[Any, ...]) -> bool:
     """True when numba's on-disk cache holds machine code of the cached kernel
-    ``dispatcher`` for a signature whose leading arguments are the literal integers
-    ``literals`` (any signature when none are given), written from the current sources,
-    so that its first call in a process loads it rather than compiling it: callers use
-    it to say so before a first call that would compile."""
+    ``dispatcher`` for a signature beginning with the numba types ``signature`` (a
+    whole signature, or its leading literal arguments), written from the current
+    sources, so that its first call in a process loads it rather than compiling it:
+    callers use it to say so before a first call that would compile."""
     index = dispatcher._cache._cache_file._load_index()  # {} when absent or stale
-    wanted = tuple(numba.types.literal(value) for value in literals)
+    wanted = tuple(signature)
     return any(tuple(key[0][: len(wanted)]) == wanted for key in index)
 
 

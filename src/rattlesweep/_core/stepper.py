@@ -40,11 +40,10 @@ import math
 
 import numba
 import numpy as np
-from numba import prange
 
 from . import models
 from .events import LOCATE_ROWS, located
-from .jit import allocating_kernel, kernel, parallel_kernel
+from .jit import allocating_kernel, kernel
 from .levels import evaluate_state, rk4_step, switch_modes
 from .reversals import note_reversals, observe
 from .stages import set_step_fractions
@@ -123,7 +122,6 @@ from .workspace import (
 __all__ = [
     "advance_block",
     "contact_slip_velocity",
-    "integrate_parallel",
     "integrate_serial",
     "rolling_derivative",
 ]
@@ -427,25 +425,15 @@ def advance_block(model, level, P, Y, nsteps, method, record_every, band, O, REC
             finish_lane(W, model, j, P, status[j], Y, O)
 
 
-@parallel_kernel
-def integrate_parallel(model, level, P, Y, nsteps, method, record_every, band, O, REC):
-    """Integrate all blocks, spread over numba's threads (one block per task).
+@kernel
+def integrate_serial(model, level, P, Y, nsteps, method, record_every, band, O, REC):
+    """Integrate all blocks in turn, on the calling thread (the GIL released, so that
+    callers spread the blocks of a batch over threads of their own).
 
     Arrays carry a leading block axis: P (n_blocks, n_param, BLOCK), Y (n_blocks,
     n_state, BLOCK), nsteps (n_blocks, BLOCK), O (n_blocks, n_obs, BLOCK), REC
     (n_blocks, n_rec, n_record, BLOCK).
     """
-    numba.literally(model)
-    numba.literally(level)
-    for b in prange(P.shape[0]):
-        advance_block(
-            model, level, P[b], Y[b], nsteps[b], method, record_every, band, O[b], REC[b]
-        )
-
-
-@kernel
-def integrate_serial(model, level, P, Y, nsteps, method, record_every, band, O, REC):
-    """As :func:`integrate_parallel`, on the calling thread only (the GIL released)."""
     numba.literally(model)
     numba.literally(level)
     for b in range(P.shape[0]):

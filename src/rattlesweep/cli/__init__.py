@@ -9,11 +9,13 @@ Its modules: the sweep commands (``_sweeps``), the commands that read results
 
 from __future__ import annotations
 
+import contextlib
+import logging
 import os
 import signal
 import sys
 import warnings
-from typing import Any
+from typing import Any, Iterator
 
 from ._parser import build_parser
 
@@ -35,7 +37,43 @@ def _show_warning(
 def main(argv: list[str] | None = None) -> int:
     with warnings.catch_warnings():  # restores Python's own display on return
         warnings.showwarning = _show_warning
-        return _main(argv)
+        with _compiles_announced():
+            return _main(argv)
+
+
+class _Stderr(logging.StreamHandler):
+    """Log records as the command's own lines on whatever ``sys.stderr`` is now."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.setFormatter(logging.Formatter("rattlesweep: %(message)s"))
+
+    @property
+    def stream(self) -> Any:
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, value: Any) -> None:
+        pass
+
+
+_ELAPSED_EVERY = 5.0  # seconds between the lines of a running compile
+
+
+@contextlib.contextmanager
+def _compiles_announced() -> Iterator[None]:
+    """While a command runs, a first call that compiles kernels says so on stderr as
+    the command's own line, with the elapsed time every few seconds while it compiles."""
+    from .._cold_start import LOG, show_elapsed
+
+    handler = _Stderr()
+    LOG.addHandler(handler)
+    show_elapsed(_ELAPSED_EVERY)
+    try:
+        yield
+    finally:
+        show_elapsed(None)
+        LOG.removeHandler(handler)
 
 
 def _main(argv: list[str] | None) -> int:

@@ -16,6 +16,7 @@ from ._launches import (
     _cmd_explore,
     _cmd_simulate,
 )
+from ._kernels import _cmd_compile
 from ._outputs import _cmd_info, _cmd_plot
 from ._sweeps import (
     _cmd_demo,
@@ -366,9 +367,9 @@ def build_parser() -> argparse.ArgumentParser:
         description="Serve the explorer, a local web page with the body, "
         "launch and friction as controls, a 3-D view of the run with linked "
         "plots of spin, tilt, energy and slip speed, and a reversal map whose "
-        "points load their launch. Warms the kernels first (on the first run "
-        "after installing this compiles them: about a minute or two), then "
-        "prints the address and opens the browser. Ctrl-C stops it.",
+        "points load their launch. Warms the kernels first (a first run after "
+        "installing compiles them, minutes unless 'rattlesweep compile' did it "
+        "ahead), then prints the address and opens the browser. Ctrl-C stops it.",
     )
     p.add_argument(
         "--port", type=int, default=8050, help="port (default 8050; 0: any free)"
@@ -380,4 +381,37 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--no-browser", action="store_true", help="do not open a browser")
     p.set_defaults(func=_cmd_explore)
+
+    p = sub.add_parser(
+        "compile",
+        help="compile every simulation kernel ahead, in parallel (once after "
+        "installing: later runs start in about a second)",
+        description="Compile every kernel specialisation the library can call (both "
+        "models, every friction level) into numba's on-disk cache, in several "
+        "processes, printing each as it finishes and the cache's place and size. "
+        "Without it, the first run of each kind compiles what it needs on the spot. "
+        "Run again, it finds everything compiled and does nothing. Point "
+        "NUMBA_CACHE_DIR at a shared directory to compile once for many processes or "
+        "a cluster's workers.",
+    )
+    p.add_argument(
+        "--jobs",
+        type=_positive_int,
+        default=None,
+        help="processes compiling at once (default: the cores this process may use)",
+    )
+    p.set_defaults(func=_cmd_compile)
     return parser
+
+
+def _positive_int(text: str) -> int:
+    """An argparse type: a whole number of at least 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(
+            f"must be a whole number of at least 1, got {text!r}"
+        )
+    return value

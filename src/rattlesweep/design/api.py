@@ -13,7 +13,6 @@ import numpy as np
 import xarray as xr
 
 from ..rattleback.body import Body
-from .._run import kernels_compiled
 from .coins import DEFAULT_COIN, Coin, coin_preset
 from .constraints import check_coin_fits, check_margin, check_shell, max_coin_mass
 from .mass import Part, body_of, moments_of
@@ -404,8 +403,6 @@ def design(
         from .files import check_out
 
         check_out(out_dir, overwrite)
-    if not kernels_compiled():
-        say("compiling the simulation kernels (first run only: one to three minutes)...")
     result = search(part, launches, prefer, grid=grid, refine=refine, progress=say)
     body = body_of(result.part, name="printed rattleback")
     prediction = _prediction(result.part, body, result, launches, margin, prefer)

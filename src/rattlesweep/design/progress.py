@@ -1,9 +1,7 @@
 """What a design run says as it goes.
 
-numba compiles the engine's kernels on their first call in a fresh installation (one to
-three minutes on a small machine) and caches them on disk; later runs load them. A run
-that says nothing during that minute looks frozen, so :func:`design` says when it
-expects to compile (:func:`rattlesweep._run.kernels_compiled`).
+A first run after installing compiles the engine's kernels; the engine says so itself,
+once, through the logger ``rattlesweep`` (:mod:`rattlesweep._cold_start`).
 """
 
 from __future__ import annotations

@@ -90,9 +90,9 @@ def serve(
     """
     server = _bind(host, port, caps=caps, workers=workers)
     print(
-        "rattlesweep explore: warming the kernels (on the first run after installing "
-        "this compiles them, which takes about a minute or two; later starts take "
-        "seconds)...",
+        "rattlesweep explore: warming the kernels (a first run after installing "
+        "compiles them, which takes minutes unless 'rattlesweep compile' did it "
+        "ahead; later starts take seconds)...",
         flush=True,
     )
     try:

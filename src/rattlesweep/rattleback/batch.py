@@ -39,7 +39,7 @@ from .._options import (
     check_stop,
 )
 from .._pack import blocked, prepared
-from .._run import contact_slip_velocity, execute
+from .._run import announce_compile, contact_slip_velocity, execute
 from .._steps import step_counts, time_steps
 from .._validation import as_float_array, fail_where
 from .._core.models import RATTLEBACK
@@ -313,6 +313,7 @@ def prepare(
         MODEL, columns, _launch_state(inputs), inputs.nsteps, n, inputs.shape, {}
     )
     # G's velocity: rolling (material contact point at rest) unless given
+    announce_compile(prep)  # before the first kernel, naming what the batch compiles
     rolling = -contact_slip_velocity(MODEL, prep.P, prep.Y)[:, :n]
     given = inputs.vectors.get("velocity")
     if given is not None:

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import sys
 import time
-from typing import Any, Mapping, TextIO
+from typing import Any, Callable, Mapping, TextIO
+
+from ..._cold_start import compile_seconds
 
 __all__ = ["Progress"]
 
@@ -14,9 +16,12 @@ class Progress:
     every ``every`` seconds at most (and at the end); a tile counted within ``every`` of
     the last line is shown by :meth:`tick`, which the runner calls while it waits.
 
-    ``compiling`` says that the first tiles compile the kernels (a first run: about a
-    minute): the bar says so, and the rate and ETA leave out the time to the first
-    finished tile, which would otherwise inflate the ETA many times over."""
+    The rate and ETA leave out the time this process spends compiling kernels
+    (``compile_clock`` gives the seconds compiled so far), which would otherwise
+    inflate the ETA many times over, and the closing line gives it apart.
+    ``compiling`` says that the first tiles compile the kernels elsewhere (on a
+    cluster's workers, out of this clock's sight): the bar says so, and the rate and ETA
+    leave out the time to the first finished tile."""
 
     def __init__(
         self,
@@ -29,6 +34,7 @@ class Progress:
         enabled: bool = True,
         every: float = 10.0,
         compiling: bool = False,
+        compile_clock: Callable[[], float] = compile_seconds,
     ) -> None:
         self.total_tiles, self.total_points = total_tiles, total_points
         self.done_tiles, self.done_points = done_tiles, done_points
@@ -40,6 +46,8 @@ class Progress:
         self.every = every
         self.t0 = time.perf_counter()
         self._rate_t0, self._rate_points = self.t0, 0  # what the rate is measured over
+        self._clock = compile_clock
+        self._compiled_t0 = compile_clock()
         self._compiling = compiling and done_tiles < total_tiles
         self._last = -1e9
         self._shown = done_tiles  # the tiles the last line counted
@@ -48,8 +56,8 @@ class Progress:
             self._write(f"resuming: {done_tiles} of {total_tiles} tiles already done\n")
         if enabled and self._compiling:
             self._write(
-                "compiling the simulation kernels (first run only: about a minute "
-                "on 2 cores)...\n"
+                "the workers compile the simulation kernels first (first run only: "
+                "minutes)...\n"
             )
 
     def note(self, text: str) -> None:
@@ -59,10 +67,14 @@ class Progress:
 
     @property
     def rate(self) -> float:
-        """Trajectories per second computed in this run (after the first tile, when that
-        compiled the kernels)."""
-        elapsed = time.perf_counter() - self._rate_t0
+        """Trajectories per second computed in this run, compile time left out."""
+        elapsed = time.perf_counter() - self._rate_t0 - self.compile_s
         return self._rate_points / elapsed if elapsed > 0 else 0.0
+
+    @property
+    def compile_s(self) -> float:
+        """Seconds this process has compiled kernels since the bar began."""
+        return self._clock() - self._compiled_t0
 
     def update(self, summary: Mapping[str, Any]) -> None:
         """Count a tile just written (``summary``: its points ``n``, ``steps``)."""
@@ -110,10 +122,12 @@ class Progress:
             return
         elapsed = time.perf_counter() - self.t0
         end = "\n" if self._tty and self.done_tiles > self.reused else ""
+        compiled = self.compile_s
+        apart = f", and {compiled:.1f} s compiling the kernels" if compiled >= 0.05 else ""
         self._write(
             f"{end}{message or 'done'}: {self.done_tiles - self.reused} tiles "
             f"computed, {self.reused} reused, {self.new_points:,} trajectories "
-            f"in {elapsed:.1f} s ({self.rate:,.0f} traj/s)\n"
+            f"in {elapsed - compiled:.1f} s ({self.rate:,.0f} traj/s){apart}\n"
         )
 
     def interrupted(self) -> None:

@@ -181,8 +181,7 @@ def _run_stage(
         stage.points_done,
         enabled=progress,
         compiling=(
-            client is None
-            and not kernels_compiled(parallel=False, level=stage.sweep.friction_level)
+            client is not None and not kernels_compiled(level=stage.sweep.friction_level)
         ),
     )
     for note in notes:
