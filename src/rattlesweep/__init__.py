@@ -31,6 +31,8 @@ __all__ = [
     "decode",
     "design",
     "explore",
+    "fit",
+    "fitting",
     "inputs",
     "kernel_cache",
     "planar",
@@ -72,13 +74,15 @@ _FROM = {
     "SweepLocked": ".sweep._execution.lock",
     "DesignRefused": ".design.constraints",
     "compile_kernels": ".kernel_cache",
+    "fit": ".fitting",
 }
 """Each name of the package and the module it comes from."""
 
 if TYPE_CHECKING:
     # what __getattr__ imports on first use, seen by type checkers as it is
-    from . import design, explore, inputs, kernel_cache, planar, plot, rattleback
-    from . import stability, sweep
+    from . import design, explore, fitting, inputs, kernel_cache, planar, plot
+    from . import rattleback, stability, sweep
+    from .fitting import fit
     from . import io as io  # documented; out of __all__, not to shadow the stdlib's
     from .design.constraints import DesignRefused
     from .kernel_cache import compile_kernels

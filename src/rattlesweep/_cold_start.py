@@ -33,6 +33,7 @@ _STATE: dict[str, Any] = {
     "since": 0.0,  # when the running interval began
     "every": None,
     "stream": None,
+    "done": None,  # set when the running interval ends: stops its clock
 }
 _LOCK = threading.Lock()
 
@@ -116,35 +117,37 @@ def compiling(job_name: str | None) -> Iterator[None]:
             "compiling a simulation kernel (first use after installing); 'rattlesweep "
             "compile' builds the kernels ahead, in parallel."
         )
-    start = time.perf_counter()
+    ticker = None
     with _LOCK:
         _STATE["active"] += 1
-        if _STATE["active"] == 1:
-            _STATE["since"] = start
-    done = threading.Event()
-    ticker = None
-    every = _STATE["every"]
-    if every:
-        stream = _STATE["stream"] or sys.stderr
-
-        def tick() -> None:
-            while not done.wait(every):
-                stream.write(
-                    f"compiling the kernels: {time.perf_counter() - start:.0f} s\n"
+        if _STATE["active"] == 1:  # the first of compiles running at once
+            _STATE["since"] = time.perf_counter()
+            _STATE["done"] = done = threading.Event()
+            if _STATE["every"]:
+                ticker = threading.Thread(
+                    target=_tick,
+                    args=(done, _STATE["since"], _STATE["every"], _STATE["stream"]),
+                    name="rattlesweep-compile-clock",
+                    daemon=True,
                 )
-                stream.flush()
-
-        ticker = threading.Thread(
-            target=tick, name="rattlesweep-compile-clock", daemon=True
-        )
-        ticker.start()
+                ticker.start()
     try:
         yield
     finally:
-        done.set()
         with _LOCK:
             _STATE["active"] -= 1
             if _STATE["active"] == 0:
                 _STATE["seconds"] += time.perf_counter() - _STATE["since"]
+                _STATE["done"].set()
         if ticker is not None:
             ticker.join()
+
+
+def _tick(done: threading.Event, since: float, every: float, stream: TextIO | None) -> None:
+    """One line with the elapsed time every ``every`` seconds until ``done``: one clock
+    for all the compiles running at once (threads of a sweep wait for numba's lock in
+    turn), counted from the first."""
+    out = stream or sys.stderr
+    while not done.wait(every):
+        out.write(f"compiling the kernels: {time.perf_counter() - since:.0f} s\n")
+        out.flush()

@@ -171,7 +171,13 @@ def compile_kernels(
             f"jobs must be a whole number of processes of at least 1, got {jobs!r}"
         )
     start = time.perf_counter()
-    directories = tuple(cache_directories())
+    try:
+        directories = tuple(cache_directories())
+    except RuntimeError as error:  # no directory numba can write in
+        raise OSError(
+            f"numba cannot cache compiled kernels anywhere here ({error}); point "
+            "NUMBA_CACHE_DIR at a writable directory"
+        ) from None
     everything = specialisations.JOBS
     if only is not None:
         everything = _with_what_they_need(only)

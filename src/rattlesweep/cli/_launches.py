@@ -37,9 +37,9 @@ def _body_from_args(args: argparse.Namespace) -> Body:
     if len(given) > 1:
         raise ValueError(f"{' and '.join(given)} each choose the body; give one of them")
     if args.body is not None:
-        from ..sweep._config.body_file import body_from_toml
+        from ..sweep._config.body_file import body_from_argument
 
-        return body_from_toml(args.body)
+        return body_from_argument(args.body)
     if shape:
         from ..sweep._config.grid import semi_ellipsoid_defaults
 
@@ -232,10 +232,10 @@ def _add_launch_options(p: argparse.ArgumentParser) -> None:
     body.add_argument(
         "--body",
         default=None,
-        metavar="FILE.toml",
-        help="the body of the file's [body] table: a, b, c, mass, com, "
-        "inertia[, full_ellipsoid, name] in SI units, as in a sweep file "
-        "(a sweep file's fixed.body works too); default: none",
+        metavar="PRESET|FILE.toml",
+        help="a preset name, or the body of the file's [body] table: a, b, c, mass, "
+        "com, inertia[, full_ellipsoid, name] in SI units, as in a sweep file "
+        "(a sweep file's fixed.body and a fit's fit.toml work too); default: none",
     )
     for name, what in (
         ("a", "long semi-axis (m)"),

@@ -16,6 +16,7 @@ from ._launches import (
     _cmd_explore,
     _cmd_simulate,
 )
+from ._fit import add_fit_parser
 from ._kernels import _cmd_compile
 from ._outputs import _cmd_info, _cmd_plot
 from ._sweeps import (
@@ -401,6 +402,8 @@ def build_parser() -> argparse.ArgumentParser:
         help="processes compiling at once (default: the cores this process may use)",
     )
     p.set_defaults(func=_cmd_compile)
+
+    add_fit_parser(sub)
     return parser
 
 

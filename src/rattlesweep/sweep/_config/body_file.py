@@ -10,7 +10,23 @@ from ...rattleback.body import Body
 from .schema import body_from_table
 from .toml_io import read_toml
 
-__all__ = ["body_from_toml"]
+__all__ = ["body_from_argument", "body_from_toml"]
+
+
+def body_from_argument(text: str) -> Body:
+    """The body a ``--body`` option names: a preset name, or a TOML file
+    (:func:`body_from_toml`). ValueError naming the argument when it is neither."""
+    from ...rattleback.body import PRESETS
+
+    path = Path(text)
+    if text in PRESETS and not path.exists():
+        return Body.preset(text)
+    if not path.exists():
+        raise ValueError(
+            f"--body {text}: neither a preset ({', '.join(sorted(PRESETS))}) nor a "
+            "TOML file with a [body] table"
+        )
+    return body_from_toml(path)
 
 
 def body_from_toml(path: str | Path) -> Body:

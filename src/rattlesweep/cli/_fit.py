@@ -1,0 +1,191 @@
+"""``rattlesweep fit``: a measured rattleback's inputs from a video or gyroscope file."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+
+NOT_DETERMINED_STATUS = 3
+"""Exit status when a free input is not pinned down by the data (files still written)."""
+
+
+def _pairs(items: list[str] | None, option: str) -> list[tuple[str, str]]:
+    out = []
+    for item in items or []:
+        name, sep, value = item.partition("=")
+        if not sep or not name or not value:
+            raise ValueError(f"{option} {item!r}: expected NAME=VALUE")
+        out.append((name.strip(), value.strip()))
+    return out
+
+
+def _number(text: str, what: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise ValueError(f"{what}: {text!r} is not a number") from None
+
+
+def _free(items: list[str] | None) -> dict[str, tuple[float, float]]:
+    free: dict[str, tuple[float, float]] = {}
+    for name, value in _pairs(items, "--free"):
+        low, sep, high = value.partition(":")
+        if not sep:
+            raise ValueError(f"--free {name}={value}: expected NAME=LOW:HIGH")
+        if name in free:
+            raise ValueError(f"--free {name} given twice")
+        free[name] = (
+            _number(low, f"--free {name} low"),
+            _number(high, f"--free {name} high"),
+        )
+    return free
+
+
+def _fixed(items: list[str] | None) -> dict[str, float]:
+    fixed: dict[str, float] = {}
+    for name, value in _pairs(items, "--fixed"):
+        if name in fixed:
+            raise ValueError(f"--fixed {name} given twice")
+        fixed[name] = (
+            math.inf if value in ("inf", "infinity") else _number(value, f"--fixed {name}")
+        )
+    return fixed
+
+
+def _cmd_fit(args: argparse.Namespace, argv: list[str] | None) -> int:
+    from ..fitting import fit, read_measurement, write_fit
+    from ..fitting.files import NAMES
+    from ..sweep._config.body_file import body_from_argument
+
+    free, fixed = _free(args.free), _fixed(args.fixed)
+    columns = {}
+    if args.time_column:
+        columns["time"] = args.time_column
+    if args.heading_column:
+        columns["heading"] = args.heading_column
+    if args.rate_columns:
+        columns.update(zip("xyz", args.rate_columns))
+    body = body_from_argument(args.body)
+    data = read_measurement(
+        args.data,
+        format=args.format,
+        columns=columns or None,
+        angle_units=args.angle_units,
+        trim_start=args.trim_start,
+    )
+    taken = [n for n in NAMES if (args.out / n).exists()] if args.out.is_dir() else []
+    if taken and not args.force:
+        raise ValueError(
+            f"{args.out} holds a fit already ({', '.join(taken)}): choose another --out, "
+            "or --force to replace it"
+        )
+    say = (
+        (lambda line: None)
+        if args.quiet
+        else (lambda line: print(line, file=sys.stderr, flush=True))
+    )
+    say(
+        f"fitting {', '.join(free)} to {data.kind} data: {len(data.time)} samples over "
+        f"{data.duration:.2f} s"
+    )
+    result = fit(
+        data,
+        body,
+        free,
+        fixed,
+        window=args.window,
+        fit_bias=not args.no_bias,
+        heading_sign=-1.0 if args.mirrored else 1.0,
+        seed=args.seed,
+        progress=say,
+    )
+    paths = write_fit(result, args.out, overwrite=args.force)
+    print(f"fit of {args.data}:")
+    print(result.summary())
+    print(f"wrote {', '.join(str(p) for p in paths)}")
+    if not result.determined:
+        print(
+            "rattlesweep: some inputs are not determined by these data (see the notes); "
+            f"exit status {NOT_DETERMINED_STATUS}",
+            file=sys.stderr,
+        )
+        return NOT_DETERMINED_STATUS
+    return 0
+
+
+def add_fit_parser(sub: argparse._SubParsersAction) -> None:
+    from pathlib import Path
+
+    p = sub.add_parser(
+        "fit",
+        help="fit a measured rattleback's friction, damping and launch, with intervals",
+        description="Fit the inputs named by --free to a measurement of a real "
+        "rattleback: a Tracker video export (heading), a phyphox gyroscope export, a "
+        "CSV or a netCDF file. Searches with batches of candidate runs, then writes "
+        "fit.toml (each input with its 95 %% interval; 'rattlesweep simulate --body "
+        "fit.toml' runs the fitted body), fit.nc and fit.png into --out. Exit status 3 "
+        "when an input is not determined by the data (the files are still written).",
+    )
+    p.add_argument("data", help="the measurement file")
+    p.add_argument(
+        "--body",
+        required=True,
+        metavar="PRESET|FILE.toml",
+        help="a preset name or a TOML file with a [body] table",
+    )
+    p.add_argument(
+        "--free",
+        action="append",
+        metavar="NAME=LOW:HIGH",
+        required=True,
+        help="an input to fit and its bounds (repeat): any input of simulate "
+        "(spin, roll_deg, mu, damping, mu_spin, ...) or delta_deg, the body's misalignment",
+    )
+    p.add_argument(
+        "--fixed",
+        action="append",
+        metavar="NAME=VALUE",
+        help="an input held at a value (repeat)",
+    )
+    p.add_argument(
+        "--out", type=Path, required=True, help="directory for fit.toml, fit.nc, fit.png"
+    )
+    p.add_argument(
+        "--format",
+        choices=["phyphox", "tracker", "csv", "netcdf"],
+        default=None,
+        help="the file's format (default: detected)",
+    )
+    p.add_argument("--time-column", default=None, help="csv: the time column (s)")
+    p.add_argument("--heading-column", default=None, help="csv: the heading column")
+    p.add_argument(
+        "--rate-columns",
+        nargs=3,
+        metavar=("X", "Y", "Z"),
+        default=None,
+        help="csv: the gyroscope rate columns (rad/s)",
+    )
+    p.add_argument(
+        "--angle-units",
+        choices=["deg", "rad"],
+        default=None,
+        help="units of a heading column (default: degrees for Tracker)",
+    )
+    p.add_argument(
+        "--trim-start",
+        type=float,
+        default=0.0,
+        help="seconds before the release to drop; time counts from there",
+    )
+    p.add_argument("--window", type=float, default=0.5, help="seconds per compared window")
+    p.add_argument("--no-bias", action="store_true", help="gyroscope: no per-axis bias")
+    p.add_argument(
+        "--mirrored",
+        action="store_true",
+        help="heading: the video is mirrored (clockwise from above counted positive)",
+    )
+    p.add_argument("--seed", type=int, default=0, help="random seed of the search")
+    p.add_argument("--force", action="store_true", help="replace a fit already in --out")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    p.set_defaults(func=_cmd_fit)

@@ -1,0 +1,451 @@
+"""``rattlesweep.fit``: a measured rattleback's inputs, with intervals, from a batch
+search (the search: :mod:`.search`; what is compared: :mod:`.objective`)."""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Mapping, cast
+
+import numpy as np
+import xarray as xr
+
+from ..rattleback.body import Body
+from .measurement import Measurement, from_dataset, read_measurement
+from .objective import Comparison, Features, compare, measured_features
+from .parameters import Bound, bodies_for, bounds_from, check_fixed, units_of
+from .search import Profile, global_search, polish, profiles
+
+__all__ = ["FitResult", "Fitted", "fit"]
+
+CHUNK = 256
+"""Candidates per batch run: bounds the memory of the recorded series."""
+
+RESTARTS = 2
+"""Times the polish starts again from a lower point a profile met."""
+
+
+@dataclass(frozen=True)
+class Fitted:
+    """One fitted input: its best ``value``, the 95 % interval ``low``..``high`` (its
+    bounds where the data do not pin it down), ``units``, and whether each end of the
+    interval was ``determined``."""
+
+    name: str
+    value: float
+    low: float
+    high: float
+    units: str
+    low_determined: bool
+    high_determined: bool
+
+    @property
+    def determined(self) -> bool:
+        return self.low_determined and self.high_determined
+
+
+@dataclass
+class FitResult:
+    """What :func:`fit` found: the ``fitted`` inputs, the ``fixed`` ones, the offsets
+    fitted in closed form (``offsets``: gyroscope biases, rad/s, or the heading's
+    offset, rad), the fit's quality (``chi2``, ``reduced_chi2``, ``residual_rms`` of the
+    scaled features), the ``correlation`` matrix of the fitted inputs (from the
+    Jacobian at the best fit), the data and best model series (``dataset``), and
+    ``notes`` (plain statements of what the data cannot pin down)."""
+
+    fitted: dict[str, Fitted]
+    fixed: dict[str, Any]
+    offsets: dict[str, float]
+    chi2: float
+    reduced_chi2: float
+    residual_rms: float
+    correlation: np.ndarray
+    body: Body
+    dataset: xr.Dataset
+    evaluations: int
+    seconds: float
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def determined(self) -> bool:
+        """Whether every fitted input has both ends of its interval."""
+        return all(f.determined for f in self.fitted.values())
+
+    def summary(self) -> str:
+        from .files import _interval, _units
+
+        lines = []
+        for f in self.fitted.values():
+            lines.append(
+                f"  {f.name} = {f.value:.4g}{_units(f.units)}  95 %: {_interval(f)}"
+            )
+        lines.append(
+            f"  reduced chi2 {self.reduced_chi2:.3g}, residual RMS {self.residual_rms:.3g} "
+            f"(in units of each feature's scale); {self.evaluations} model runs in "
+            f"{self.seconds:.1f} s"
+        )
+        return "\n".join(lines + [f"  note: {n}" for n in self.notes])
+
+
+def fit(
+    data: Measurement | str | Path | xr.Dataset,
+    body: Body | str,
+    free: Mapping[str, tuple[float, float]],
+    fixed: Mapping[str, Any] | None = None,
+    *,
+    window: float = 0.5,
+    fit_bias: bool = True,
+    sensor_rotation: Any = None,
+    heading_sign: float = 1.0,
+    global_size: int = 1024,
+    global_rounds: int = 4,
+    profile_points: int = 15,
+    seed: int = 0,
+    progress: Callable[[str], None] | None = None,
+) -> FitResult:
+    """Fit the inputs named in ``free`` to a measured rattleback.
+
+    Parameters
+    ----------
+    data : Measurement, path or xarray.Dataset
+        The measurement (:func:`read_measurement` reads files; a path is read with it).
+    body : Body or str
+        The body, or a preset's name.
+    free : mapping
+        Each input to fit and its bounds, ``{"mu": (0.1, 1.0), "roll_deg": (0, 5)}``: any
+        scalar input of :func:`rattlesweep.simulate` by any of its names (angles in
+        degrees by their ``_deg`` name), and ``delta``/``delta_deg``, the body's
+        misalignment.
+    fixed : mapping, optional
+        Other inputs, as :func:`rattlesweep.simulate` takes them; ``t_end`` comes from
+        the data.
+    window : float
+        Seconds per window of the compared features (:mod:`.objective`).
+    fit_bias : bool
+        Fit a constant bias per gyroscope axis (gyroscope data).
+    sensor_rotation : array_like (3, 3), optional
+        The sensor's axes in the body's: a gyroscope reads ``R @ omega_body``.
+    heading_sign : float
+        -1 for a mirrored video (clockwise seen from above counted positive).
+    global_size, global_rounds, profile_points, seed : int
+        The search's sizes (:mod:`.search`) and its random seed.
+    progress : callable, optional
+        Called with a line at each stage.
+
+    Returns
+    -------
+    FitResult
+    """
+    began = time.perf_counter()
+    say = progress or (lambda line: None)
+    measurement = _measurement(data)
+    the_body = Body.preset(body) if isinstance(body, str) else body
+    if not isinstance(the_body, Body):
+        raise ValueError(f"body must be a Body or a preset name, got {body!r}")
+    bounds = bounds_from(free)
+    fixed = check_fixed(fixed or {}, bounds)
+    if not (math.isfinite(window) and 0 < window <= measurement.duration / 4):
+        raise ValueError(
+            f"window must be a positive number of seconds at most a quarter of the "
+            f"measurement ({measurement.duration:g} s), got {window!r}"
+        )
+    rotation = None if sensor_rotation is None else np.asarray(sensor_rotation, float)
+    if rotation is not None and (
+        rotation.shape != (3, 3)
+        or not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-6)
+    ):
+        raise ValueError("sensor_rotation must be a 3 x 3 rotation matrix")
+    measured = measured_features(measurement, window)
+    run = _Runner(
+        measurement, measured, the_body, bounds, fixed, fit_bias, rotation, heading_sign
+    )
+    rng = np.random.default_rng(seed)
+    p = len(bounds)
+    start, _, n_global = global_search(
+        run.evaluate, p, rng, global_size, global_rounds, say
+    )
+    say("polishing the best candidate (Levenberg-Marquardt)...")
+    runs = n_global
+    for attempt in range(RESTARTS + 1):
+        x, chi2, J, n = polish(run.evaluate, start[None], np.ones((1, p), dtype=bool))
+        best, best_chi2, jac = x[0], float(chi2[0]), J[0]
+        dof = max(1, measured.size - p - len(run.last_offsets))
+        reduced = best_chi2 / dof
+        threshold = 3.84 * max(1.0, reduced)
+        say(f"profiles of {p} inputs ({profile_points}+ points each)...")
+        found, n_prof, lowest, lowest_chi2 = profiles(
+            run.evaluate, best, best_chi2, threshold, profile_points, jac
+        )
+        runs += n + n_prof
+        if lowest_chi2 >= best_chi2 * (1.0 - 1e-6) or attempt == RESTARTS:
+            break
+        # a profile went below the best fit: polish from there and profile again
+        say(f"a profile found chi2 {lowest_chi2:.4g} below the best {best_chi2:.4g}: again")
+        start = lowest
+    comparison, series = run.series(best)
+    fitted, notes = _fitted(bounds, best, found)
+    correlation = _correlation(jac)
+    notes += _trade_offs(bounds, correlation)
+    values = {b.name: float(b.value(np.array(best[k]))) for k, b in enumerate(bounds)}
+    fitted_body = _body_of(the_body, {**fixed, **values})
+    offsets = {k: float(v[0]) for k, v in comparison.offsets.items()}
+    result = FitResult(
+        fitted=fitted,
+        fixed=dict(fixed),
+        offsets=offsets,
+        chi2=best_chi2,
+        reduced_chi2=reduced,
+        residual_rms=float(np.sqrt(best_chi2 / measured.size)),
+        correlation=correlation,
+        body=fitted_body,
+        dataset=_dataset(measurement, measured, comparison, series, run),
+        evaluations=runs,
+        seconds=time.perf_counter() - began,
+        notes=notes,
+    )
+    return result
+
+
+def _measurement(data: Any) -> Measurement:
+    if isinstance(data, Measurement):
+        return data
+    if isinstance(data, xr.Dataset):
+        return from_dataset(data)
+    if isinstance(data, (str, Path)):
+        return read_measurement(data)
+    raise ValueError(
+        "data must be a Measurement, a file path or an xarray Dataset, got "
+        f"{type(data).__name__}"
+    )
+
+
+def _body_of(body: Body, values: Mapping[str, Any]) -> Body:
+    delta = values.get("delta", None)
+    if "delta_deg" in values:
+        delta = math.radians(float(values["delta_deg"]))
+    if delta is None:
+        return body
+    turned = bodies_for(body, np.array([delta]))
+    return cast(Body, turned[0])
+
+
+class _Runner:
+    """Runs batches of candidates and compares them with the measurement."""
+
+    def __init__(
+        self,
+        data: Measurement,
+        measured: Features,
+        body: Body,
+        bounds: list[Bound],
+        fixed: Mapping[str, Any],
+        fit_bias: bool,
+        rotation: np.ndarray | None,
+        heading_sign: float,
+    ) -> None:
+        self.data, self.measured, self.body = data, measured, body
+        self.bounds, self.fixed = bounds, dict(fixed)
+        self.fit_bias, self.rotation, self.heading_sign = fit_bias, rotation, heading_sign
+        dt = float(fixed.get("dt", body.default_dt(float(fixed.get("g", 9.81)))))
+        # model samples at least 3 per data sample: a window's mean and RMS of the
+        # rocking taken from them are then as accurate as the data's own
+        spacing = float(np.median(np.diff(data.time)))
+        self.record_every = max(1, int(spacing / (3 * dt)))
+        self.dt = dt
+        self.t_end = data.duration + 2 * dt * self.record_every
+        self.last_offsets: dict[str, np.ndarray] = {}
+
+    def inputs(self, cube: np.ndarray) -> tuple[Any, dict[str, Any]]:
+        given: dict[str, Any] = {**self.fixed}
+        for k, b in enumerate(self.bounds):
+            given[b.name] = b.value(cube[:, k])
+        body: Any = self.body
+        delta = given.pop("delta", None)
+        if "delta_deg" in given:
+            delta = np.radians(given.pop("delta_deg"))
+        if delta is not None:
+            body = bodies_for(self.body, np.broadcast_to(delta, (len(cube),)))
+        given.setdefault("dt", self.dt)
+        return body, given
+
+    def run(self, cube: np.ndarray) -> xr.Dataset:
+        from ..rattleback.batch import run_batch
+
+        body, given = self.inputs(cube)
+        given = {
+            k: (np.broadcast_to(v, (len(cube),)) if np.ndim(v) == 0 else v)
+            for k, v in given.items()
+        }
+        return run_batch(body, t_end=self.t_end, record_every=self.record_every, **given)
+
+    def model_series(self, ds: xr.Dataset) -> np.ndarray:
+        if self.data.kind == "heading":
+            return np.asarray(ds["heading"].transpose("trajectory", "time").values)
+        return np.asarray(ds["omega"].transpose("trajectory", "time", "body_axis").values)
+
+    def compare_chunk(self, cube: np.ndarray) -> tuple[Comparison, np.ndarray, np.ndarray]:
+        ds = self.run(cube)
+        series = self.model_series(ds)
+        t = np.asarray(ds["time"].values)
+        comparison = compare(
+            self.data,
+            self.measured,
+            t,
+            series,
+            fit_bias=self.fit_bias,
+            rotation=self.rotation,
+            heading_sign=self.heading_sign,
+        )
+        return comparison, t, series
+
+    def evaluate(self, cube: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        chi2, residuals = [], []
+        for a in range(0, len(cube), CHUNK):
+            comparison, _, _ = self.compare_chunk(cube[a : a + CHUNK])
+            chi2.append(comparison.chi2)
+            residuals.append(comparison.residuals)
+            self.last_offsets = comparison.offsets
+        return np.concatenate(chi2), np.vstack(residuals)
+
+    def series(self, best: np.ndarray) -> tuple[Comparison, tuple[np.ndarray, np.ndarray]]:
+        comparison, t, series = self.compare_chunk(best[None])
+        return comparison, (t, series[0])
+
+
+def _fitted(
+    bounds: list[Bound], best: np.ndarray, found: list[Profile]
+) -> tuple[dict, list]:
+    out, notes = {}, []
+    for k, (b, prof) in enumerate(zip(bounds, found)):
+        value = float(b.value(np.array(best[k])))
+        low, high = (float(b.value(np.array(v))) for v in (prof.low, prof.high))
+        out[b.name] = Fitted(
+            b.name, value, low, high, units_of(b.name), prof.low_found, prof.high_found
+        )
+        if not (prof.low_found or prof.high_found):
+            notes.append(
+                f"{b.name} is not determined: any value within its bounds "
+                f"{b.low:g}..{b.high:g} fits as well"
+            )
+        elif not prof.low_found:
+            notes.append(
+                f"{b.name} is bounded from above only (<= {high:.4g}): the data fit "
+                f"as well down to its lower bound {b.low:g}"
+            )
+        elif not prof.high_found:
+            notes.append(
+                f"{b.name} is bounded from below only (>= {low:.4g}): the data fit "
+                f"as well up to its upper bound {b.high:g}"
+                + (
+                    " (a run that never slips bounds mu from below only)"
+                    if b.name == "mu"
+                    else ""
+                )
+            )
+    return out, notes
+
+
+def _correlation(jac: np.ndarray) -> np.ndarray:
+    a = jac.T @ jac
+    cov = np.linalg.pinv(a)
+    d = np.sqrt(np.clip(np.diag(cov), 1e-300, None))
+    return np.clip(cov / np.outer(d, d), -1.0, 1.0)
+
+
+def _trade_offs(bounds: list[Bound], corr: np.ndarray) -> list[str]:
+    notes = []
+    for i in range(len(bounds)):
+        for j in range(i + 1, len(bounds)):
+            if abs(corr[i, j]) > 0.95:
+                notes.append(
+                    f"{bounds[i].name} and {bounds[j].name} trade off (correlation "
+                    f"{corr[i, j]:+.2f}): the data pin down a combination of them"
+                )
+    return notes
+
+
+def _dataset(
+    data: Measurement,
+    measured: Features,
+    comparison: Comparison,
+    series: tuple[np.ndarray, np.ndarray],
+    run: _Runner,
+) -> xr.Dataset:
+    t_model, model = series
+    mid = 0.5 * (measured.edges[1:] + measured.edges[:-1])
+    model_features = (
+        measured.values
+        + comparison.residuals[0].reshape(measured.values.shape) * measured.scale[:, None]
+    )
+    ds = xr.Dataset(coords={"time": ("time", data.time), "window": ("window", mid)})
+    ds["time"].attrs.update(
+        units="s", long_name="time from the release", standard_name="time"
+    )
+    ds["window"].attrs.update(units="s", long_name="middle of the feature window")
+    if data.kind == "heading":
+        offset = comparison.offsets["heading_offset"][0]
+        at = np.interp(data.time, t_model, run.heading_sign * model) + offset
+        ds["measured_heading"] = (
+            "time",
+            data.values,
+            {"units": "rad", "long_name": "measured heading"},
+        )
+        ds["model_heading"] = (
+            "time",
+            at,
+            {"units": "rad", "long_name": "best model's heading, offset added"},
+        )
+        ds["residual_heading"] = (
+            "time",
+            data.values - at,
+            {"units": "rad", "long_name": "measured minus model heading"},
+        )
+    else:
+        rotated = model if run.rotation is None else model @ run.rotation.T
+        bias = np.array(
+            [comparison.offsets.get(f"bias_{a}", np.zeros(1))[0] for a in "xyz"]
+        )
+        at = (
+            np.stack(
+                [np.interp(data.time, t_model, rotated[:, k]) for k in range(3)], axis=1
+            )
+            + bias
+        )
+        ds = ds.assign_coords(sensor_axis=("sensor_axis", ["x", "y", "z"]))
+        ds["measured_rate"] = (
+            ("time", "sensor_axis"),
+            data.values,
+            {"units": "rad s-1", "long_name": "measured gyroscope rates"},
+        )
+        ds["model_rate"] = (
+            ("time", "sensor_axis"),
+            at,
+            {
+                "units": "rad s-1",
+                "long_name": "best model's rates in the sensor's axes, bias added",
+            },
+        )
+        ds["residual_rate"] = (
+            ("time", "sensor_axis"),
+            data.values - at,
+            {"units": "rad s-1", "long_name": "measured minus model rates"},
+        )
+    ds = ds.assign_coords(feature=("feature", list(measured.names)))
+    ds["measured_feature"] = (
+        ("feature", "window"),
+        measured.values,
+        {"long_name": "measured feature per window (rad or rad s-1)"},
+    )
+    ds["model_feature"] = (
+        ("feature", "window"),
+        model_features,
+        {"long_name": "best model's feature per window (rad or rad s-1)"},
+    )
+    ds["feature_scale"] = (
+        "feature",
+        measured.scale,
+        {"long_name": "scale each feature's residuals are divided by"},
+    )
+    return ds

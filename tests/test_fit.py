@@ -1,0 +1,231 @@
+"""`rattlesweep fit`: measurements made by the model with known inputs, noise and bias,
+written in each format people record them in, are fitted back: the truth within the
+stated 95 % intervals, an input the data cannot pin down reported as such, and bad
+files and arguments refused by name before anything is written."""
+
+import math
+
+import numpy as np
+import pytest
+
+import rattlesweep as rs
+from rattlesweep.cli import main
+from rattlesweep.fitting import Measurement, fit, read_measurement
+
+BODY = rs.Body.preset("kane_levinson")
+TRUTH = {"mu": 0.4, "damping": 2e-4, "roll_deg": 1.0, "spin": -3.0}
+BOUNDS = {"damping": (1e-5, 1e-3), "roll_deg": (0.2, 3.0), "spin": (-5.0, -1.0)}
+QUICK = dict(global_size=384, global_rounds=3, profile_points=9)
+BIAS = np.array([0.02, -0.01, 0.03])
+
+
+def _truth_run(t_end, **inputs):
+    return rs.simulate(BODY, t_end=t_end, record_every=1, **{**TRUTH, **inputs})
+
+
+def _sampled(run, t, name):
+    values = run[name].values
+    if values.ndim == 1:
+        return np.interp(t, run.time.values, values)
+    return np.stack([np.interp(t, run.time.values, values[:, k]) for k in range(3)], 1)
+
+
+@pytest.fixture(scope="module")
+def gyro_file(tmp_path_factory):
+    """A phyphox gyroscope export of 5 s at 100 Hz: rates + bias + noise 0.02 rad/s."""
+    run = _truth_run(5.0)
+    t = np.arange(0.0, 5.0, 0.01)
+    rng = np.random.default_rng(7)
+    rates = _sampled(run, t, "omega") + BIAS + rng.normal(0.0, 0.02, (len(t), 3))
+    path = tmp_path_factory.mktemp("gyro") / "Gyroscope rotation rate.csv"
+    lines = [
+        '"Time (s)","Gyroscope x (rad/s)","Gyroscope y (rad/s)","Gyroscope z (rad/s)",'
+        '"Absolute (rad/s)"'
+    ]
+    lines += [
+        f"{ti:.9E},{r[0]:.9E},{r[1]:.9E},{r[2]:.9E},{np.linalg.norm(r):.9E}"
+        for ti, r in zip(t, rates)
+    ]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+@pytest.fixture(scope="module")
+def tracker_file(tmp_path_factory):
+    """A Tracker export at 30 frames/s: the heading in degrees, offset by 40°, wrapped
+    to (-180, 180], with 0.5° of noise and a frame left unmarked."""
+    run = _truth_run(6.0)
+    t = np.arange(0.0, 6.0, 1 / 30)
+    rng = np.random.default_rng(3)
+    deg = np.degrees(_sampled(run, t, "heading")) + 40.0 + rng.normal(0.0, 0.5, len(t))
+    wrapped = 180.0 - (180.0 - deg) % 360.0
+    rows = [f"{ti:.4f}\t0.010\t0.020\t{a:.3f}" for ti, a in zip(t, wrapped)]
+    rows[10] = f"{t[10]:.4f}\t\t\t"  # a frame Tracker did not mark
+    path = tmp_path_factory.mktemp("tracker") / "rattleback.txt"
+    path.write_text("line A\nt\tx\ty\tθ\n" + "\n".join(rows) + "\n")
+    return path
+
+
+def _within(result, truth):
+    for name, value in truth.items():
+        f = result.fitted[name]
+        assert f.low <= value <= f.high, (name, value, f)
+
+
+def test_reading_a_tracker_export_unwraps_the_heading(tracker_file):
+    m = read_measurement(tracker_file)
+    assert m.kind == "heading" and len(m.time) == 179  # the unmarked frame dropped
+    assert np.abs(np.diff(m.values)).max() < math.radians(20)  # no wrap jumps left
+    assert m.values[-1] - m.values[0] < -10.0  # turned clockwise through many turns
+
+
+def test_gyroscope_fit_recovers_the_truth_and_the_bias(gyro_file):
+    result = fit(gyro_file, "kane_levinson", BOUNDS, {"mu": 0.4}, **QUICK)
+    _within(result, {k: TRUTH[k] for k in BOUNDS})
+    assert result.determined
+    bias = [result.offsets[f"bias_{a}"] for a in "xy"]
+    np.testing.assert_allclose(bias, BIAS[:2], atol=0.005)
+    assert 0.2 < result.reduced_chi2 < 3.0
+    assert result.correlation.shape == (3, 3)
+
+
+def test_heading_fit_recovers_the_truth(tracker_file):
+    free = {"damping": (1e-5, 1e-3), "spin": (-5.0, -1.0)}
+    result = fit(tracker_file, BODY, free, {"mu": 0.4, "roll_deg": 1.0}, **QUICK)
+    _within(result, {k: TRUTH[k] for k in free})
+    assert result.determined
+
+
+def test_the_fit_finds_the_truth_from_the_far_side_of_its_bounds(gyro_file):
+    """The truth (spin -3) near the top of spin's bounds, damping's near the bottom of
+    a wide range: the global stage still finds them."""
+    free = {"spin": (-12.0, -2.5), "damping": (1e-4, 1e-1)}
+    result = fit(gyro_file, BODY, free, {"mu": 0.4, "roll_deg": 1.0}, **QUICK)
+    _within(result, {k: TRUTH[k] for k in free})
+
+
+def test_friction_in_a_run_that_never_slips_is_reported_not_determined(gyro_file):
+    result = fit(
+        gyro_file,
+        BODY,
+        {"mu": (0.2, 1.0), "spin": (-5.0, -1.0)},
+        {"damping": 2e-4, "roll_deg": 1.0},
+        **QUICK,
+    )
+    assert not result.fitted["mu"].determined and result.fitted["spin"].determined
+    assert any(note.startswith("mu is not determined") for note in result.notes)
+    assert not result.determined
+
+
+def test_the_command_line_writes_the_fit_and_says_when_an_input_is_not_determined(
+    gyro_file, tmp_path, capsys
+):
+    out = tmp_path / "fit"
+    args = [str(gyro_file), "--body", "kane_levinson", "--out", str(out), "--quiet"]
+    args += ["--free", "mu=0.2:1", "--free", "spin=-5:-1"]
+    args += ["--fixed", "damping=2e-4", "--fixed", "roll_deg=1"]
+    assert main(["fit", *args]) == 3
+    captured = capsys.readouterr()
+    assert "not determined" in captured.out + captured.err
+    assert sorted(p.name for p in out.iterdir()) == ["fit.nc", "fit.png", "fit.toml"]
+    from rattlesweep.sweep._config.toml_io import read_toml
+
+    doc = read_toml(out / "fit.toml")
+    spin = doc["fitted"]["spin"]
+    assert spin["low"] <= -3.0 <= spin["high"] and spin["units"] == "rad s-1"
+    assert doc["fitted"]["mu"]["determined"] is False
+    assert doc["fixed"] == {"damping": 2e-4, "roll_deg": 1.0}
+    # the fitted body runs at once
+    assert main(["simulate", "--body", str(out / "fit.toml"), "--t-end", "0.1"]) == 0
+    # a second fit into the same directory is refused before any compute
+    assert main(["fit", *args]) == 2
+    assert "holds a fit already" in capsys.readouterr().err
+
+
+def test_simulate_takes_a_preset_name_for_its_body(capsys):
+    assert main(["simulate", "--body", "toy", "--t-end", "0.05"]) == 0
+    assert main(["simulate", "--body", "toyy", "--t-end", "0.05"]) == 2
+    assert "--body toyy: neither a preset (" in capsys.readouterr().err
+
+
+def test_a_csv_and_a_netcdf_file_are_read_as_named(tmp_path):
+    t = np.linspace(0.0, 2.0, 101)
+    csv = tmp_path / "video.csv"
+    csv.write_text("time_s,angle_deg\n" + "".join(f"{a},{b}\n" for a, b in zip(t, 30 * t)))
+    m = read_measurement(
+        csv, format="csv", columns={"time": "time_s", "heading": "angle_deg"}
+    )
+    np.testing.assert_allclose(m.values, np.radians(30 * t))
+    run = rs.simulate(BODY, spin=-3.0, roll_deg=1.0, t_end=0.5, record_every=5)
+    run.to_netcdf(tmp_path / "run.nc")
+    m = read_measurement(tmp_path / "run.nc")
+    assert m.kind == "gyro" and m.values.shape == (len(run.time), 3)
+    trimmed = read_measurement(
+        csv,
+        format="csv",
+        columns={"time": "time_s", "heading": "angle_deg"},
+        trim_start=0.5,
+    )
+    assert trimmed.time[0] == 0.0 and len(trimmed.time) == 76
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        (
+            "t,h\n" + "".join(f"{k * 0.1},{k}\n" for k in range(5)),
+            "5 samples; a fit needs at least 20",
+        ),
+        (
+            "t,h\n" + "".join(f"{0.1 * (k - (k == 7))},{k}\n" for k in range(30)),
+            "time must increase from sample to sample; sample 8 (0.6 s) follows 0.6 s "
+            "(a duplicated time)",
+        ),
+        (
+            "t,h\n" + "".join(f"{0.1 * k},{'nan' if k == 4 else k}\n" for k in range(30)),
+            "1 sample is not a number (NaN or empty) in the time or the values: sample 5",
+        ),
+        (
+            "t,h\n" + "".join(f"{0.1 * k},{(100 * k) % 360 - 180}\n" for k in range(30)),
+            "the heading was given in radians but lies within ±180",
+        ),
+    ],
+)
+def test_bad_files_are_refused_by_name(tmp_path, text, message):
+    path = tmp_path / "bad.csv"
+    path.write_text(text)
+    with pytest.raises(ValueError, match=None) as error:
+        read_measurement(
+            path, format="csv", columns={"time": "t", "heading": "h"}, angle_units="rad"
+        )
+    assert message in str(error.value) and str(path) in str(error.value)
+
+
+def test_an_unknown_layout_is_refused_with_what_to_do(tmp_path):
+    path = tmp_path / "mystery.csv"
+    path.write_text("a,b,c\n1,2,3\n")
+    with pytest.raises(ValueError, match="a table whose layout is not known"):
+        read_measurement(path)
+
+
+@pytest.mark.parametrize(
+    "free, fixed, message",
+    [
+        (
+            {"spin": (-1.0, -5.0)},
+            {},
+            "spin bounds must have low < high, got -1:-5 (inverted)",
+        ),
+        ({"spin": (-5.0, -1.0)}, {"spin": -3.0}, "spin both free and fixed"),
+        ({"roll_deg": (0, 2), "roll": (0, 0.1)}, {}, "roll given twice"),
+        ({"colour": (0, 1)}, {}, "'colour' is not an input a fit can free"),
+        ({"mu": (0.0, 1.0)}, {}, "mu must be > 0 for a fit"),
+        ({"spin": (-5.0, -1.0)}, {"t_end": 3.0}, "t_end is set by the measurement"),
+    ],
+)
+def test_bad_arguments_are_refused_before_any_compute(free, fixed, message):
+    t = np.linspace(0.0, 2.0, 50)
+    data = Measurement("heading", t, -3.0 * t, "data")
+    with pytest.raises(ValueError, match=None) as error:
+        fit(data, BODY, free, fixed)
+    assert message in str(error.value)
