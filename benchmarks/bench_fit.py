@@ -1,6 +1,7 @@
 """Benchmark of `rattlesweep fit` against the usual route, one model run at a time.
 
     python benchmarks/bench_fit.py [--seconds 10]
+    python benchmarks/bench_fit.py --coverage 20 [--seconds 5]
 
 Data: 10 s of 100 Hz gyroscope rates made by the model (kane_levinson body, mu = 0.4,
 damping 2e-4 N m s, roll 1 degree, spin -3 rad/s), plus a bias per axis and noise of
@@ -14,7 +15,9 @@ kernels warm:
    one `simulate` per evaluation, from the middle of the bounds, without intervals.
 
 It prints each route's wall time, model runs and fitted values, and the time per model
-run.
+run. ``--coverage N`` instead fits damping, roll_deg and spin (mu fixed at the truth) to
+N recordings that differ in their noise draw, and prints how often each 95 % interval
+holds the truth.
 """
 
 from __future__ import annotations
@@ -39,14 +42,14 @@ FREE = {
 }
 
 
-def data(seconds: float) -> Measurement:
+def data(seconds: float, seed: int = 0) -> Measurement:
     body = rs.Body.preset("kane_levinson")
     run = rs.simulate(body, t_end=seconds, record_every=1, **TRUTH)
     t = np.arange(0.0, seconds, 0.01)
     omega = np.stack(
         [np.interp(t, run.time.values, run.omega.values[:, k]) for k in range(3)], 1
     )
-    rng = np.random.default_rng(0)
+    rng = np.random.default_rng(seed)
     return Measurement(
         "gyro", t, omega + [0.02, -0.01, 0.03] + rng.normal(0, 0.02, omega.shape), "bench"
     )
@@ -74,10 +77,31 @@ def one_at_a_time(m: Measurement) -> tuple[dict, int, float]:
     return values, runs[0], seconds
 
 
+def coverage(draws: int, seconds: float) -> None:
+    free = {k: FREE[k] for k in ("damping", "roll_deg", "spin")}
+    inside = {k: 0 for k in free}
+    began = time.perf_counter()
+    for seed in range(draws):
+        result = fit(data(seconds, seed + 1), "kane_levinson", free, {"mu": TRUTH["mu"]})
+        for k in free:
+            f = result.fitted[k]
+            inside[k] += f.low <= TRUTH[k] <= f.high
+    print(
+        f"coverage of the 95 % intervals over {draws} noise draws of {seconds:g} s "
+        f"({time.perf_counter() - began:.0f} s):"
+    )
+    for k, n in inside.items():
+        print(f"  {k:<10} {n}/{draws} = {n / draws:.0%}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seconds", type=float, default=10.0, help="length of the data (s)")
+    ap.add_argument("--coverage", type=int, default=0, help="noise draws (0: the timing)")
     args = ap.parse_args()
+    if args.coverage:
+        coverage(args.coverage, args.seconds)
+        return
     m = data(args.seconds)
     rs.run_batch(rs.Body.preset("kane_levinson"), spin=[-3.0], mu=0.4, t_end=0.01)  # warm
     began = time.perf_counter()

@@ -127,6 +127,9 @@ def test_the_command_line_writes_the_fit_and_says_when_an_input_is_not_determine
     assert main(["fit", *args]) == 3
     captured = capsys.readouterr()
     assert "not determined" in captured.out + captured.err
+    run_line = next(x for x in captured.out.splitlines() if x.startswith("run the fitted"))
+    command = run_line.split(": ", 1)[1].split()
+    assert command[:4] == ["rattlesweep", "simulate", "--body", str(out / "fit.toml")]
     assert sorted(p.name for p in out.iterdir()) == ["fit.nc", "fit.png", "fit.toml"]
     from rattlesweep.sweep._config.toml_io import read_toml
 
@@ -135,11 +138,47 @@ def test_the_command_line_writes_the_fit_and_says_when_an_input_is_not_determine
     assert spin["low"] <= -3.0 <= spin["high"] and spin["units"] == "rad s-1"
     assert doc["fitted"]["mu"]["determined"] is False
     assert doc["fixed"] == {"damping": 2e-4, "roll_deg": 1.0}
-    # the fitted body runs at once
-    assert main(["simulate", "--body", str(out / "fit.toml"), "--t-end", "0.1"]) == 0
+    assert doc["defaults"] == {"pitch": 0.0, "mu_spin": 0.0, "mu_roll": 0.0}
+    # the fitted rattleback runs at once, as the command says, and spins as fitted
+    sim = tmp_path / "sim.nc"
+    assert main([*command[1:], "--out", str(sim)]) == 0
+    import xarray as xr
+
+    with xr.open_dataset(sim) as ds:
+        assert float(ds["spin"][0]) == pytest.approx(
+            doc["fitted"]["spin"]["value"], rel=1e-5
+        )
     # a second fit into the same directory is refused before any compute
     assert main(["fit", *args]) == 2
     assert "holds a fit already" in capsys.readouterr().err
+
+
+def test_options_that_cannot_apply_are_refused_before_the_search(
+    gyro_file, tmp_path, capsys
+):
+    base = [str(gyro_file), "--body", "kane_levinson", "--free", "spin=-5:-1", "--quiet"]
+    afile = tmp_path / "afile"
+    afile.write_text("")
+    cases = [
+        (["--out", str(afile)], "--out " + str(afile) + ": exists and is not a directory"),
+        (
+            ["--out", str(tmp_path / "o"), "--rate-columns", "a", "b", "c"],
+            "name the columns of --format csv",
+        ),
+        (
+            ["--out", str(tmp_path / "o"), "--trim-start", "6"],
+            "trim_start 6 s leaves 0 samples",
+        ),
+        (
+            ["--out", str(tmp_path / "o"), "--free", "spinn=1:2"],
+            "'spinn' is not an input a fit can free",
+        ),
+    ]
+    for extra, message in cases:
+        assert main(["fit", *base, *extra]) == 2
+        err = capsys.readouterr().err
+        assert message in err and "fitting" not in err, err
+    assert not (tmp_path / "o").exists()
 
 
 def test_simulate_takes_a_preset_name_for_its_body(capsys):

@@ -136,8 +136,8 @@ class _Worker:
         self.log.seek(0)
         return self.log.read()[-2000:]
 
-    def stop(self, kill: bool) -> None:
-        if kill and self.proc.poll() is None:
+    def stop(self) -> None:
+        if self.proc.poll() is None:
             self.proc.kill()
         if self.proc.stdin is not None:
             try:
@@ -210,7 +210,6 @@ def compile_kernels(
     answers: queue.Queue = queue.Queue()
     workers = [_Worker(i, answers) for i in range(n_workers)]
     compiled: list[str] = []
-    killed = True
     try:
         while pending or any(w.job for w in workers):
             for worker in workers:
@@ -250,16 +249,18 @@ def compile_kernels(
                 f"{len(compiled) + len(pending) + sum(1 for w in workers if w.job)} "
                 f"{specialisations.job(name).label} ({float(detail):.0f} s)"
             )
-        killed = False
     except KeyboardInterrupt:
+        kept = len(compiled)
         write(
-            f"interrupted: {len(compiled)} specialisations compiled are kept in the "
-            "cache; 'rattlesweep compile' again compiles the rest"
+            f"interrupted: {kept} specialisation{' is' if kept == 1 else 's are'} compiled "
+            "and kept in the cache; 'rattlesweep compile' again compiles the rest"
         )
         raise
     finally:
+        # every job reported is saved, so the workers are stopped at once (a worker
+        # left to exit on its own takes seconds to tear down numba)
         for worker in workers:
-            worker.stop(kill=killed)
+            worker.stop()
     size = cache_size(directories)
     seconds = time.perf_counter() - start
     write(

@@ -55,10 +55,13 @@ def _fixed(items: list[str] | None) -> dict[str, float]:
 
 def _cmd_fit(args: argparse.Namespace, argv: list[str] | None) -> int:
     from ..fitting import fit, read_measurement, write_fit
-    from ..fitting.files import NAMES
+    from ..fitting.files import NAMES, simulate_command
     from ..sweep._config.body_file import body_from_argument
 
+    from ..fitting.parameters import bounds_from, check_fixed
+
     free, fixed = _free(args.free), _fixed(args.fixed)
+    check_fixed(fixed, bounds_from(free))  # before anything is read or said
     columns = {}
     if args.time_column:
         columns["time"] = args.time_column
@@ -66,6 +69,19 @@ def _cmd_fit(args: argparse.Namespace, argv: list[str] | None) -> int:
         columns["heading"] = args.heading_column
     if args.rate_columns:
         columns.update(zip("xyz", args.rate_columns))
+    if columns and args.format != "csv":
+        raise ValueError(
+            "--time-column, --heading-column and --rate-columns name the columns of "
+            "--format csv; other formats name their own"
+        )
+    if args.out.exists() and not args.out.is_dir():
+        raise ValueError(f"--out {args.out}: exists and is not a directory")
+    taken = [n for n in NAMES if (args.out / n).exists()] if args.out.is_dir() else []
+    if taken and not args.force:
+        raise ValueError(
+            f"{args.out} holds a fit already ({', '.join(taken)}): choose another --out, "
+            "or --force to replace it"
+        )
     body = body_from_argument(args.body)
     data = read_measurement(
         args.data,
@@ -74,12 +90,6 @@ def _cmd_fit(args: argparse.Namespace, argv: list[str] | None) -> int:
         angle_units=args.angle_units,
         trim_start=args.trim_start,
     )
-    taken = [n for n in NAMES if (args.out / n).exists()] if args.out.is_dir() else []
-    if taken and not args.force:
-        raise ValueError(
-            f"{args.out} holds a fit already ({', '.join(taken)}): choose another --out, "
-            "or --force to replace it"
-        )
     say = (
         (lambda line: None)
         if args.quiet
@@ -104,6 +114,7 @@ def _cmd_fit(args: argparse.Namespace, argv: list[str] | None) -> int:
     print(f"fit of {args.data}:")
     print(result.summary())
     print(f"wrote {', '.join(str(p) for p in paths)}")
+    print(f"run the fitted rattleback: {simulate_command(result, str(paths[0]))}")
     if not result.determined:
         print(
             "rattlesweep: some inputs are not determined by these data (see the notes); "
@@ -123,8 +134,9 @@ def add_fit_parser(sub: argparse._SubParsersAction) -> None:
         description="Fit the inputs named by --free to a measurement of a real "
         "rattleback: a Tracker video export (heading), a phyphox gyroscope export, a "
         "CSV or a netCDF file. Searches with batches of candidate runs, then writes "
-        "fit.toml (each input with its 95 %% interval; 'rattlesweep simulate --body "
-        "fit.toml' runs the fitted body), fit.nc and fit.png into --out. Exit status 3 "
+        "fit.toml (each input with its 95 % interval, the fitted body, and the "
+        "simulate command that runs the fitted rattleback), fit.nc and fit.png into "
+        "--out. Exit status 3 "
         "when an input is not determined by the data (the files are still written).",
     )
     p.add_argument("data", help="the measurement file")
@@ -146,7 +158,8 @@ def add_fit_parser(sub: argparse._SubParsersAction) -> None:
         "--fixed",
         action="append",
         metavar="NAME=VALUE",
-        help="an input held at a value (repeat)",
+        help="an input held at a value (repeat; default: none, the others take simulate's "
+        "defaults)",
     )
     p.add_argument(
         "--out", type=Path, required=True, help="directory for fit.toml, fit.nc, fit.png"
@@ -157,14 +170,18 @@ def add_fit_parser(sub: argparse._SubParsersAction) -> None:
         default=None,
         help="the file's format (default: detected)",
     )
-    p.add_argument("--time-column", default=None, help="csv: the time column (s)")
-    p.add_argument("--heading-column", default=None, help="csv: the heading column")
+    p.add_argument(
+        "--time-column", default=None, help="csv: the time column (s); default: none"
+    )
+    p.add_argument(
+        "--heading-column", default=None, help="csv: the heading column; default: none"
+    )
     p.add_argument(
         "--rate-columns",
         nargs=3,
         metavar=("X", "Y", "Z"),
         default=None,
-        help="csv: the gyroscope rate columns (rad/s)",
+        help="csv: the gyroscope rate columns (rad/s); default: none",
     )
     p.add_argument(
         "--angle-units",

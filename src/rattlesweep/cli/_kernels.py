@@ -8,5 +8,8 @@ import argparse
 def _cmd_compile(args: argparse.Namespace, argv: list[str] | None) -> int:
     from ..kernel_cache import compile_kernels
 
-    compile_kernels(args.jobs)
+    try:
+        compile_kernels(args.jobs)
+    except KeyboardInterrupt:  # compile_kernels said what is kept
+        return 130
     return 0

@@ -15,7 +15,8 @@ import xarray as xr
 from ..rattleback.body import Body
 from .measurement import Measurement, from_dataset, read_measurement
 from .objective import Comparison, Features, compare, measured_features
-from .parameters import Bound, bodies_for, bounds_from, check_fixed, units_of
+from .parameters import Bound, bodies_for, bounds_from, check_fixed, defaults_left
+from .parameters import units_of
 from .search import Profile, global_search, polish, profiles
 
 __all__ = ["FitResult", "Fitted", "fit"]
@@ -25,6 +26,10 @@ CHUNK = 256
 
 RESTARTS = 2
 """Times the polish starts again from a lower point a profile met."""
+
+POOR_FIT = 25.0
+"""A reduced chi-squared above this says the model cannot reproduce the data (noise
+misjudged by a factor of 5): the result says so, and is not determined."""
 
 
 @dataclass(frozen=True)
@@ -48,7 +53,8 @@ class Fitted:
 
 @dataclass
 class FitResult:
-    """What :func:`fit` found: the ``fitted`` inputs, the ``fixed`` ones, the offsets
+    """What :func:`fit` found: the ``fitted`` inputs, the ``fixed`` ones, those held at
+    their ``defaults`` (neither free nor fixed), the offsets
     fitted in closed form (``offsets``: gyroscope biases, rad/s, or the heading's
     offset, rad), the fit's quality (``chi2``, ``reduced_chi2``, ``residual_rms`` of the
     scaled features), the ``correlation`` matrix of the fitted inputs (from the
@@ -57,6 +63,7 @@ class FitResult:
 
     fitted: dict[str, Fitted]
     fixed: dict[str, Any]
+    defaults: dict[str, float]
     offsets: dict[str, float]
     chi2: float
     reduced_chi2: float
@@ -70,8 +77,11 @@ class FitResult:
 
     @property
     def determined(self) -> bool:
-        """Whether every fitted input has both ends of its interval."""
-        return all(f.determined for f in self.fitted.values())
+        """Whether every fitted input has both ends of its interval, and the model
+        fits the data (reduced chi-squared at most :data:`POOR_FIT`)."""
+        return self.reduced_chi2 <= POOR_FIT and all(
+            f.determined for f in self.fitted.values()
+        )
 
     def summary(self) -> str:
         from .files import _interval, _units
@@ -80,6 +90,11 @@ class FitResult:
         for f in self.fitted.values():
             lines.append(
                 f"  {f.name} = {f.value:.4g}{_units(f.units)}  95 %: {_interval(f)}"
+            )
+        if self.offsets:
+            lines.append(
+                "  fitted in closed form: "
+                + ", ".join(f"{k} = {v:.4g}" for k, v in self.offsets.items())
             )
         lines.append(
             f"  reduced chi2 {self.reduced_chi2:.3g}, residual RMS {self.residual_rms:.3g} "
@@ -146,6 +161,12 @@ def fit(
         raise ValueError(f"body must be a Body or a preset name, got {body!r}")
     bounds = bounds_from(free)
     fixed = check_fixed(fixed or {}, bounds)
+    defaults = defaults_left(bounds, fixed)
+    if defaults:
+        say(
+            "held at their defaults (fix them with fixed, or free them): "
+            + ", ".join(f"{k} = {v:g}" for k, v in defaults.items())
+        )
     if not (math.isfinite(window) and 0 < window <= measurement.duration / 4):
         raise ValueError(
             f"window must be a positive number of seconds at most a quarter of the "
@@ -179,21 +200,36 @@ def fit(
             run.evaluate, best, best_chi2, threshold, profile_points, jac
         )
         runs += n + n_prof
-        if lowest_chi2 >= best_chi2 * (1.0 - 1e-6) or attempt == RESTARTS:
+        if lowest_chi2 >= best_chi2 - max(1e-3, 1e-4 * best_chi2) or attempt == RESTARTS:
             break
         # a profile went below the best fit: polish from there and profile again
-        say(f"a profile found chi2 {lowest_chi2:.4g} below the best {best_chi2:.4g}: again")
+        say(
+            f"a profile met chi2 {lowest_chi2:.6g}, below the best fit's "
+            f"{best_chi2:.6g}: polishing from there and profiling again"
+        )
         start = lowest
     comparison, series = run.series(best)
     fitted, notes = _fitted(bounds, best, found)
     correlation = _correlation(jac)
     notes += _trade_offs(bounds, correlation)
+    if reduced > POOR_FIT:
+        notes.insert(
+            0,
+            f"the model does not fit these data (reduced chi2 {reduced:.3g}): the "
+            "intervals mean little; check the body, the fixed inputs, the defaults and "
+            "the bounds",
+        )
     values = {b.name: float(b.value(np.array(best[k]))) for k, b in enumerate(bounds)}
     fitted_body = _body_of(the_body, {**fixed, **values})
     offsets = {k: float(v[0]) for k, v in comparison.offsets.items()}
+    if "heading_offset" in offsets:  # the video's zero, as an angle in (-pi, pi]
+        offsets["heading_offset"] = math.pi - (math.pi - offsets["heading_offset"]) % (
+            2 * math.pi
+        )
     result = FitResult(
         fitted=fitted,
         fixed=dict(fixed),
+        defaults=defaults,
         offsets=offsets,
         chi2=best_chi2,
         reduced_chi2=reduced,
@@ -270,25 +306,33 @@ class _Runner:
         given.setdefault("dt", self.dt)
         return body, given
 
-    def run(self, cube: np.ndarray) -> xr.Dataset:
-        from ..rattleback.batch import run_batch
+    def run(self, cube: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(sample times, the compared series of each candidate): run_batch's own
+        checks and kernel call, without building its dataset (most of a short
+        run's cost)."""
+        from .._core.rattleback.layout import R_HEADING, R_OMEGA
+        from .._core.workspace import RK4
+        from .._options import check_single_step
+        from .._run import execute
+        from ..rattleback.batch import prepare, split_angles
 
         body, given = self.inputs(cube)
         given = {
             k: (np.broadcast_to(v, (len(cube),)) if np.ndim(v) == 0 else v)
             for k, v in given.items()
         }
-        return run_batch(body, t_end=self.t_end, record_every=self.record_every, **given)
-
-    def model_series(self, ds: xr.Dataset) -> np.ndarray:
+        plain, radians, degrees = split_angles(body, {**given, "t_end": self.t_end})
+        prep = prepare(body, **plain, **radians, degrees=degrees)
+        check_single_step(prep)
+        raw = execute(prep, method=RK4, record_every=self.record_every)
+        assert raw.records is not None
+        t = np.arange(raw.records.shape[1]) * self.dt * self.record_every
         if self.data.kind == "heading":
-            return np.asarray(ds["heading"].transpose("trajectory", "time").values)
-        return np.asarray(ds["omega"].transpose("trajectory", "time", "body_axis").values)
+            return t, raw.records[:, :, R_HEADING]
+        return t, raw.records[:, :, R_OMEGA : R_OMEGA + 3]
 
     def compare_chunk(self, cube: np.ndarray) -> tuple[Comparison, np.ndarray, np.ndarray]:
-        ds = self.run(cube)
-        series = self.model_series(ds)
-        t = np.asarray(ds["time"].values)
+        t, series = self.run(cube)
         comparison = compare(
             self.data,
             self.measured,

@@ -38,6 +38,19 @@ def _plain(value: Any) -> Any:
     return value
 
 
+def simulate_command(result: FitResult, toml: str = "fit.toml") -> str:
+    """The command line that runs the fitted rattleback: its body from ``toml`` and its
+    fitted and fixed inputs as options."""
+    values = {**result.fixed, **{f.name: f.value for f in result.fitted.values()}}
+    options = " ".join(
+        f"--{name.replace('_', '-')} {value:.6g}"
+        for name, value in values.items()
+        if name not in ("delta", "delta_deg", "t_end")
+    )
+    duration = float(result.dataset["time"][-1])
+    return f"rattlesweep simulate --body {toml} {options} --t-end {duration:.6g}"
+
+
 def document(result: FitResult) -> dict[str, Any]:
     """fit.toml's contents."""
     fitted = {
@@ -57,6 +70,8 @@ def document(result: FitResult) -> dict[str, Any]:
             "fitted": fitted,
             "offsets": result.offsets,
             "fixed": result.fixed,
+            "defaults": result.defaults,
+            "simulate": simulate_command(result),
             "quality": {
                 "chi2": result.chi2,
                 "reduced_chi2": result.reduced_chi2,

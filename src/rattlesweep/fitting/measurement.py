@@ -57,6 +57,12 @@ class Measurement:
                 f"trim_start must be a finite number of seconds >= 0, got {start!r}"
             )
         keep = self.time >= start
+        if keep.sum() < MIN_SAMPLES:
+            raise ValueError(
+                f"trim_start {start:g} s leaves {int(keep.sum())} samples of "
+                f"{self.source or 'the measurement'} (it lasts {self.duration:g} s); a fit "
+                f"needs at least {MIN_SAMPLES}"
+            )
         return Measurement(
             self.kind, self.time[keep] - start, self.values[keep], self.source
         )

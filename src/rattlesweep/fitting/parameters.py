@@ -20,7 +20,7 @@ from ..inputs import RATTLEBACK as INPUTS
 from ..rattleback.batch import ACCEPTED
 from ..rattleback.body import Body
 
-__all__ = ["Bound", "FITTABLE", "bounds_from", "check_fixed", "units_of"]
+__all__ = ["Bound", "FITTABLE", "bounds_from", "check_fixed", "defaults_left", "units_of"]
 
 _NOT_FREE = {"t_end", "dt", "omega", "orientation", "velocity", "mu_static"}
 FITTABLE = tuple(n for n in ACCEPTED if n not in _NOT_FREE) + ("delta", "delta_deg")
@@ -127,6 +127,20 @@ def check_fixed(fixed: Mapping[str, Any], bounds: list[Bound]) -> dict[str, Any]
     if "t_end" in fixed:
         raise ValueError("fixed: t_end is set by the measurement's duration")
     return dict(fixed)
+
+
+_DEFAULTED = ("spin", "roll", "pitch", "mu", "mu_spin", "mu_roll", "damping")
+
+
+def defaults_left(bounds: list[Bound], fixed: Mapping[str, Any]) -> dict[str, float]:
+    """The launch and friction inputs neither free nor fixed, with the defaults
+    :func:`rattlesweep.simulate` gives them (a fit says so: a forgotten input is a
+    common reason for a fit that cannot match)."""
+    given = {b.name.removesuffix("_deg") for b in bounds}
+    given |= {n.removesuffix("_deg") for n in fixed}
+    if "mu_static" in fixed:
+        given.add("mu")
+    return {n: float(INPUTS[n].default) for n in _DEFAULTED if n not in given}
 
 
 def bodies_for(body: Body, delta: np.ndarray) -> np.ndarray:

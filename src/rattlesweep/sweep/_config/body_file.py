@@ -19,9 +19,10 @@ def body_from_argument(text: str) -> Body:
     from ...rattleback.body import PRESETS
 
     path = Path(text)
-    if text in PRESETS and not path.exists():
-        return Body.preset(text)
-    if not path.exists():
+    looks_like_a_file = path.suffix != "" or len(path.parts) > 1
+    if not path.exists() and not looks_like_a_file:
+        if text in PRESETS:
+            return Body.preset(text)
         raise ValueError(
             f"--body {text}: neither a preset ({', '.join(sorted(PRESETS))}) nor a "
             "TOML file with a [body] table"
