@@ -519,3 +519,75 @@ def test_show_in_a_plain_script_says_where_and_how_to_keep_it_up():
     assert proc.returncode == 0
     assert "serving at http://127.0.0.1:" in proc.stdout
     assert "rattlesweep explore" in proc.stdout and "explore.serve()" in proc.stdout
+
+
+def _raw(server, request: bytes) -> bytes:
+    """Send raw bytes to the server; its whole answer (the connection closed by it)."""
+    import socket
+
+    port = int(server.url.rsplit(":", 1)[1].strip("/"))
+    with socket.create_connection(("127.0.0.1", port), timeout=10) as sock:
+        sock.sendall(request)
+        answer = b""
+        while chunk := sock.recv(65536):
+            answer += chunk
+    return answer
+
+
+@pytest.mark.parametrize(
+    "length, message",
+    [
+        (b"-1", b"Content-Length '-1' is not a length"),
+        (b"abc", b"Content-Length 'abc' is not a length"),
+        (b"99999999999999999999", b"is not a length"),
+        (b"2000000", b"request body over 1048576 bytes"),
+    ],
+)
+def test_a_body_length_that_is_not_a_length_is_refused_before_reading(
+    server, length, message
+):
+    """The server answers at once and closes, though the client keeps the connection
+    open and sends nothing more: nothing waits for (or buffers) a body."""
+    head = (
+        b"POST /api/run HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/json\r\n"
+        b"Content-Length: " + length + b"\r\n\r\n"
+    )
+    began = time.perf_counter()
+    answer = _raw(server, head)
+    assert time.perf_counter() - began < 5
+    assert answer.split(b"\r\n", 1)[0] in (
+        b"HTTP/1.1 400 Bad Request",
+        b"HTTP/1.1 413 Request Entity Too Large",
+    ), answer[:200]
+    assert message in answer
+
+
+@pytest.mark.parametrize(
+    "body, message",
+    [
+        (b"[" * 100000 + b"]" * 100000, b"bad request: nested too deep"),
+        (b'{"settings": [1, 2]}', b"bad request: settings must be a JSON object"),
+        (b'{"map": "spin"}', b"bad request: map must be a JSON object"),
+    ],
+)
+def test_bodies_of_the_wrong_shape_get_a_400(server, body, message):
+    head = (
+        b"POST /api/run HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n"
+        b"Content-Length: " + str(len(body)).encode() + b"\r\n\r\n"
+    )
+    answer = _raw(server, head + body)
+    assert answer.startswith(b"HTTP/1.1 400"), answer[:200]
+    assert message in answer
+
+
+@pytest.mark.parametrize("port", ["-1", "65536", "http"])
+def test_a_port_that_is_no_port_is_refused_by_name(port, capsys):
+    from rattlesweep.cli import main
+
+    with pytest.raises(SystemExit) as exit_:
+        main(["explore", "--port", port, "--no-browser"])
+    assert exit_.value.code == 2
+    assert (
+        f"--port: must be a port number from 0 to 65535 (0: any free port), got '{port}'"
+        in (capsys.readouterr().err)
+    )

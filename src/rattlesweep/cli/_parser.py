@@ -373,7 +373,7 @@ def build_parser() -> argparse.ArgumentParser:
         "ahead), then prints the address and opens the browser. Ctrl-C stops it.",
     )
     p.add_argument(
-        "--port", type=int, default=8050, help="port (default 8050; 0: any free)"
+        "--port", type=_port, default=8050, help="port (default 8050; 0: any free)"
     )
     p.add_argument(
         "--host",
@@ -405,6 +405,19 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_fit_parser(sub)
     return parser
+
+
+def _port(text: str) -> int:
+    """An argparse type: a TCP port number, 0 to 65535 (0: any free port)."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if not 0 <= value <= 65535:
+        raise argparse.ArgumentTypeError(
+            f"must be a port number from 0 to 65535 (0: any free port), got {text!r}"
+        )
+    return value
 
 
 def _positive_int(text: str) -> int:

@@ -257,8 +257,19 @@ class _Handler(BaseHTTPRequestHandler):
         if self._foreign_host():
             return
         url = urlparse(self.path)
-        length = int(self.headers.get("Content-Length", "0") or 0)
+        # the length is checked before a byte of the body is read: a length that is not
+        # a plain number, or one over the cap, is refused and the connection closed
+        # (where its body ends is then unknown)
+        given = self.headers.get("Content-Length", "0").strip() or "0"
+        if not given.isdecimal() or len(given) > 12:
+            self.close_connection = True
+            return self._json(
+                HTTPStatus.BAD_REQUEST,
+                {"error": f"bad request: Content-Length {given[:20]!r} is not a length"},
+            )
+        length = int(given)
         if length > _MAX_BODY:
+            self.close_connection = True
             return self._json(
                 HTTPStatus.REQUEST_ENTITY_TOO_LARGE,
                 {"error": f"request body over {_MAX_BODY} bytes"},
@@ -267,8 +278,12 @@ class _Handler(BaseHTTPRequestHandler):
             body = json.loads(self.rfile.read(length) or b"{}")
             if not isinstance(body, dict):
                 raise ValueError("the request must be a JSON object")
-        except ValueError as exc:
-            return self._json(HTTPStatus.BAD_REQUEST, {"error": f"bad request: {exc}"})
+            for part in ("settings", "map"):
+                if body.get(part) is not None and not isinstance(body[part], dict):
+                    raise ValueError(f"{part} must be a JSON object")
+        except (ValueError, RecursionError) as exc:  # RecursionError: JSON nested deep
+            reason = "nested too deep" if isinstance(exc, RecursionError) else exc
+            return self._json(HTTPStatus.BAD_REQUEST, {"error": f"bad request: {reason}"})
         app = self.server.app
         key = str(body.get("session", ""))
         settings = body.get("settings") or {}
