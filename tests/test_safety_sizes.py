@@ -77,13 +77,13 @@ def test_the_check_uses_the_memory_available(monkeypatch):
     import rattlesweep._validation as validation
 
     # a batch of 1000 launches (about 1 MB) on a machine with 100 kB available
-    monkeypatch.setattr(validation, "available_memory", lambda: 100_000)
+    monkeypatch.setattr(validation, "memory_left", lambda: (100_000, "memory available"))
     _refused(
         r"launches = 1,000 \(the broadcast of spin \(1000,\)\): a batch of 1,000 "
         r"launches would need about 0.000954 GiB, more than the 9.31e-05 GiB",
         lambda: rs.run_batch(TOY, spin=np.ones(1000), t_end=0.01),
     )
-    monkeypatch.setattr(validation, "available_memory", lambda: 10**9)
+    monkeypatch.setattr(validation, "memory_left", lambda: (10**9, "memory available"))
     assert rs.run_batch(TOY, spin=np.ones(1000), t_end=0.01).sizes["trajectory"] == 1000
 
 
@@ -93,7 +93,7 @@ def test_an_axis_is_refused_for_what_building_the_grid_holds(monkeypatch):
     not after (the values alone would fit)."""
     import rattlesweep._validation as validation
 
-    monkeypatch.setattr(validation, "available_memory", lambda: 20 * 2**30)
+    monkeypatch.setattr(validation, "memory_left", lambda: (20 * 2**30, "memory available"))
     _refused(
         r"axes\.spin\.num = 1000000000: 1,000,000,000 axis values " + HUGE,
         lambda: Sweep(
@@ -166,7 +166,7 @@ def test_dry_run_says_a_refined_grid_would_be_refused(tmp_path, capsys, monkeypa
     import rattlesweep._validation as validation
     from rattlesweep.cli import main
 
-    monkeypatch.setattr(validation, "available_memory", lambda: 16 * 2**30)
+    monkeypatch.setattr(validation, "memory_left", lambda: (16 * 2**30, "memory available"))
     config = tmp_path / "refined.toml"
     config.write_text(
         'name = "fine"\n[axes]\nspin = { start = 1, stop = 2, num = 5 }\n'
@@ -184,3 +184,40 @@ def test_dry_run_says_a_refined_grid_would_be_refused(tmp_path, capsys, monkeypa
     )
     assert main(["sweep", str(config), "--out", str(tmp_path / "out")]) == 2
     assert "would need about 250 GiB" in capsys.readouterr().err
+
+
+UNDER_A_LIMIT = """
+import resource, sys
+import numpy as np
+import rattlesweep as rs
+rs.run_batch(rs.Body.preset("toy"), spin=[1.0], t_end=0.01)  # loaded before the limit
+status = open("/proc/self/status").read().splitlines()
+size = next(int(x.split()[1]) * 1024 for x in status if x.startswith("VmSize:"))
+resource.setrlimit(resource.RLIMIT_AS, (size + 2**30, resource.RLIM_INFINITY))
+for call in (
+    lambda: rs.run_batch(rs.Body.preset("toy"), spin=np.zeros(5_000_000), t_end=0.01),
+    lambda: rs.simulate(rs.Body.preset("toy"), spin=5.0, t_end=300.0, record_every=1),
+):
+    try:
+        call()
+    except ValueError as error:
+        print(error)
+"""
+
+
+def test_size_guards_heed_the_process_address_space_limit():
+    """Under `ulimit -v` (RLIMIT_AS) with 1 GiB left, a batch of 5e6 launches and a
+    long record are refused by name, saying which limit applies, on a machine whose
+    memory would hold them (they were MemoryError tracebacks)."""
+    import subprocess
+    import sys
+
+    out = subprocess.run(
+        [sys.executable, "-c", UNDER_A_LIMIT], capture_output=True, text=True, timeout=300
+    )
+    assert out.returncode == 0, out.stderr[-3000:]
+    lines = out.stdout.strip().splitlines()
+    assert len(lines) == 2, out.stdout + out.stderr[-2000:]
+    assert lines[0].startswith("launches = 5,000,000")
+    for line in lines:
+        assert "address space left under this process's limit (ulimit -v)" in line, line

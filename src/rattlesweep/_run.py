@@ -4,7 +4,6 @@ the friction level the batch's coefficients need."""
 
 from __future__ import annotations
 
-import os
 import threading
 from typing import Any
 
@@ -14,7 +13,7 @@ from numba import types
 
 from ._model import Model, Prepared, Raw
 from ._pack import unblock
-from ._validation import check_boolean
+from ._validation import check_boolean, memory_left
 from ._cold_start import announce, compiling
 from ._core import specialisations, stepper
 from ._core.jit import on_disk
@@ -29,7 +28,6 @@ __all__ = [
     "execute",
     "kernels_compiled",
     "worker_count",
-    "physical_memory",
     "run_kernel",
 ]
 
@@ -94,29 +92,22 @@ def worker_count(threads: int | None) -> int:
     return int(threads)
 
 
-def physical_memory() -> int | None:
-    """This machine's memory in bytes, None where the system does not say."""
-    try:
-        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (AttributeError, ValueError, OSError):
-        return None
-
-
 def check_record_size(prep: Prepared, n_rec: int, record_every: int) -> None:
-    """Refuse, before any compute, a record that would not fit in this machine's memory,
-    naming its size and the arguments that set it."""
+    """Refuse, before any compute, a record that would not fit in the memory this process
+    can take now (:func:`._validation.memory_left`), naming its size, what limits it and
+    the arguments that set it."""
     need = n_rec * prep.model.layout.N_REC * prep.P.shape[0] * BLOCK * 8
-    have = physical_memory()
-    if have is not None and need > have:
+    left = memory_left()
+    if left is not None and need > left[0]:
         dt = float(prep.coords["dt"][1][0])
         t_end = float(prep.coords["t_end"][1].max())
         lanes = "trajectory" if prep.n == 1 else "trajectories"
         raise ValueError(
             f"the record would need {need / 2**30:.3g} GiB ({n_rec:,} samples of "
             f"{prep.model.layout.N_REC} series for {prep.n:,} {lanes} in blocks of "
-            f"{BLOCK}), more than this machine's {have / 2**30:.3g} GiB: t_end / (dt * "
-            f"record_every) = {t_end:g} / ({dt:g} * {record_every}) samples each; record "
-            f"less often (a larger record_every), or a shorter t_end"
+            f"{BLOCK}), more than the {left[0] / 2**30:.3g} GiB of {left[1]}: t_end / "
+            f"(dt * record_every) = {t_end:g} / ({dt:g} * {record_every}) samples each; "
+            "record less often (a larger record_every), or a shorter t_end"
         )
 
 

@@ -16,6 +16,7 @@ import numpy as np
 __all__ = [
     "as_float_array",
     "available_memory",
+    "memory_left",
     "check_boolean",
     "check_memory",
     "fail_where",
@@ -163,9 +164,7 @@ def fail_where(name: str, arr: np.ndarray, bad: np.ndarray, rule: str) -> None:
         raise ValueError(f"{name} {rule}; got {shown}{where}")
 
 
-def available_memory() -> int | None:
-    """Bytes of memory available to a new allocation now (Linux: ``MemAvailable`` of
-    /proc/meminfo; elsewhere the physical memory), None where the system does not say."""
+def _meminfo_available() -> int | None:
     try:
         with open("/proc/meminfo") as f:
             for line in f:
@@ -179,6 +178,65 @@ def available_memory() -> int | None:
         return None
 
 
+def _address_space_left() -> int | None:
+    """What the process's address-space limit (``ulimit -v``, RLIMIT_AS) leaves of its
+    virtual size now; None when unlimited."""
+    try:
+        import resource
+
+        soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+        if soft == resource.RLIM_INFINITY:
+            return None
+        with open("/proc/self/status") as f:
+            size = next(int(x.split()[1]) * 1024 for x in f if x.startswith("VmSize:"))
+        return max(0, soft - size)
+    except (ImportError, OSError, ValueError, StopIteration):
+        return None
+
+
+def _cgroup_left() -> int | None:
+    """What the memory limit of this process's cgroup (v2 ``memory.max``, a
+    container's limit) leaves; None without one."""
+    try:
+        with open("/proc/self/cgroup") as f:
+            path = next(
+                line.split(":", 2)[2].strip() for line in f if line.startswith("0::")
+            )
+        base = f"/sys/fs/cgroup{path}"
+        with open(f"{base}/memory.max") as f:
+            limit = f.read().strip()
+        if limit == "max":
+            return None
+        with open(f"{base}/memory.current") as f:
+            used = int(f.read().strip())
+        return max(0, int(limit) - used)
+    except (OSError, ValueError, StopIteration, IndexError):
+        return None
+
+
+def memory_left() -> tuple[int, str] | None:
+    """The bytes a new allocation can take now and what sets that: the smallest of the
+    memory available (Linux ``MemAvailable``, elsewhere the physical memory), what
+    the process's address-space limit (``ulimit -v``) leaves and what its container's
+    memory limit (cgroup) leaves; None where the system says none of them."""
+    probes = [
+        (_meminfo_available(), "memory available"),
+        (
+            _address_space_left(),
+            "address space left under this process's limit (ulimit -v)",
+        ),
+        (_cgroup_left(), "memory left under this container's limit (cgroup memory.max)"),
+    ]
+    known = [(n, what) for n, what in probes if n is not None]
+    return min(known, key=lambda p: p[0]) if known else None
+
+
+def available_memory() -> int | None:
+    """Bytes a new allocation can take now (:func:`memory_left`), None where unknown."""
+    left = memory_left()
+    return None if left is None else left[0]
+
+
 def _gib(n: float) -> str:
     return f"{n / 2**30:.3g} GiB"
 
@@ -187,10 +245,10 @@ def check_memory(name: str, value: Any, need: float, what: str, advice: str = ""
     """Refuse, before anything is allocated, what would need ``need`` bytes when that is
     more than the memory available now: ``ValueError("<name> = <value>: <what> would
     need about N GiB, more than the M GiB of memory available; <advice>")``."""
-    have = available_memory()
-    if have is not None and need > have:
+    left = memory_left()
+    if left is not None and need > left[0]:
         tail = f"; {advice}" if advice else ""
         raise ValueError(
             f"{name} = {value}: {what} would need about {_gib(need)}, more "
-            f"than the {_gib(have)} of memory available{tail}"
+            f"than the {_gib(left[0])} of {left[1]}{tail}"
         )
