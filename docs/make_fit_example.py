@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 import rattlesweep as rs
+from rattlesweep.fitting.measurement import write_phyphox
 
 HERE = Path(__file__).parent / "guide" / "fit"
 TRUTH = {"mu": 0.4, "damping": 2e-4, "roll_deg": 1.0, "spin": -3.0}
@@ -31,16 +32,7 @@ def main() -> None:
         [np.interp(t, run.time.values, run.omega.values[:, k]) for k in range(3)], 1
     )
     rates += np.array(BIAS) + np.random.default_rng(11).normal(0.0, NOISE, rates.shape)
-    csv = HERE / "phyphox-gyroscope.csv"
-    lines = [
-        '"Time (s)","Gyroscope x (rad/s)","Gyroscope y (rad/s)","Gyroscope z (rad/s)",'
-        '"Absolute (rad/s)"'
-    ]
-    lines += [
-        f"{ti:.9E},{r[0]:.9E},{r[1]:.9E},{r[2]:.9E},{np.linalg.norm(r):.9E}"
-        for ti, r in zip(t, rates)
-    ]
-    csv.write_text("\n".join(lines) + "\n")
+    csv = write_phyphox(HERE / "phyphox-gyroscope.csv", t, rates)
     with tempfile.TemporaryDirectory() as out:
         command = [
             sys.executable, "-m", "rattlesweep", "fit", str(csv), "--body", "kane_levinson",

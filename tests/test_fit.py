@@ -11,6 +11,7 @@ import pytest
 import rattlesweep as rs
 from rattlesweep.cli import main
 from rattlesweep.fitting import Measurement, fit, read_measurement
+from rattlesweep.fitting.measurement import write_phyphox
 
 BODY = rs.Body.preset("kane_levinson")
 TRUTH = {"mu": 0.4, "damping": 2e-4, "roll_deg": 1.0, "spin": -3.0}
@@ -38,15 +39,7 @@ def gyro_file(tmp_path_factory):
     rng = np.random.default_rng(7)
     rates = _sampled(run, t, "omega") + BIAS + rng.normal(0.0, 0.02, (len(t), 3))
     path = tmp_path_factory.mktemp("gyro") / "Gyroscope rotation rate.csv"
-    lines = [
-        '"Time (s)","Gyroscope x (rad/s)","Gyroscope y (rad/s)","Gyroscope z (rad/s)",'
-        '"Absolute (rad/s)"'
-    ]
-    lines += [
-        f"{ti:.9E},{r[0]:.9E},{r[1]:.9E},{r[2]:.9E},{np.linalg.norm(r):.9E}"
-        for ti, r in zip(t, rates)
-    ]
-    path.write_text("\n".join(lines) + "\n")
+    write_phyphox(path, t, rates)
     return path
 
 

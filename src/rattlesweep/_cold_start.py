@@ -7,10 +7,10 @@ prints it on stderr when nothing configured logging), what compiles, how long th
 usually takes and that ``rattlesweep compile`` builds every kernel ahead. Silence it
 with ``logging.getLogger("rattlesweep").setLevel(logging.ERROR)``. This module loads
 only the standard library until a compile starts, so that the command line can set it
-up before anything numerical loads. The command line also
-asks for a line with the elapsed time every few seconds while a compile runs
-(:func:`show_elapsed`). :func:`compile_seconds` is the time this process has spent
-compiling, which rates and ETAs leave out.
+up before anything numerical loads. The command line also asks for a line with the
+elapsed time every few seconds while a compile runs (:func:`show_elapsed`).
+:func:`compile_seconds` is the time this process has spent compiling, which rates and
+ETAs leave out.
 """
 
 from __future__ import annotations
@@ -56,17 +56,8 @@ def estimate_s(job_names: list[str]) -> float:
     that is not cached yet."""
     from ._core import specialisations  # numba: loaded with the kernels, not before
 
-    seen: set[str] = set()
-    todo = list(job_names)
-    total = 0.0
-    while todo:
-        job = specialisations.job(todo.pop())
-        if job.name in seen or job.cached():
-            continue
-        seen.add(job.name)
-        total += job.typical_s
-        todo.extend(job.after)
-    return total
+    jobs = specialisations.with_what_they_need(job_names)
+    return sum(job.typical_s for job in jobs if not job.cached())
 
 
 def _minutes(seconds: float) -> str:

@@ -89,18 +89,6 @@ def _priorities() -> dict[str, float]:
     return {name: length(name) for name in waiting}
 
 
-def _with_what_they_need(names: list[str]) -> tuple[specialisations.Job, ...]:
-    """The jobs named and those they wait for, directly or not, in JOBS order."""
-    needed: set[str] = set()
-    todo = list(names)
-    while todo:
-        name = todo.pop()
-        if name not in needed:
-            needed.add(name)
-            todo.extend(specialisations.job(name).after)
-    return tuple(job for job in specialisations.JOBS if job.name in needed)
-
-
 class _Worker:
     """A process that compiles the jobs it is sent, one name a line on its stdin, and
     answers ``ok NAME SECONDS`` or ``error NAME MESSAGE`` on its stdout."""
@@ -180,7 +168,7 @@ def compile_kernels(
         ) from None
     everything = specialisations.JOBS
     if only is not None:
-        everything = _with_what_they_need(only)
+        everything = specialisations.with_what_they_need(only)
     done = {job.name for job in everything if job.cached()}
     pending = [job for job in everything if job.name not in done]
 

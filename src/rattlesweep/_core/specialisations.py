@@ -47,6 +47,7 @@ __all__ = [
     "entry_job",
     "job",
     "rhs_signature",
+    "with_what_they_need",
 ]
 
 LEVELS = (ROLLING, SLIDING, COUPLES)
@@ -251,3 +252,15 @@ _BY_NAME = {j.name: j for j in JOBS}
 def job(name: str) -> Job:
     """The job named ``name``."""
     return _BY_NAME[name]
+
+
+def with_what_they_need(names: list[str]) -> tuple[Job, ...]:
+    """The jobs named and those they wait for, directly or not, in :data:`JOBS` order."""
+    needed: set[str] = set()
+    todo = list(names)
+    while todo:
+        name = todo.pop()
+        if name not in needed:
+            needed.add(name)
+            todo.extend(_BY_NAME[name].after)
+    return tuple(j for j in JOBS if j.name in needed)

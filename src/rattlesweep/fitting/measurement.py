@@ -22,7 +22,7 @@ from typing import Any, Literal, Mapping
 
 import numpy as np
 
-__all__ = ["Measurement", "read_measurement"]
+__all__ = ["Measurement", "read_measurement", "write_phyphox"]
 
 Kind = Literal["heading", "gyro"]
 
@@ -214,6 +214,24 @@ def _complete(t: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     all (a value missing in a row that has others is an error, named by the check)."""
     empty = np.isnan(v.reshape(len(t), -1)).all(axis=1) & np.isfinite(t)
     return t[~empty], v[~empty]
+
+
+PHYPHOX_HEADER = (
+    '"Time (s)","Gyroscope x (rad/s)","Gyroscope y (rad/s)","Gyroscope z (rad/s)",'
+    '"Absolute (rad/s)"'
+)
+
+
+def write_phyphox(path: str | Path, time: np.ndarray, rates: np.ndarray) -> Path:
+    """Write gyroscope rates (n, 3) (rad/s) at ``time`` (s) as phyphox exports them (a
+    simulated recording to try a fit on, or to share)."""
+    lines = [PHYPHOX_HEADER] + [
+        f"{t:.9E},{r[0]:.9E},{r[1]:.9E},{r[2]:.9E},{np.linalg.norm(r):.9E}"
+        for t, r in zip(np.asarray(time, float), np.asarray(rates, float))
+    ]
+    out = Path(path)
+    out.write_text("\n".join(lines) + "\n")
+    return out
 
 
 def _phyphox(p: Path, header: list[str], rows: list[list[str]]) -> Measurement:
