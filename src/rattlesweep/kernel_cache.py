@@ -93,8 +93,7 @@ class _Worker:
     """A process that compiles the jobs it is sent, one name a line on its stdin, and
     answers ``ok NAME SECONDS`` or ``error NAME MESSAGE`` on its stdout."""
 
-    def __init__(self, index: int, answers: queue.Queue) -> None:
-        self.index = index
+    def __init__(self, answers: queue.Queue) -> None:
         self.log: IO[str] = tempfile.TemporaryFile("w+")  # its stderr, read if it dies
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "rattlesweep.kernel_cache"],
@@ -196,7 +195,7 @@ def compile_kernels(
         f"min of compiling on one core), into {_where(directories)}"
     )
     answers: queue.Queue = queue.Queue()
-    workers = [_Worker(i, answers) for i in range(n_workers)]
+    workers = [_Worker(answers) for _ in range(n_workers)]
     compiled: list[str] = []
     try:
         while pending or any(w.job for w in workers):

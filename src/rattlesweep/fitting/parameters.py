@@ -86,12 +86,7 @@ def bounds_from(free: Mapping[str, tuple[float, float]]) -> list[Bound]:
                 f"free: {name} bounds must have low < high, got {low:g}:{high:g}"
                 + (" (inverted)" if low > high else "")
             )
-        rule = (
-            INPUTS[name.removesuffix("_deg")].rule
-            if name.removesuffix("_deg") in INPUTS
-            else None
-        )
-        _check_range(name, low, high, rule)
+        _check_range(name, low, high)
         out.append(Bound(name, low, high, low > 0 and high / low >= 100.0))
     names = [b.name.removesuffix("_deg") for b in out]
     twice = {n for n in names if names.count(n) > 1}
@@ -100,7 +95,7 @@ def bounds_from(free: Mapping[str, tuple[float, float]]) -> list[Bound]:
     return out
 
 
-def _check_range(name: str, low: float, high: float, rule: Any) -> None:
+def _check_range(name: str, low: float, high: float) -> None:
     base = name.removesuffix("_deg")
     if base in ("mu", "mu_spin", "mu_roll", "damping", "g") and low < 0:
         raise ValueError(f"free: {name} must be >= 0; its bounds are {low:g}:{high:g}")
