@@ -417,3 +417,74 @@ def test_the_map_has_ticks_a_full_bar_and_no_stray_boundary(page):
     zero = m["x"]["values"].index(0.0)
     assert all(row[zero] is None for row in m["unstable"])
     assert page.errors == []
+
+
+def test_a_measurement_is_drawn_and_fitted_into_the_controls(page, shots, tmp_path):
+    """A phyphox export made by the model (spin -3 rad/s, roll 1 degree, damping 2e-4
+    N m s, noise 0.02 rad/s), loaded through the page's file control: its rate is drawn
+    over the spin plot; pressing fit puts fitted values whose intervals hold the truth
+    into the controls, and the run follows them. A file of an unknown layout is refused
+    by the measurement's control."""
+    from rattlesweep.fitting.measurement import write_phyphox
+
+    truth = {"spin": -3.0, "roll_deg": 1.0, "damping": 2e-4}
+    run = rs.simulate(
+        rs.Body.preset("kane_levinson"), t_end=4.0, record_every=1, mu=0.4, **truth
+    )
+    t = [0.01 * k for k in range(400)]
+    import numpy as np
+
+    rates = np.stack(
+        [np.interp(t, run.time.values, run.omega.values[:, k]) for k in range(3)], 1
+    )
+    rates += np.random.default_rng(5).normal(0.0, 0.02, rates.shape)
+    good = tmp_path / "Gyroscope rotation rate.csv"
+    write_phyphox(good, np.array(t), rates)
+    bad = tmp_path / "notes.csv"
+    bad.write_text("colour,size\nred,3\n")
+
+    page.select_option("#preset", "kane_levinson")
+    for sel, value in (("#spin", "-2.5"), ("#roll_deg", "1.5"), ("#pitch_deg", "0")):
+        page.fill(sel, value)
+    for sel, value in (("#mu", "0.4"), ("#damping", "0.0001"), ("#mu_spin", "0")):
+        page.fill(sel, value)
+    page.fill("#mu_roll", "0")
+    page.set_input_files("#measurement", str(bad))
+    page.wait_for_function(
+        "document.getElementById('err-measurement').textContent.length > 0",
+        timeout=30_000,
+    )
+    assert "layout is not known" in page.inner_text("#err-measurement")
+    assert page.is_disabled("#fit")
+
+    runs = page.evaluate("window.explorer.runs")
+    before = canvas_png(page, "#plot-spin")
+    page.set_input_files("#measurement", str(good))
+    page.wait_for_function(
+        f"window.explorer.measured && window.explorer.runs > {runs}", timeout=30_000
+    )
+    page.wait_for_timeout(200)
+    assert page.inner_text("#err-measurement") == ""
+    assert page.input_value("#t_end") == "3.99"
+    assert canvas_png(page, "#plot-spin") != before  # the dots drawn
+    ticked = page.eval_on_selector_all(
+        "#fit-free input:checked", "els => els.map(e => e.value)"
+    )
+    assert sorted(ticked) == sorted(truth)
+    page.screenshot(path=str(shots / "explore-measurement.png"))
+
+    page.click("#fit")
+    page.wait_for_function("window.explorer.fit", timeout=180_000)
+    fitted = page.evaluate("window.explorer.fit.fitted")
+    for name, value in truth.items():
+        f = fitted[name]
+        assert f["determined"] and f["low"] <= value <= f["high"], (name, f)
+        assert float(page.input_value(f"#{name}")) == pytest.approx(f["value"], rel=1e-5)
+    assert "95 %" in page.inner_text("#fit-result")
+    page.wait_for_function(
+        "Math.abs(window.explorer.run.spin[0] - window.explorer.fit.fitted.spin.value)"
+        " < 0.05",
+        timeout=30_000,
+    )
+    page.screenshot(path=str(shots / "explore-fitted.png"))
+    assert page.errors == []

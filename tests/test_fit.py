@@ -97,6 +97,89 @@ def test_the_fit_finds_the_truth_from_the_far_side_of_its_bounds(gyro_file):
     _within(result, {k: TRUTH[k] for k in free})
 
 
+def test_a_turned_gyroscope_s_yaw_is_fitted_and_its_mass_carried():
+    """A phone lying on the flat face turned by +30 degrees, 50 g and off centre: its
+    yaw is recovered with its sign (the RMS alone cannot tell +30 from -30), the
+    biases with it, and the fitted body carries the phone's mass."""
+    from rattlesweep.fitting.sensor import rotations
+
+    sensor = {"sensor_mass": 0.05, "sensor_position": (0.0, 0.01, 0.004)}
+    loaded = BODY.with_point_masses([(0.05, (0.0, 0.01, 0.004))])
+    run = rs.simulate(loaded, t_end=5.0, record_every=1, **TRUTH)
+    t = np.arange(0.0, 5.0, 0.01)
+    turned = _sampled(run, t, "omega") @ rotations(30.0, 0.0, 0.0).T
+    rng = np.random.default_rng(1)
+    data = Measurement("gyro", t, turned + BIAS + rng.normal(0.0, 0.02, turned.shape), "x")
+    free = {"damping": (1e-5, 1e-3), "spin": (-5.0, -1.0), "sensor_yaw_deg": (-90, 90)}
+    result = fit(data, BODY, free, {"mu": 0.4, "roll_deg": 1.0, **sensor}, **QUICK)
+    _within(result, {"damping": 2e-4, "spin": -3.0, "sensor_yaw_deg": 30.0})
+    assert result.fitted["sensor_yaw_deg"].high - result.fitted["sensor_yaw_deg"].low < 2
+    np.testing.assert_allclose(
+        [result.offsets[f"bias_{a}"] for a in "xy"], BIAS[:2], atol=0.005
+    )
+    assert result.body.mass == pytest.approx(BODY.mass + 0.05)
+    assert "measured_feature" in result.dataset and result.dataset.sizes["feature"] == 4
+
+
+@pytest.fixture(scope="module")
+def slipping_gyro(tmp_path_factory):
+    """4 s of rates at 100 Hz of a launch that slips 16 % of the time (mu = 0.03, roll
+    6 degrees), noise 0.02 rad/s, as a phyphox export."""
+    run = _truth_run(4.0, mu=0.03, roll_deg=6.0)
+    assert 0.1 < float(run.slip_fraction) < 0.3
+    t = np.arange(0.0, 4.0, 0.01)
+    rng = np.random.default_rng(3)
+    rates = _sampled(run, t, "omega") + rng.normal(0.0, 0.02, (len(t), 3))
+    path = tmp_path_factory.mktemp("slip") / "Gyroscope rotation rate.csv"
+    write_phyphox(path, t, rates)
+    return path
+
+
+def test_model_comparison_prefers_the_friction_model_that_made_the_data(
+    slipping_gyro, gyro_file
+):
+    """Data of a slipping launch: Coulomb friction preferred, rolling far behind, and
+    the friction recovered. Data of a launch that never slips: rolling contact, with
+    fewer inputs, preferred over Coulomb friction that fits as well."""
+    from rattlesweep.fitting.models import compare_models
+
+    free = {"damping": (1e-5, 1e-3), "spin": (-5.0, -1.0), "mu": (0.01, 1.0)}
+    models = ("rolling", "coulomb")
+    slipping = compare_models(
+        slipping_gyro, BODY, free, {"roll_deg": 6.0}, models=models, **QUICK
+    )
+    assert slipping.preferred == "coulomb"
+    assert slipping["rolling"].delta > 10 and slipping["coulomb"].weight > 0.95
+    _within(slipping["coulomb"].result, {"mu": 0.03, "damping": 2e-4, "spin": -3.0})
+    rolling = compare_models(
+        gyro_file, BODY, free, {"roll_deg": 1.0}, models=models, **QUICK
+    )
+    assert rolling.preferred == "rolling"
+    assert rolling["coulomb"].result.chi2 <= rolling["rolling"].result.chi2 * 1.05
+    with pytest.raises(ValueError, match="mu fixed: the model comparison sets"):
+        compare_models(gyro_file, BODY, free, {"mu": 0.4})
+
+
+def test_the_command_line_compares_models_and_writes_the_preferred_fit(
+    slipping_gyro, tmp_path, capsys
+):
+    import tomllib
+
+    out = tmp_path / "models"
+    args = [str(slipping_gyro), "--body", "kane_levinson", "--out", str(out), "--quiet"]
+    args += ["--free", "spin=-5:-1", "--free", "mu=0.01:1", "--fixed", "damping=2e-4"]
+    args += ["--fixed", "roll_deg=6", "--compare-models"]
+    assert main(["fit", *args]) == 0
+    printed = capsys.readouterr().out
+    assert "fit of the preferred model, coulomb" in printed
+    table = tomllib.loads((out / "models.toml").read_text())
+    assert table["preferred"] == "coulomb"
+    assert set(table["models"]) == {"rolling", "coulomb", "coulomb_spin"}
+    assert table["models"]["rolling"]["delta_aicc"] > 10
+    fitted = tomllib.loads((out / "fit.toml").read_text())["fitted"]
+    assert fitted["mu"]["low"] <= 0.03 <= fitted["mu"]["high"]
+
+
 def test_friction_in_a_run_that_never_slips_is_reported_not_determined(gyro_file):
     result = fit(
         gyro_file,
@@ -253,6 +336,21 @@ def test_an_unknown_layout_is_refused_with_what_to_do(tmp_path):
         ({"colour": (0, 1)}, {}, "'colour' is not an input a fit can free"),
         ({"mu": (0.0, 1.0)}, {}, "mu must be > 0 for a fit"),
         ({"spin": (-5.0, -1.0)}, {"t_end": 3.0}, "t_end is set by the measurement"),
+        (
+            {"sensor_yaw_deg": (-90, 90)},
+            {},
+            "sensor_yaw_deg: a sensor's axes apply to gyroscope data",
+        ),
+        (
+            {"spin": (-5.0, -1.0)},
+            {"sensor_position": (0, 0, 0.01)},
+            "sensor_position is given without sensor_mass",
+        ),
+        (
+            {"spin": (-5.0, -1.0)},
+            {"sensor_mass": -0.1},
+            "sensor_mass must be a positive number of kg, got -0.1",
+        ),
     ],
 )
 def test_bad_arguments_are_refused_before_any_compute(free, fixed, message):

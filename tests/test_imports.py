@@ -98,7 +98,7 @@ def test_making_a_sweep_runs_no_kernel():
 
 
 # exception classes users do not catch: raised and handled inside the explorer's server
-INTERNAL = {"SettingError", "CapExceeded", "Superseded", "PortInUse", "DamagedFile"}
+INTERNAL = {"SettingError", "CapExceeded", "Superseded", "PortInUse", "DamagedFile", "Busy"}
 
 
 def _exception_classes() -> dict[str, str]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from typing import Any
 
 NOT_DETERMINED_STATUS = 3
 """Exit status when a free input is not pinned down by the data (files still written)."""
@@ -42,11 +43,20 @@ def _free(items: list[str] | None) -> dict[str, tuple[float, float]]:
     return free
 
 
-def _fixed(items: list[str] | None) -> dict[str, float]:
-    fixed: dict[str, float] = {}
+def _fixed(items: list[str] | None) -> dict[str, Any]:
+    fixed: dict[str, Any] = {}
     for name, value in _pairs(items, "--fixed"):
         if name in fixed:
             raise ValueError(f"--fixed {name} given twice")
+        if name == "sensor_position":
+            parts = value.split(",")
+            if len(parts) != 3:
+                raise ValueError(
+                    f"--fixed sensor_position={value}: expected X,Y,Z in m (body frame "
+                    "from the centre of the flat face)"
+                )
+            fixed[name] = tuple(_number(p, f"--fixed {name}") for p in parts)
+            continue
         fixed[name] = (
             math.inf if value in ("inf", "infinity") else _number(value, f"--fixed {name}")
         )
@@ -55,13 +65,21 @@ def _fixed(items: list[str] | None) -> dict[str, float]:
 
 def _cmd_fit(args: argparse.Namespace, argv: list[str] | None) -> int:
     from ..fitting import fit, read_measurement, write_fit
-    from ..fitting.files import NAMES, simulate_command
-    from ..sweep._config.body_file import body_from_argument
-
+    from ..fitting.files import NAMES, _plain, simulate_command
+    from ..fitting.models import MODELS, compare_models, model_inputs
     from ..fitting.parameters import bounds_from, check_fixed
+    from ..io import write_text_atomic
+    from ..sweep._config.body_file import body_from_argument
+    from ..sweep._config.toml_io import format_toml
 
     free, fixed = _free(args.free), _fixed(args.fixed)
-    check_fixed(fixed, bounds_from(free))  # before anything is read or said
+    # refused before anything is read or said
+    if args.compare_models:
+        for model in MODELS:
+            model_free, model_fixed = model_inputs(model, free, fixed)
+            check_fixed(model_fixed, bounds_from(model_free))
+    else:
+        check_fixed(fixed, bounds_from(free))
     columns = {}
     if args.time_column:
         columns["time"] = args.time_column
@@ -76,7 +94,8 @@ def _cmd_fit(args: argparse.Namespace, argv: list[str] | None) -> int:
         )
     if args.out.exists() and not args.out.is_dir():
         raise ValueError(f"--out {args.out}: exists and is not a directory")
-    taken = [n for n in NAMES if (args.out / n).exists()] if args.out.is_dir() else []
+    names = NAMES + (("models.toml",) if args.compare_models else ())
+    taken = [n for n in names if (args.out / n).exists()] if args.out.is_dir() else []
     if taken and not args.force:
         raise ValueError(
             f"{args.out} holds a fit already ({', '.join(taken)}): choose another --out, "
@@ -99,19 +118,35 @@ def _cmd_fit(args: argparse.Namespace, argv: list[str] | None) -> int:
         f"fitting {', '.join(free)} to {data.kind} data: {len(data.time)} samples over "
         f"{data.duration:.2f} s"
     )
-    result = fit(
-        data,
-        body,
-        free,
-        fixed,
+    options: dict[str, Any] = dict(
         window=args.window,
         fit_bias=not args.no_bias,
         heading_sign=-1.0 if args.mirrored else 1.0,
         seed=args.seed,
         progress=say,
     )
+    comparison = None
+    if args.compare_models:
+        comparison = compare_models(data, body, free, fixed, **options)
+        result = comparison[comparison.preferred].result
+    else:
+        result = fit(data, body, free, fixed, **options)
     paths = write_fit(result, args.out, overwrite=args.force)
-    print(f"fit of {args.data}:")
+    if comparison is not None:
+        print(f"friction models compared on {args.data}:")
+        print(comparison.table())
+        write_text_atomic(
+            args.out / "models.toml",
+            format_toml(
+                _plain(comparison.document()),
+                comment="rattlesweep fit --compare-models: the friction models "
+                "ranked by AICc; fit.toml holds the preferred one's fit",
+            ),
+        )
+        paths.append(args.out / "models.toml")
+        print(f"fit of the preferred model, {comparison.preferred}:")
+    else:
+        print(f"fit of {args.data}:")
     print(result.summary())
     print(f"wrote {', '.join(str(p) for p in paths)}")
     print(f"run the fitted rattleback: {simulate_command(result, str(paths[0]))}")
@@ -152,14 +187,16 @@ def add_fit_parser(sub: argparse._SubParsersAction) -> None:
         metavar="NAME=LOW:HIGH",
         required=True,
         help="an input to fit and its bounds (repeat): any input of simulate "
-        "(spin, roll_deg, mu, damping, mu_spin, ...) or delta_deg, the body's misalignment",
+        "(spin, roll_deg, mu, damping, mu_spin, ...), delta_deg, the body's misalignment, "
+        "or a gyroscope's angle sensor_yaw_deg, sensor_pitch_deg, sensor_roll_deg",
     )
     p.add_argument(
         "--fixed",
         action="append",
         metavar="NAME=VALUE",
         help="an input held at a value (repeat; default: none, the others take simulate's "
-        "defaults)",
+        "defaults); also a gyroscope's angles, sensor_mass=KG and "
+        "sensor_position=X,Y,Z (m, from the centre of the flat face)",
     )
     p.add_argument(
         "--out", type=Path, required=True, help="directory for fit.toml, fit.nc, fit.png"
@@ -201,6 +238,13 @@ def add_fit_parser(sub: argparse._SubParsersAction) -> None:
         "--mirrored",
         action="store_true",
         help="heading: the video is mirrored (clockwise from above counted positive)",
+    )
+    p.add_argument(
+        "--compare-models",
+        action="store_true",
+        help="fit rolling contact, Coulomb friction and Coulomb with spin friction, "
+        "rank them by AICc (models.toml), and write the preferred one's fit; mu and "
+        "mu_spin may be given in --free for their bounds",
     )
     p.add_argument("--seed", type=int, default=0, help="random seed of the search")
     p.add_argument("--force", action="store_true", help="replace a fit already in --out")

@@ -38,6 +38,10 @@ class Caps:
         Longest run (s) of one map point.
     max_frames : int
         Samples of a run sent to the page (the run itself keeps every step).
+    max_fit_t_end : float
+        Longest measurement (s) a fit in the page takes.
+    max_fit_samples : int
+        Most samples of a measurement loaded into the page.
     """
 
     max_t_end: float = 30.0
@@ -47,6 +51,8 @@ class Caps:
     max_map_levels: int = 2
     max_map_t_end: float = 10.0
     max_frames: int = 1000
+    max_fit_t_end: float = 20.0
+    max_fit_samples: int = 10_000
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)

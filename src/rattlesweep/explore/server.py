@@ -31,6 +31,7 @@ from .._version import __version__
 from ..io import write_netcdf
 from .caps import CapExceeded, Caps
 from .maps import MapJob
+from .measured import FIT_CONTROLS, fit_controls, load, overlay
 from .runs import payload, run, to_json
 from .scheduler import Scheduler, Superseded
 from .settings import (
@@ -59,10 +60,15 @@ _MAX_SESSIONS = 256  # sessions remembered (their last run and map); the oldest 
 _CACHED_RUNS = 64  # runs kept for the next request of the same settings (~0.4 MB each)
 
 
+class Busy(RuntimeError):
+    """The server is doing this kind of work for someone else; try again later."""
+
+
 @dataclass
 class Session:
     run: Any = None  # the last run's Dataset
     map: MapJob | None = None
+    measurement: Any = None  # a loaded fitting.Measurement
     seen: float = field(default_factory=time.monotonic)
 
 
@@ -74,6 +80,8 @@ class Explorer:
         self.scheduler = Scheduler(workers or max(1, len(os.sched_getaffinity(0))))
         self._sessions: OrderedDict[str, Session] = OrderedDict()
         self._lock = threading.Lock()
+        # a fit holds a worker for seconds: one at a time, so the others stay free
+        self._fitting = threading.Lock()
         # a class moving sliders in steps asks for the same launches again and again
         self._runs: OrderedDict[str, tuple[Any, str]] = OrderedDict()
         self.cache_hits = 0
@@ -141,6 +149,39 @@ class Explorer:
         self.scheduler.submit(key, "map", job.step)
         return job.snapshot()
 
+    def load_measurement(self, key: str, name: Any, text: Any) -> dict[str, Any]:
+        """Read a measurement file's text into session ``key``; return what the page
+        draws over the spin plot."""
+        m = load(str(name or ""), text, self.caps)
+        self.session(key).measurement = m
+        shown = overlay(m)
+        return {
+            **shown,
+            "name": m.source,
+            "samples": len(m.time),
+            "duration": m.duration,
+            "free": list(FIT_CONTROLS),
+        }
+
+    def fit(self, key: str, settings: dict[str, Any], free: Any) -> dict[str, Any]:
+        """Fit the controls ``free`` of these settings to the session's measurement, on
+        one worker; one fit runs at a time."""
+        spec = run_spec(settings, self.caps)
+        m = self.session(key).measurement
+        if m is None:
+            raise SettingError("fit: load a measurement first", "measurement")
+        if not isinstance(free, list) or not all(isinstance(n, str) for n in free):
+            raise SettingError("fit: free must be a list of control names", "measurement")
+        if not self._fitting.acquire(blocking=False):
+            raise Busy("another fit is running on this server; try again when it ends")
+        try:
+            job = self.scheduler.submit(
+                key, "fit", lambda: (True, fit_controls(spec, m, free, settings))
+            )
+            return job.future.result()
+        finally:
+            self._fitting.release()
+
     def map_state(self, key: str) -> dict[str, Any] | None:
         job = self.session(key).map
         return None if job is None else job.snapshot()
@@ -199,6 +240,8 @@ class _Handler(BaseHTTPRequestHandler):
             )
         elif isinstance(exc, SettingError):
             self._json(HTTPStatus.BAD_REQUEST, {"error": str(exc), "control": exc.control})
+        elif isinstance(exc, Busy):
+            self._json(HTTPStatus.SERVICE_UNAVAILABLE, {"error": str(exc), "busy": True})
         elif isinstance(exc, Superseded):
             self._json(HTTPStatus.CONFLICT, {"superseded": True, "error": str(exc)})
         elif isinstance(exc, ValueError):
@@ -294,6 +337,13 @@ class _Handler(BaseHTTPRequestHandler):
                 return self._json(
                     HTTPStatus.OK, app.start_map(key, settings, body.get("map") or {})
                 )
+            if url.path == "/api/measurement":
+                return self._json(
+                    HTTPStatus.OK,
+                    app.load_measurement(key, body.get("name"), body.get("text")),
+                )
+            if url.path == "/api/fit":
+                return self._json(HTTPStatus.OK, app.fit(key, settings, body.get("free")))
             if url.path == "/api/toml":
                 text = map_sweep(settings, body.get("map") or {}, app.caps).to_toml()
                 return self._send(

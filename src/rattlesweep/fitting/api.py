@@ -14,10 +14,11 @@ import xarray as xr
 
 from ..rattleback.body import Body
 from .measurement import Measurement, from_dataset, read_measurement
-from .objective import Comparison, Features, compare, measured_features
+from .objective import Comparison, Features, compare, in_sensor_axes, measured_features
 from .parameters import Bound, bodies_for, bounds_from, check_fixed, defaults_left
 from .parameters import units_of
 from .search import Profile, global_search, polish, profiles
+from .sensor import ANGLES, check as check_sensor, rotations, sensor_body, split
 
 __all__ = ["FitResult", "Fitted", "fit"]
 
@@ -118,6 +119,7 @@ def fit(
     global_rounds: int = 4,
     profile_points: int = 15,
     seed: int = 0,
+    threads: int | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> FitResult:
     """Fit the inputs named in ``free`` to a measured rattleback.
@@ -135,17 +137,24 @@ def fit(
         misalignment.
     fixed : mapping, optional
         Other inputs, as :func:`rattlesweep.simulate` takes them; ``t_end`` comes from
-        the data.
+        the data. Also the gyroscope's angles ``sensor_yaw_deg``, ``sensor_pitch_deg``,
+        ``sensor_roll_deg`` (which ``free`` may name instead), its mass
+        ``sensor_mass`` (kg) and ``sensor_position`` (m, body frame from the centre of
+        the flat face), added to the body (:mod:`.sensor`).
     window : float
         Seconds per window of the compared features (:mod:`.objective`).
     fit_bias : bool
         Fit a constant bias per gyroscope axis (gyroscope data).
     sensor_rotation : array_like (3, 3), optional
-        The sensor's axes in the body's: a gyroscope reads ``R @ omega_body``.
+        ``R`` with a gyroscope reading ``R @ omega_body`` (rows: the sensor's axes in
+        the body's); or give the sensor's angles in ``fixed`` or ``free``.
     heading_sign : float
         -1 for a mirrored video (clockwise seen from above counted positive).
     global_size, global_rounds, profile_points, seed : int
         The search's sizes (:mod:`.search`) and its random seed.
+    threads : int, optional
+        Threads each batch of candidates runs on (default: the cores; 1 runs on the
+        calling thread, as a server's worker does).
     progress : callable, optional
         Called with a line at each stage.
 
@@ -161,6 +170,13 @@ def fit(
         raise ValueError(f"body must be a Body or a preset name, got {body!r}")
     bounds = bounds_from(free)
     fixed = check_fixed(fixed or {}, bounds)
+    fixed, sensor = split(fixed)
+    check_sensor(
+        {**sensor, **{b.name: 0.0 for b in bounds if b.name in ANGLES}},
+        measurement.kind,
+        sensor_rotation,
+    )
+    the_body = sensor_body(the_body, sensor)
     defaults = defaults_left(bounds, fixed)
     if defaults:
         say(
@@ -178,9 +194,20 @@ def fit(
         or not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-6)
     ):
         raise ValueError("sensor_rotation must be a 3 x 3 rotation matrix")
-    measured = measured_features(measurement, window)
+    measured = measured_features(
+        measurement, window, cross=any(b.name in ANGLES for b in bounds)
+    )
     run = _Runner(
-        measurement, measured, the_body, bounds, fixed, fit_bias, rotation, heading_sign
+        measurement,
+        measured,
+        the_body,
+        bounds,
+        fixed,
+        fit_bias,
+        rotation,
+        heading_sign,
+        {k: float(v) for k, v in sensor.items() if k in ANGLES},
+        threads,
     )
     rng = np.random.default_rng(seed)
     p = len(bounds)
@@ -221,6 +248,7 @@ def fit(
         )
     values = {b.name: float(b.value(np.array(best[k]))) for k, b in enumerate(bounds)}
     fitted_body = _body_of(the_body, {**fixed, **values})
+    fixed = {**fixed, **sensor}
     offsets = {k: float(v[0]) for k, v in comparison.offsets.items()}
     if "heading_offset" in offsets:  # the video's zero, as an angle in (-pi, pi]
         offsets["heading_offset"] = math.pi - (math.pi - offsets["heading_offset"]) % (
@@ -280,10 +308,14 @@ class _Runner:
         fit_bias: bool,
         rotation: np.ndarray | None,
         heading_sign: float,
+        angles: Mapping[str, float] | None = None,
+        threads: int | None = None,
     ) -> None:
         self.data, self.measured, self.body = data, measured, body
         self.bounds, self.fixed = bounds, dict(fixed)
         self.fit_bias, self.rotation, self.heading_sign = fit_bias, rotation, heading_sign
+        self.angles = dict(angles or {})
+        self.threads = threads
         dt = float(fixed.get("dt", body.default_dt(float(fixed.get("g", 9.81)))))
         # model samples at least 3 per data sample: a window's mean and RMS of the
         # rocking taken from them are then as accurate as the data's own
@@ -296,7 +328,8 @@ class _Runner:
     def inputs(self, cube: np.ndarray) -> tuple[Any, dict[str, Any]]:
         given: dict[str, Any] = {**self.fixed}
         for k, b in enumerate(self.bounds):
-            given[b.name] = b.value(cube[:, k])
+            if b.name not in ANGLES:
+                given[b.name] = b.value(cube[:, k])
         body: Any = self.body
         delta = given.pop("delta", None)
         if "delta_deg" in given:
@@ -324,12 +357,29 @@ class _Runner:
         plain, radians, degrees = split_angles(body, {**given, "t_end": self.t_end})
         prep = prepare(body, **plain, **radians, degrees=degrees)
         check_single_step(prep)
-        raw = execute(prep, method=RK4, record_every=self.record_every)
+        raw = execute(
+            prep,
+            method=RK4,
+            record_every=self.record_every,
+            parallel=self.threads != 1,
+            threads=self.threads,
+        )
         assert raw.records is not None
         t = np.arange(raw.records.shape[1]) * self.dt * self.record_every
         if self.data.kind == "heading":
             return t, raw.records[:, :, R_HEADING]
         return t, raw.records[:, :, R_OMEGA : R_OMEGA + 3]
+
+    def rotation_of(self, cube: np.ndarray) -> np.ndarray | None:
+        """The sensor's rotation: one matrix (3, 3), one per candidate (c, 3, 3) when
+        its angles are free, or None."""
+        angles = dict(self.angles)
+        for k, b in enumerate(self.bounds):
+            if b.name in ANGLES:
+                angles[b.name] = b.value(cube[:, k])
+        if not angles:
+            return self.rotation
+        return rotations(*(angles.get(n, 0.0) for n in ANGLES))
 
     def compare_chunk(self, cube: np.ndarray) -> tuple[Comparison, np.ndarray, np.ndarray]:
         t, series = self.run(cube)
@@ -339,7 +389,7 @@ class _Runner:
             t,
             series,
             fit_bias=self.fit_bias,
-            rotation=self.rotation,
+            rotation=self.rotation_of(cube),
             heading_sign=self.heading_sign,
         )
         return comparison, t, series
@@ -354,7 +404,12 @@ class _Runner:
         return np.concatenate(chi2), np.vstack(residuals)
 
     def series(self, best: np.ndarray) -> tuple[Comparison, tuple[np.ndarray, np.ndarray]]:
+        """The best candidate's comparison and (times, series), a gyroscope's series
+        turned into the sensor's axes."""
         comparison, t, series = self.compare_chunk(best[None])
+        rotation = self.rotation_of(best[None])
+        if rotation is not None and self.data.kind == "gyro":
+            series = in_sensor_axes(series, rotation)
         return comparison, (t, series[0])
 
 
@@ -447,7 +502,7 @@ def _dataset(
             {"units": "rad", "long_name": "measured minus model heading"},
         )
     else:
-        rotated = model if run.rotation is None else model @ run.rotation.T
+        rotated = model
         bias = np.array(
             [comparison.offsets.get(f"bias_{a}", np.zeros(1))[0] for a in "xyz"]
         )

@@ -17,6 +17,7 @@ from ..io import write_netcdf, write_text_atomic
 from ..sweep._config.schema import body_table
 from ..sweep._config.toml_io import format_toml
 from .api import FitResult
+from .sensor import SENSOR_NAMES
 
 __all__ = ["write_fit"]
 
@@ -39,13 +40,13 @@ def _plain(value: Any) -> Any:
 
 
 def simulate_command(result: FitResult, toml: str = "fit.toml") -> str:
-    """The command line that runs the fitted rattleback: its body from ``toml`` and its
-    fitted and fixed inputs as options."""
+    """The command line that runs the fitted rattleback: its body from ``toml`` (with
+    the sensor's mass, if any) and its fitted and fixed inputs as options."""
     values = {**result.fixed, **{f.name: f.value for f in result.fitted.values()}}
     options = " ".join(
         f"--{name.replace('_', '-')} {value:.6g}"
         for name, value in values.items()
-        if name not in ("delta", "delta_deg", "t_end")
+        if name not in ("delta", "delta_deg", "t_end", *SENSOR_NAMES)
     )
     duration = float(result.dataset["time"][-1])
     return f"rattlesweep simulate --body {toml} {options} --t-end {duration:.6g}"

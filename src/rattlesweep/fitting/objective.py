@@ -13,7 +13,11 @@ rocking periods):
   mean square of the x and y rates about their window means (the rocking's envelope),
   with a constant bias per axis fitted in closed form (``bias_x``, ``bias_y``,
   ``bias_z``; the x and y biases from the whole run's means). The data's noise raises
-  their RMS, so the model's gets the measured noise added in quadrature.
+  their RMS, so the model's gets the measured noise added in quadrature. When the
+  sensor's angles are fitted, also the covariance of the x and y rates in each window
+  (``rocking_xy``, rad^2/s^2): the RMS of turned axes cannot tell a yaw from its mirror
+  image, the covariance's sign can. With the axes known it adds little (the body's own
+  x-y covariance is a fraction of a per cent of the x variance), so it is left out.
 
 Each kind of feature is divided by a scale fixed from the data before the search: the
 larger of its measurement noise (estimated from the scatter of consecutive samples) and
@@ -30,7 +34,14 @@ import numpy as np
 
 from .measurement import Measurement
 
-__all__ = ["Comparison", "Features", "HEADING_FLOOR", "compare", "measured_features"]
+__all__ = [
+    "Comparison",
+    "Features",
+    "HEADING_FLOOR",
+    "compare",
+    "in_sensor_axes",
+    "measured_features",
+]
 
 HEADING_FLOOR = 1e-3
 """rad: the smallest scale of a window's mean heading (a line tracked in a video is
@@ -78,8 +89,9 @@ def _noise(values: np.ndarray) -> float:
     return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / np.sqrt(6.0))
 
 
-def measured_features(data: Measurement, window: float) -> Features:
-    """The features of the measurement, and their scales."""
+def measured_features(data: Measurement, window: float, cross: bool = False) -> Features:
+    """The features of the measurement, and their scales; with ``cross``, a
+    gyroscope's x-y covariance per window too."""
     edges = _windows(data.time, window)
     index = _window_index(data.time, edges)
     n = len(edges) - 1
@@ -89,31 +101,46 @@ def measured_features(data: Measurement, window: float) -> Features:
         noise = np.array([_noise(data.values)])
         scale = np.array([max(noise[0] / np.sqrt(counts.mean()), HEADING_FLOOR)])
         return Features(edges, ("heading",), values, scale, noise)
-    rows = _gyro_rows(index, data.values.T, n)
+    rows = _gyro_rows(index, data.values.T, n, cross=cross)
     noise = np.array([_noise(data.values[:, a]) for a in range(3)])
-    scale = np.array(
-        [
-            max(nz / np.sqrt(counts.mean()), 0.01 * np.ptp(row), 1e-6)
-            for nz, row in zip(noise[[2, 0, 1]], rows)
-        ]
-    )
-    return Features(edges, ("spin", "rocking_x", "rocking_y"), rows, scale, noise)
+    scale = [
+        max(nz / np.sqrt(counts.mean()), 0.01 * np.ptp(row), 1e-6)
+        for nz, row in zip(noise[[2, 0, 1]], rows)
+    ]
+    names: tuple[str, ...] = ("spin", "rocking_x", "rocking_y")
+    if cross:
+        # the covariance's scatter from the noise: each axis's noise times the other
+        # axis's rocking, and the noises' own product, over a window's samples
+        vx, vy = np.nanmean(rows[1] ** 2), np.nanmean(rows[2] ** 2)
+        nx, ny = noise[0], noise[1]
+        scatter = np.sqrt(nx**2 * vy + ny**2 * vx + nx**2 * ny**2) / np.sqrt(counts.mean())
+        scale.append(max(scatter, 0.01 * np.sqrt(vx * vy), 1e-12))
+        names += ("rocking_xy",)
+    return Features(edges, names, rows, np.array(scale), noise)
 
 
 def _gyro_rows(
-    index: np.ndarray, rates: np.ndarray, n: int, noise: np.ndarray | None = None
+    index: np.ndarray,
+    rates: np.ndarray,
+    n: int,
+    noise: np.ndarray | None = None,
+    cross: bool = False,
 ) -> np.ndarray:
     """(3, ..., n): the window means of the z rate and the RMS of x and y about their
     window means, for rates (3, ..., samples); with the ``noise`` of the x and y
     series added in quadrature (a model's series, compared with noisy data, whose RMS
-    the noise raises)."""
+    the noise raises); with ``cross`` (4, ..., n), the x-y covariance too (independent
+    noise leaves it unbiased)."""
     mean = _means(index, rates, n)
     square = _means(index, rates**2, n)
     variance = square[:2] - mean[:2] ** 2
     if noise is not None:
         variance = variance + (noise[:2] ** 2).reshape((2,) + (1,) * (variance.ndim - 1))
     rms = np.sqrt(np.maximum(variance, 0.0))
-    return np.stack([mean[2], rms[0], rms[1]])
+    rows = [mean[2], rms[0], rms[1]]
+    if cross:
+        rows.append(_means(index, rates[0] * rates[1], n) - mean[0] * mean[1])
+    return np.stack(rows)
 
 
 @dataclass(frozen=True)
@@ -152,11 +179,16 @@ def compare(
         model = model + offset[:, None, None]
         offsets = {"heading_offset": offset}
     else:
-        series = model_series if rotation is None else model_series @ rotation.T
+        series = (
+            model_series if rotation is None else in_sensor_axes(model_series, rotation)
+        )
         rates = np.moveaxis(
             _interp(data.time, model_time, series), -1, 0
         )  # (3, c, samples)
-        model = np.moveaxis(_gyro_rows(index, rates, n, measured.noise), 0, 1)  # (c, 3, n)
+        cross = len(measured.names) == 4
+        model = np.moveaxis(
+            _gyro_rows(index, rates, n, measured.noise, cross), 0, 1
+        )  # (c, 3 or 4, n)
         offsets = {}
         if fit_bias:
             bias = data.values.mean(axis=0)[None] - np.moveaxis(rates.mean(axis=-1), 0, 1)
@@ -170,6 +202,14 @@ def compare(
     chi2[~np.isfinite(chi2)] = np.inf
     residuals[~np.isfinite(residuals)] = 1e6
     return Comparison(residuals, chi2, offsets)
+
+
+def in_sensor_axes(series: np.ndarray, rotation: np.ndarray) -> np.ndarray:
+    """Rates (c, t, 3) in the sensor's axes, for one rotation (3, 3) or one per
+    candidate (c, 3, 3): a reading is ``R @ omega``."""
+    if rotation.ndim == 2:
+        return series @ rotation.T
+    return np.einsum("cij,ctj->cti", rotation, series)
 
 
 def _interp(t: np.ndarray, tm: np.ndarray, series: np.ndarray) -> np.ndarray:

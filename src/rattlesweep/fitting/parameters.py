@@ -19,19 +19,25 @@ import numpy as np
 from ..inputs import RATTLEBACK as INPUTS
 from ..rattleback.batch import ACCEPTED
 from ..rattleback.body import Body
+from .sensor import ANGLES, SENSOR_NAMES, UNITS
 
 __all__ = ["Bound", "FITTABLE", "bounds_from", "check_fixed", "defaults_left", "units_of"]
 
 _NOT_FREE = {"t_end", "dt", "omega", "orientation", "velocity", "mu_static"}
-FITTABLE = tuple(n for n in ACCEPTED if n not in _NOT_FREE) + ("delta", "delta_deg")
+FITTABLE = (
+    tuple(n for n in ACCEPTED if n not in _NOT_FREE) + ("delta", "delta_deg") + ANGLES
+)
 """Names a fit can free: the scalar launch, friction and gravity inputs of
-:func:`rattlesweep.simulate` in each form it takes them, and the body's misalignment."""
+:func:`rattlesweep.simulate` in each form it takes them, the body's misalignment, and
+the angles of a gyroscope's axes (:mod:`.sensor`)."""
 
 
 def units_of(name: str) -> str:
     """The units of an input as a fit reports it."""
     if name.endswith("_deg"):
         return "degree"
+    if name in UNITS:
+        return UNITS[name]
     return INPUTS[name].units
 
 
@@ -112,7 +118,7 @@ def check_fixed(fixed: Mapping[str, Any], bounds: list[Bound]) -> dict[str, Any]
     both = sorted(n for n in fixed if n.removesuffix("_deg") in free)
     if both:
         raise ValueError(f"{', '.join(both)} both free and fixed: give each input one role")
-    allowed = set(ACCEPTED) | {"delta", "delta_deg"}
+    allowed = set(ACCEPTED) | {"delta", "delta_deg"} | set(SENSOR_NAMES)
     unknown = sorted(set(fixed) - allowed)
     if unknown:
         raise ValueError(

@@ -47,7 +47,8 @@ function boxValue(el) {
 
 function showErrors(error, control) {
   for (const el of document.querySelectorAll('.err')) {
-    if (el.id !== 'err-map') el.textContent = '';
+    // the map's and the measurement's messages belong to their own requests
+    if (el.id !== 'err-map' && el.id !== 'err-measurement') el.textContent = '';
   }
   for (const el of document.querySelectorAll('#controls .bad')) el.classList.remove('bad');
   if (!error) return;
@@ -358,9 +359,21 @@ function plotRange(series, values) {
   const pad = 0.05 * (hi - lo);
   return [lo >= 0 && lo - pad < 0 ? 0 : lo - pad, hi + pad];
 }
+// the measured turning rate drawn over the spin plot, within the run's time
+function measuredIn(c, T) {
+  const m = state.measured;
+  if (!m || c.dataset.series !== 'spin') return null;
+  const t = [], v = [];
+  for (let i = 0; i < m.t.length; i++) {
+    if (m.t[i] <= T && finite(m.rate[i])) { t.push(m.t[i]); v.push(m.rate[i]); }
+  }
+  return { t, v };
+}
 function plotFrame(c) {
   const r = state.run, t = r.t;
-  const [lo, hi] = plotRange(c.dataset.series, r[c.dataset.series].slice(0, r.n));
+  const own = r[c.dataset.series].slice(0, r.n);
+  const m = measuredIn(c, t[r.n - 1]);
+  const [lo, hi] = plotRange(c.dataset.series, m ? own.concat(m.v) : own);
   const T = t[r.n - 1];
   return { x0: 70, x1: c.width - 8, y0: 8, y1: c.height - 18, lo, hi, T: T > 0 ? T : 1 };
 }
@@ -391,6 +404,13 @@ function drawPlotBase(c) {
   ctx.stroke();
   if (r.n === 1 && finite(ys[0])) {  // a run stopped at t = 0: its one sample as a dot
     ctx.fillStyle = '#1f5fa8'; ctx.beginPath(); ctx.arc(X(r.t[0]), Y(ys[0]), 3, 0, 2 * Math.PI); ctx.fill();
+  }
+  const m = measuredIn(c, f.T);
+  if (m) {  // the measurement as dots under its label
+    ctx.fillStyle = 'rgba(200, 60, 40, 0.55)';
+    for (let i = 0; i < m.t.length; i++) ctx.fillRect(X(m.t[i]) - 1, Y(m.v[i]) - 1, 2, 2);
+    ctx.font = '11px sans-serif';
+    ctx.fillText(`dots: measured ${state.measured.what}`, f.x0 + 4, f.y0 + 24);
   }
   ctx.fillStyle = '#333'; ctx.font = '11px sans-serif';
   ctx.fillText(c.dataset.label, f.x0 + 4, f.y0 + 11);
@@ -680,6 +700,74 @@ function syncSlider() {
   if (Number.isFinite(v)) $('spin-slider').value = v;
 }
 
+// ---------------------------------------------------------------- a measured rattleback
+const FIT_DEFAULT = ['spin', 'roll_deg', 'damping'];
+async function loadMeasurement() {
+  const file = $('measurement').files[0];
+  if (!file) return;
+  $('err-measurement').textContent = '';
+  $('fit-status').textContent = 'reading…';
+  let status, data;
+  try {
+    const [st, r] = await post('/api/measurement', { name: file.name, text: await file.text() });
+    status = st; data = await r.json();
+  } catch (e) {
+    $('fit-status').textContent = '';
+    $('err-measurement').textContent = `could not send the file (${e.message})`;
+    return;
+  }
+  if (status !== 200) {
+    state.measured = null; $('fit').disabled = true; $('fit-status').textContent = '';
+    $('err-measurement').textContent = data.error || `the server answered ${status}`;
+    for (const c of plots) drawPlotBase(c);
+    return;
+  }
+  state.measured = data;
+  $('fit-free').innerHTML = data.free.map((k) =>
+    `<label class="tick"><input type="checkbox" value="${k}"${FIT_DEFAULT.includes(k) ? ' checked' : ''}> ${state.config.labels[k]}</label>`).join(' ');
+  $('fit').disabled = false;
+  $('fit-status').textContent = `${data.samples} samples over ${fmt(data.duration)} s loaded`;
+  setBox($('t_end'), Number(data.duration.toFixed(3)));
+  scheduleRun();
+}
+
+async function fitMeasurement() {
+  const free = [...document.querySelectorAll('#fit-free input:checked')].map((e) => e.value);
+  $('err-measurement').textContent = '';
+  $('fit').disabled = true;
+  $('fit-status').textContent = 'fitting… (about 10 s)';
+  const t0 = performance.now();
+  let status, data;
+  try {
+    const [st, r] = await post('/api/fit', { settings: settings(), free });
+    status = st; data = await r.json();
+  } catch (e) {
+    status = 0; data = { error: `server unreachable (${e.message})` };
+  }
+  $('fit').disabled = false;
+  if (status !== 200) {
+    $('fit-status').textContent = 'not fitted';
+    $('err-measurement').textContent = data.error || `the server answered ${status}`;
+    return;
+  }
+  for (const [k, v] of Object.entries(data.fitted)) setBox($(k), v.value);
+  setBox($('t_end'), data.settings.t_end);
+  syncSlider();
+  state.fit = data;
+  $('fit-result').innerHTML = Object.entries(data.fitted).map(([k, v]) => {
+    // digits enough for the interval's ends to differ
+    const digits = Math.min(8, 3 + Math.max(0, Math.round(Math.log10(
+      Math.max(Math.abs(v.low), Math.abs(v.high)) / Math.max(v.high - v.low, 1e-300)))));
+    const range = v.determined ? `95 %: ${fmt(v.low, digits)} … ${fmt(v.high, digits)}`
+      : 'not pinned down by these data';
+    const units = state.config.units[k];
+    return `<li>${state.config.labels[k]} = ${fmt(v.value, digits)}${units === '1' ? '' : ' ' + units} (${range})</li>`;
+  }).join('') + data.notes.map((n) => `<li class="note">${n}</li>`).join('');
+  $('fit-status').textContent = `fitted in ${((performance.now() - t0) / 1000).toFixed(1)} s `
+    + `(${data.runs} model runs); the controls now hold the fit`;
+  scheduleRun();
+}
+
 async function init() {
   const config = await (await fetch('/api/config')).json();
   state.config = config;
@@ -708,6 +796,7 @@ async function init() {
     `map: ≤ ${c.max_map_num} points per axis, ≤ ${c.max_map_levels} refinement levels, `
       + `run length ≤ ${c.max_map_t_end} s per point`,
     `${c.max_frames} samples of each run are drawn`,
+    `a measurement to fit: ≤ ${c.max_fit_t_end} s and ≤ ${c.max_fit_samples} samples; one fit at a time`,
   ].map((t) => `<li>${t}</li>`).join('');
   for (const k of CONTROLS) {
     $(k).addEventListener('input', () => { if (k === 'spin') syncSlider(); scheduleRun(); });
@@ -726,6 +815,8 @@ async function init() {
     showFrame(i);
   });
   $('map-go').addEventListener('click', startMap);
+  $('measurement').addEventListener('change', loadMeasurement);
+  $('fit').addEventListener('click', fitMeasurement);
   $('download-toml').addEventListener('click', downloadToml);
   $('copy-python').addEventListener('click', async () => {
     const text = $('python').textContent;

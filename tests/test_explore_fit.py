@@ -1,0 +1,78 @@
+"""The explorer's measured-data endpoints: a measurement read and checked against the
+caps, and fits refused by name until they can run (the fit itself, through the page, is
+in test_explore_browser.py)."""
+
+import json
+import urllib.error
+import urllib.request
+
+import numpy as np
+import pytest
+
+from rattlesweep.explore import start, warm
+from rattlesweep.explore.settings import defaults
+
+
+def call(srv, path, body, session):
+    data = json.dumps({"session": session, **body}).encode()
+    req = urllib.request.Request(
+        srv.url + path, data=data, headers={"Content-Type": "application/json"}
+    )
+    try:
+        with urllib.request.urlopen(req, timeout=60) as r:
+            return r.status, r.read()
+    except urllib.error.HTTPError as e:
+        return e.code, e.read()
+
+
+@pytest.fixture(scope="module")
+def server():
+    warm()
+    srv = start(workers=1)
+    yield srv
+    srv.shutdown()
+    srv.server_close()
+
+
+def test_a_measurement_is_checked_and_a_fit_is_refused_until_one_is_loaded(server):
+    """The measurement endpoint: a Tracker export is read and its turning rate sent
+    back (the heading's slope, here a steady -2 rad/s); one over the duration cap is
+    refused by the measurement's control; a fit before any measurement, one naming a
+    control the page cannot fit, and one while another fit runs are refused by name."""
+    t = np.arange(0.0, 4.0, 1 / 30)
+    heading = np.degrees(-2.0 * t)
+    wrapped = (heading + 180.0) % 360.0 - 180.0
+    text = "mass A\nt\tθ\n" + "".join(f"{a:.5f}\t{b:.4f}\n" for a, b in zip(t, wrapped))
+    settings = {**defaults(), "preset": "kane_levinson"}
+
+    status, body = call(server, "api/fit", {"settings": settings, "free": ["spin"]}, "m1")
+    assert status == 400 and json.loads(body)["error"] == "fit: load a measurement first"
+
+    status, body = call(server, "api/measurement", {"name": "a.txt", "text": text}, "m1")
+    assert status == 200, body
+    shown = json.loads(body)
+    assert shown["kind"] == "heading" and shown["samples"] == len(t)
+    rate = np.array([r for r in shown["rate"] if r is not None])
+    np.testing.assert_allclose(rate, -2.0, atol=1e-3)
+
+    long_t = np.arange(0.0, 25.0, 1 / 30)
+    long_text = "mass A\nt\tθ\n" + "".join(f"{a:.5f}\t0\n" for a in long_t)
+    status, body = call(
+        server, "api/measurement", {"name": "b.txt", "text": long_text}, "m2"
+    )
+    answer = json.loads(body)
+    assert status == 413 and answer["control"] == "measurement"
+    assert "max_fit_t_end = 20 s" in answer["error"]
+
+    status, body = call(server, "api/fit", {"settings": settings, "free": ["mass"]}, "m1")
+    assert status == 400 and "'mass' cannot be fitted here" in json.loads(body)["error"]
+
+    app = server.app
+    assert app._fitting.acquire(blocking=False)  # a fit of another user is running
+    try:
+        status, body = call(
+            server, "api/fit", {"settings": settings, "free": ["spin"]}, "m1"
+        )
+    finally:
+        app._fitting.release()
+    assert status == 503 and "another fit is running" in json.loads(body)["error"]
