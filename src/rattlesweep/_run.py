@@ -218,8 +218,11 @@ def execute(
     band: float = 0.0,
     parallel: bool = True,
     threads: int | None = None,
+    columns: slice | None = None,
 ) -> Raw:
-    """Run a prepared batch through the kernel."""
+    """Run a prepared batch through the kernel. With ``columns``, the records hold only
+    those columns of the record layout (a caller reading two series out of all of them
+    is spared reordering the rest)."""
     check_boolean("parallel", parallel)
     layout = prep.model.layout
     n_blocks = prep.P.shape[0]
@@ -239,7 +242,8 @@ def execute(
     )
     rec = None
     if n_rec:
-        rec = REC.transpose(0, 3, 1, 2).reshape(n_blocks * BLOCK, n_rec, layout.N_REC)[
+        kept = REC if columns is None else REC[:, :, columns, :]
+        rec = kept.transpose(0, 3, 1, 2).reshape(n_blocks * BLOCK, n_rec, kept.shape[2])[
             : prep.n
         ]
     return Raw(unblock(O, prep.n), rec, unblock(Y, prep.n))

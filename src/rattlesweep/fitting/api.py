@@ -357,18 +357,20 @@ class _Runner:
         plain, radians, degrees = split_angles(body, {**given, "t_end": self.t_end})
         prep = prepare(body, **plain, **radians, degrees=degrees)
         check_single_step(prep)
+        heading = self.data.kind == "heading"
         raw = execute(
             prep,
             method=RK4,
             record_every=self.record_every,
             parallel=self.threads != 1,
             threads=self.threads,
+            columns=slice(R_HEADING, R_HEADING + 1)
+            if heading
+            else slice(R_OMEGA, R_OMEGA + 3),
         )
         assert raw.records is not None
         t = np.arange(raw.records.shape[1]) * self.dt * self.record_every
-        if self.data.kind == "heading":
-            return t, raw.records[:, :, R_HEADING]
-        return t, raw.records[:, :, R_OMEGA : R_OMEGA + 3]
+        return t, raw.records[:, :, 0] if heading else raw.records
 
     def rotation_of(self, cube: np.ndarray) -> np.ndarray | None:
         """The sensor's rotation: one matrix (3, 3), one per candidate (c, 3, 3) when
