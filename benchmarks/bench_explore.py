@@ -52,6 +52,8 @@ def session(
     time.sleep(rng.random())  # its own phase within the second
     start = time.monotonic()
     k = 0
+    # a browser of its own: the server's session token comes back in a cookie
+    opener = urllib.request.build_opener(urllib.request.HTTPCookieProcessor())
     while time.monotonic() - start < seconds:
         due = start + k
         k += 1
@@ -68,7 +70,7 @@ def session(
         )
         t0 = time.perf_counter()
         try:
-            with urllib.request.urlopen(req, timeout=60) as r:
+            with opener.open(req, timeout=60) as r:
                 raw = r.read()
                 if r.headers.get("Content-Encoding") == "gzip":
                     import gzip

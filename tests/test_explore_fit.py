@@ -13,13 +13,20 @@ from rattlesweep.explore import start, warm
 from rattlesweep.explore.settings import defaults
 
 
-def call(srv, path, body, session):
-    data = json.dumps({"session": session, **body}).encode()
+def opener(srv):
+    """The test's browser for ``srv``: it keeps the session token the server sets."""
+    if not hasattr(srv, "test_opener"):
+        srv.test_opener = urllib.request.build_opener(urllib.request.HTTPCookieProcessor())
+    return srv.test_opener
+
+
+def call(srv, path, body=None, session="s"):
+    data = None if body is None else json.dumps({"session": session, **body}).encode()
     req = urllib.request.Request(
         srv.url + path, data=data, headers={"Content-Type": "application/json"}
     )
     try:
-        with urllib.request.urlopen(req, timeout=60) as r:
+        with opener(srv).open(req, timeout=60) as r:
             return r.status, r.read()
     except urllib.error.HTTPError as e:
         return e.code, e.read()

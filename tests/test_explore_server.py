@@ -34,20 +34,33 @@ def server():
     srv.server_close()
 
 
-def call(srv, path, body=None, session="s"):
+def opener(srv):
+    """The test's browser for ``srv``: it keeps the session token the server sets."""
+    if not hasattr(srv, "test_opener"):
+        srv.test_opener = urllib.request.build_opener(urllib.request.HTTPCookieProcessor())
+    return srv.test_opener
+
+
+def browser():
+    """A browser of its own: a cookie jar for the server's session token."""
+    return urllib.request.build_opener(urllib.request.HTTPCookieProcessor())
+
+
+def call(srv, path, body=None, session="s", by=None):
     data = None if body is None else json.dumps({"session": session, **body}).encode()
     req = urllib.request.Request(
         srv.url + path, data=data, headers={"Content-Type": "application/json"}
     )
     try:
-        with urllib.request.urlopen(req, timeout=60) as r:
+        with (by or opener(srv)).open(req, timeout=60) as r:
             return r.status, r.read()
     except urllib.error.HTTPError as e:
         return e.code, e.read()
 
 
-def run(srv, session="s", **changes):
-    status, body = call(srv, "api/run", {"settings": {**defaults(), **changes}}, session)
+def run(srv, session="s", by=None, **changes):
+    settings = {**defaults(), **changes}
+    status, body = call(srv, "api/run", {"settings": settings}, session, by)
     return status, json.loads(body)
 
 
@@ -140,6 +153,7 @@ def test_a_newer_run_supersedes_the_running_one():
     roomy = start(workers=1, caps=Caps(max_t_end=600.0, max_steps=10**6))
     answers = {}
     try:
+        call(roomy, "")  # the page, which gives this browser its session token
 
         def slow():
             answers["slow"] = run(roomy, session="race", t_end=600.0, spin=-7.0)
@@ -312,8 +326,9 @@ def test_the_notebook_shows_the_page_in_a_frame():
 def test_a_classroom_connecting_at_once_is_answered(server):
     statuses = []
 
-    def one(i):
-        statuses.append(run(server, session=f"pupil{i}", spin=i - 15.0, t_end=0.5)[0])
+    def one(i):  # each pupil a browser of its own
+        answer = run(server, f"pupil{i}", browser(), spin=i - 15.0, t_end=0.5)
+        statuses.append(answer[0])
 
     threads = [threading.Thread(target=one, args=(i,)) for i in range(30)]
     for t in threads:
@@ -332,7 +347,7 @@ def test_a_new_map_supersedes_the_stale_one(server):
     }
     status, _ = call(server, "api/map", {"settings": settings, "map": big}, "maps")
     assert status == 200
-    stale = server.app.session("maps").map
+    stale = next(s for k, s in server.app._sessions.items() if k.endswith("/maps")).map
     small = {
         "x": {"param": "spin", "start": -5, "stop": 5, "num": 3},
         "y": {"param": "roll_deg", "start": 0.5, "stop": 1, "num": 2},

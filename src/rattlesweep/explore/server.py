@@ -5,7 +5,18 @@ Routes: ``GET /`` (the page), ``GET /static/<file>``, ``GET /api/config`` (caps,
 defaults, the choices of the controls), ``POST /api/run`` (settings → the run),
 ``POST /api/map`` (settings and map axes → starts the session's map), ``GET
 /api/map?session=S`` (the map so far), ``POST /api/toml`` (the map's sweep TOML),
-``GET /api/run.nc?session=S`` (the session's last run as netCDF).
+``GET /api/run.nc?session=S`` (the session's last run as netCDF), ``POST
+/api/measurement`` and ``POST /api/fit`` (a measured rattleback, :mod:`.measured`).
+
+Sessions belong to a browser: the server issues each browser an unguessable token in
+an HttpOnly, SameSite=Strict cookie (signed, so the server keeps no list of them), and
+a session is the pair (token, the page's tab id ``S``). A request without the token
+gets a new one, so it can neither read nor replace another browser's sessions. Only
+work creates a session (a run, a map, a measurement, a fit); reads of one that does not
+exist answer 404. Each browser holds at most :data:`_PER_BROWSER` sessions (its oldest
+goes first); when the table is full, the client address holding the most sessions
+loses its oldest, so a client flooding the server, with new tokens or not, evicts its
+own sessions before anyone else's.
 
 Refused settings answer 400 with ``{"error": <the library's message>, "control": <name>}``,
 requests over a cap 413 with the message naming the cap, superseded work 409.
@@ -13,15 +24,21 @@ requests over a cap 413 with the message naming the cap, superseded work 409.
 
 from __future__ import annotations
 
+import base64
 import gzip
+import hashlib
+import hmac
 import json
 import os
+import re
+import secrets
 import tempfile
 import threading
 import time
-from collections import OrderedDict
+from collections import Counter, OrderedDict
 from dataclasses import dataclass, field
 from http import HTTPStatus
+from http.cookies import CookieError, SimpleCookie
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 from typing import Any
@@ -56,7 +73,10 @@ _TYPES = {
     ".txt": "text/plain; charset=utf-8",
 }
 _MAX_BODY = 1 << 20  # bytes of a request body
-_MAX_SESSIONS = 256  # sessions remembered (their last run and map); the oldest go first
+_MAX_SESSIONS = 256  # sessions remembered (their last run and map)
+_PER_BROWSER = 8  # sessions (page tabs) one browser's token holds
+_COOKIE = "rattlesweep_session"
+_TAB = re.compile(r"[A-Za-z0-9_-]{0,64}")  # a page's tab id
 _CACHED_RUNS = 64  # runs kept for the next request of the same settings (~0.4 MB each)
 
 
@@ -66,6 +86,7 @@ class Busy(RuntimeError):
 
 @dataclass
 class Session:
+    client: str = ""  # the address that made it
     run: Any = None  # the last run's Dataset
     map: MapJob | None = None
     measurement: Any = None  # a loaded fitting.Measurement
@@ -85,16 +106,54 @@ class Explorer:
         # a class moving sliders in steps asks for the same launches again and again
         self._runs: OrderedDict[str, tuple[Any, str]] = OrderedDict()
         self.cache_hits = 0
+        self._secret = secrets.token_bytes(32)
 
-    def session(self, key: str) -> Session:
+    # --- browsers and their sessions ---------------------------------------------------
+    def _sign(self, nonce: str) -> str:
+        mac = hmac.new(self._secret, nonce.encode(), hashlib.sha256).digest()
+        return base64.urlsafe_b64encode(mac[:18]).decode()
+
+    def new_token(self) -> str:
+        """A browser's token: a random nonce and its signature."""
+        nonce = secrets.token_urlsafe(18)
+        return f"{nonce}.{self._sign(nonce)}"
+
+    def valid_token(self, token: str) -> bool:
+        nonce, _, mac = token.partition(".")
+        return bool(nonce) and hmac.compare_digest(mac, self._sign(nonce))
+
+    def session(self, key: str, client: str = "") -> Session:
+        """Session ``key`` (``token/tab``), made for ``client`` (an address) if there
+        is none."""
         with self._lock:
-            s = self._sessions.pop(key, None) or Session()
+            s = self._sessions.pop(key, None)
+            if s is None:
+                s = Session(client=client)
+                self._make_room(key.partition("/")[0])
             s.seen = time.monotonic()
             self._sessions[key] = s
-            while len(self._sessions) > _MAX_SESSIONS:
-                old, gone = self._sessions.popitem(last=False)
-                self.scheduler.cancel(old, "map")
             return s
+
+    def find(self, key: str) -> Session | None:
+        """Session ``key`` if it exists; a read never makes one."""
+        with self._lock:
+            return self._sessions.get(key)
+
+    def _make_room(self, token: str) -> None:
+        """Evict for one more session of the browser ``token``: its own oldest at its
+        cap, else, with the table full, the oldest of the address holding the most."""
+        mine = [k for k in self._sessions if k.partition("/")[0] == token]
+        if len(mine) >= _PER_BROWSER:
+            self._evict(mine[0])
+        elif len(self._sessions) >= _MAX_SESSIONS:
+            counts = Counter(s.client for s in self._sessions.values())
+            largest = counts.most_common(1)[0][0]
+            self._evict(next(k for k, s in self._sessions.items() if s.client == largest))
+
+    def _evict(self, key: str) -> None:
+        self._sessions.pop(key)
+        for kind in ("map", "run", "fit"):
+            self.scheduler.cancel(key, kind)
 
     def config(self) -> dict[str, Any]:
         return {
@@ -107,10 +166,10 @@ class Explorer:
             "version": __version__,
         }
 
-    def run(self, key: str, settings: dict[str, Any]) -> dict[str, Any]:
+    def run(self, key: str, settings: dict[str, Any], client: str = "") -> dict[str, Any]:
         """Check and run the settings for session ``key`` (waits for the scheduler)."""
         spec = run_spec(settings, self.caps)
-        session = self.session(key)
+        session = self.session(key, client)
         same = json.dumps([spec.body_args, spec.kwargs], default=float)
         with self._lock:
             hit = self._runs.get(same)
@@ -140,20 +199,22 @@ class Explorer:
         }
 
     def start_map(
-        self, key: str, settings: dict[str, Any], axes: dict[str, Any]
+        self, key: str, settings: dict[str, Any], axes: dict[str, Any], client: str = ""
     ) -> dict[str, Any]:
         sweep = map_sweep(settings, axes, self.caps)
         job = MapJob(sweep)
-        session = self.session(key)
+        session = self.session(key, client)
         session.map = job
         self.scheduler.submit(key, "map", job.step)
         return job.snapshot()
 
-    def load_measurement(self, key: str, name: Any, text: Any) -> dict[str, Any]:
+    def load_measurement(
+        self, key: str, name: Any, text: Any, client: str = ""
+    ) -> dict[str, Any]:
         """Read a measurement file's text into session ``key``; return what the page
         draws over the spin plot."""
         m = load(str(name or ""), text, self.caps)
-        self.session(key).measurement = m
+        self.session(key, client).measurement = m
         shown = overlay(m)
         return {
             **shown,
@@ -163,11 +224,14 @@ class Explorer:
             "free": list(FIT_CONTROLS),
         }
 
-    def fit(self, key: str, settings: dict[str, Any], free: Any) -> dict[str, Any]:
+    def fit(
+        self, key: str, settings: dict[str, Any], free: Any, client: str = ""
+    ) -> dict[str, Any]:
         """Fit the controls ``free`` of these settings to the session's measurement, on
         one worker; one fit runs at a time."""
         spec = run_spec(settings, self.caps)
-        m = self.session(key).measurement
+        found = self.find(key)
+        m = None if found is None else found.measurement
         if m is None:
             raise SettingError("fit: load a measurement first", "measurement")
         if not isinstance(free, list) or not all(isinstance(n, str) for n in free):
@@ -183,11 +247,13 @@ class Explorer:
             self._fitting.release()
 
     def map_state(self, key: str) -> dict[str, Any] | None:
-        job = self.session(key).map
+        found = self.find(key)
+        job = None if found is None else found.map
         return None if job is None else job.snapshot()
 
     def netcdf(self, key: str) -> bytes | None:
-        ds = self.session(key).run
+        found = self.find(key)
+        ds = None if found is None else found.run
         if ds is None:
             return None
         with tempfile.TemporaryDirectory() as tmp:
@@ -206,6 +272,34 @@ class _Handler(BaseHTTPRequestHandler):
         if self.server.verbose:
             super().log_message(format, *args)
 
+    # --- the browser's token ------------------------------------------------------------
+    def _begin(self) -> None:
+        self._issued: str | None = None  # a token issued in this request's answer
+
+    def _token(self) -> str:
+        """This browser's token from its cookie, or a new one the answer sets."""
+        if self._issued is not None:
+            return self._issued
+        cookie: SimpleCookie = SimpleCookie()
+        try:
+            cookie.load(self.headers.get("Cookie", ""))
+        except CookieError:
+            pass
+        morsel = cookie.get(_COOKIE)
+        if morsel is not None and self.server.app.valid_token(morsel.value):
+            return morsel.value
+        self._issued = self.server.app.new_token()
+        return self._issued
+
+    def _session_key(self, tab: Any) -> str:
+        """The session of this browser's page tab ``tab``."""
+        tab = "" if tab is None else str(tab)
+        if not _TAB.fullmatch(tab):
+            raise ValueError(
+                f"session must be at most 64 letters, digits, '-' or '_', got {tab[:20]!r}"
+            )
+        return f"{self._token()}/{tab}"
+
     # --- responses -------------------------------------------------------------------
     def _send(
         self, status: int, body: bytes, ctype: str, extra: dict[str, str] | None = None
@@ -217,6 +311,11 @@ class _Handler(BaseHTTPRequestHandler):
         self.send_header("Content-Type", ctype)
         self.send_header("Content-Length", str(len(body)))
         self.send_header("Cache-Control", "no-store")
+        if getattr(self, "_issued", None):
+            self.send_header(
+                "Set-Cookie",
+                f"{_COOKIE}={self._issued}; Path=/; HttpOnly; SameSite=Strict",
+            )
         for k, v in (extra or {}).items():
             self.send_header(k, v)
         self.end_headers()
@@ -268,24 +367,31 @@ class _Handler(BaseHTTPRequestHandler):
 
     # --- routes ----------------------------------------------------------------------
     def do_GET(self) -> None:
+        self._begin()
         if self._foreign_host():
             return
         url = urlparse(self.path)
         query = {k: v[0] for k, v in parse_qs(url.query).items()}
         app = self.server.app
         if url.path in ("/", "/index.html"):
+            self._token()  # the page's requests carry it from here on
             return self._static("index.html")
+        if url.path in ("/api/map", "/api/run.nc"):
+            try:
+                key = self._session_key(query.get("session"))
+            except ValueError as exc:
+                return self._json(HTTPStatus.BAD_REQUEST, {"error": str(exc)})
         if url.path.startswith("/static/"):
             return self._static(url.path[len("/static/") :])
         if url.path == "/api/config":
             return self._json(HTTPStatus.OK, app.config())
         if url.path == "/api/map":
-            state = app.map_state(query.get("session", ""))
+            state = app.map_state(key)
             if state is None:
                 return self._json(HTTPStatus.NOT_FOUND, {"error": "no map in this session"})
             return self._json(HTTPStatus.OK, state)
         if url.path == "/api/run.nc":
-            data = app.netcdf(query.get("session", ""))
+            data = app.netcdf(key)
             if data is None:
                 return self._json(HTTPStatus.NOT_FOUND, {"error": "no run in this session"})
             return self._send(
@@ -297,6 +403,7 @@ class _Handler(BaseHTTPRequestHandler):
         self._json(HTTPStatus.NOT_FOUND, {"error": f"no such page: {url.path}"})
 
     def do_POST(self) -> None:
+        self._begin()
         if self._foreign_host():
             return
         url = urlparse(self.path)
@@ -328,22 +435,23 @@ class _Handler(BaseHTTPRequestHandler):
             reason = "nested too deep" if isinstance(exc, RecursionError) else exc
             return self._json(HTTPStatus.BAD_REQUEST, {"error": f"bad request: {reason}"})
         app = self.server.app
-        key = str(body.get("session", ""))
         settings = body.get("settings") or {}
+        client = self.client_address[0]
         try:
+            key = self._session_key(body.get("session"))
             if url.path == "/api/run":
-                return self._json(HTTPStatus.OK, app.run(key, settings))
+                return self._json(HTTPStatus.OK, app.run(key, settings, client))
             if url.path == "/api/map":
-                return self._json(
-                    HTTPStatus.OK, app.start_map(key, settings, body.get("map") or {})
-                )
+                axes = body.get("map") or {}
+                return self._json(HTTPStatus.OK, app.start_map(key, settings, axes, client))
             if url.path == "/api/measurement":
+                name, text = body.get("name"), body.get("text")
                 return self._json(
-                    HTTPStatus.OK,
-                    app.load_measurement(key, body.get("name"), body.get("text")),
+                    HTTPStatus.OK, app.load_measurement(key, name, text, client)
                 )
             if url.path == "/api/fit":
-                return self._json(HTTPStatus.OK, app.fit(key, settings, body.get("free")))
+                free = body.get("free")
+                return self._json(HTTPStatus.OK, app.fit(key, settings, free, client))
             if url.path == "/api/toml":
                 text = map_sweep(settings, body.get("map") or {}, app.caps).to_toml()
                 return self._send(

@@ -1,0 +1,121 @@
+"""Sessions of the explorer's server on a shared network, tested with real sockets: a
+session belongs to the browser the server gave its token to, reads never make one,
+and a client flooding the server evicts its own sessions, not another's."""
+
+import http.client
+import json
+import urllib.error
+import urllib.request
+
+import pytest
+
+from rattlesweep.explore import server as server_module
+from rattlesweep.explore import start, warm
+from rattlesweep.explore.settings import defaults
+
+
+@pytest.fixture(scope="module")
+def server():
+    warm()
+    srv = start(workers=1)
+    yield srv
+    srv.shutdown()
+    srv.server_close()
+
+
+def browser():
+    return urllib.request.build_opener(urllib.request.HTTPCookieProcessor())
+
+
+def call(srv, by, path, body=None):
+    data = None if body is None else json.dumps(body).encode()
+    req = urllib.request.Request(
+        srv.url + path, data=data, headers={"Content-Type": "application/json"}
+    )
+    try:
+        with by.open(req, timeout=60) as r:
+            return r.status, r.read(), r.headers
+    except urllib.error.HTTPError as e:
+        return e.code, e.read(), e.headers
+
+
+def quick_run(srv, by, tab, spin=-3.0):
+    settings = {**defaults(), "spin": spin, "t_end": 0.05}
+    return call(srv, by, "api/run", {"session": tab, "settings": settings})
+
+
+def test_a_browser_gets_a_signed_token_and_another_browser_cannot_read_its_session(
+    server,
+):
+    victim, other = browser(), browser()
+    status, _, headers = call(server, victim, "")
+    cookie = headers["Set-Cookie"]
+    assert status == 200 and "HttpOnly" in cookie and "SameSite=Strict" in cookie
+    assert quick_run(server, victim, "lesson")[0] == 200
+    assert call(server, victim, "api/run.nc?session=lesson")[0] == 200
+    # the tab id is known to the other browser (chosen, guessed or seen): not enough
+    for path in ("api/run.nc?session=lesson", "api/map?session=lesson"):
+        assert call(server, other, path)[0] == 404
+    # a forged token is not taken: its request gets a token of its own
+    nonce = cookie.split("=", 1)[1].split(";")[0].split(".")[0]
+    forged = http.client.HTTPConnection("127.0.0.1", server.server_address[1], timeout=30)
+    forged.request(
+        "GET",
+        "/api/run.nc?session=lesson",
+        headers={"Cookie": f"rattlesweep_session={nonce}.AAAAAAAAAAAAAAAAAAAAAAAA"},
+    )
+    answer = forged.getresponse()
+    assert answer.status == 404 and "rattlesweep_session=" in answer.headers["Set-Cookie"]
+    forged.close()
+
+
+def test_reads_never_make_a_session(server):
+    before = len(server.app._sessions)
+    prankster = browser()
+    for i in range(300):
+        status, _, _ = call(server, prankster, f"api/map?session=x{i}")
+        assert status == 404
+    assert len(server.app._sessions) == before
+
+
+def test_a_browser_keeps_at_most_its_cap_of_sessions(server):
+    tabs = browser()
+    cap = server_module._PER_BROWSER
+    for i in range(cap + 2):
+        assert quick_run(server, tabs, f"tab{i}")[0] == 200
+    kept = [
+        i
+        for i in range(cap + 2)
+        if call(server, tabs, f"api/run.nc?session=tab{i}")[0] == 200
+    ]
+    assert kept == list(range(2, cap + 2))  # its own two oldest went
+
+
+def test_a_flood_from_another_address_evicts_its_own_sessions_only(server, monkeypatch):
+    """The table shrunk to 12 sessions: a client at 127.0.0.2 making 40 sessions with
+    a new token each (no cookies kept) leaves the teacher's sessions at 127.0.0.1."""
+    monkeypatch.setattr(server_module, "_MAX_SESSIONS", 12)
+    teacher = browser()
+    for tab in ("one", "two"):
+        assert quick_run(server, teacher, tab)[0] == 200
+    port = server.server_address[1]
+    body = json.dumps({"session": "p", "settings": {**defaults(), "t_end": 0.05}})
+    for _ in range(40):
+        conn = http.client.HTTPConnection(
+            "127.0.0.1", port, timeout=30, source_address=("127.0.0.2", 0)
+        )
+        conn.request("POST", "/api/run", body, {"Content-Type": "application/json"})
+        assert conn.getresponse().status == 200
+        conn.close()
+    assert len(server.app._sessions) <= 12
+    for tab in ("one", "two"):
+        assert call(server, teacher, f"api/run.nc?session={tab}")[0] == 200
+    clients = [s.client for s in server.app._sessions.values()]
+    assert clients.count("127.0.0.2") >= 12 - clients.count("127.0.0.1") - 1
+
+
+def test_a_session_id_that_is_not_a_plain_name_is_refused(server):
+    status, body, _ = quick_run(server, browser(), "../../etc" + "x" * 80)
+    assert (
+        status == 400 and "session must be at most 64 letters" in json.loads(body)["error"]
+    )
