@@ -323,21 +323,6 @@ def test_the_notebook_shows_the_page_in_a_frame():
         explore._NOTEBOOK_SERVER = None
 
 
-def test_a_classroom_connecting_at_once_is_answered(server):
-    statuses = []
-
-    def one(i):  # each pupil a browser of its own
-        answer = run(server, f"pupil{i}", browser(), spin=i - 15.0, t_end=0.5)
-        statuses.append(answer[0])
-
-    threads = [threading.Thread(target=one, args=(i,)) for i in range(30)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
-    assert statuses == [200] * 30
-
-
 def test_a_new_map_supersedes_the_stale_one(server):
     settings = {**defaults(), "mu": "inf", "t_end": 10.0}
     big = {

@@ -4,6 +4,7 @@ and a client flooding the server evicts its own sessions, not another's."""
 
 import http.client
 import json
+import threading
 import urllib.error
 import urllib.request
 
@@ -119,3 +120,21 @@ def test_a_session_id_that_is_not_a_plain_name_is_refused(server):
     assert (
         status == 400 and "session must be at most 64 letters" in json.loads(body)["error"]
     )
+
+
+def test_a_classroom_connecting_at_once_is_answered(server):
+    statuses = []
+
+    def one(i):  # each pupil a browser of its own
+        settings = {**defaults(), "spin": i - 15.0, "t_end": 0.5}
+        answer = call(
+            server, browser(), "api/run", {"session": f"p{i}", "settings": settings}
+        )
+        statuses.append(answer[0])
+
+    threads = [threading.Thread(target=one, args=(i,)) for i in range(30)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert statuses == [200] * 30
