@@ -444,7 +444,7 @@ def map_sweep(settings: Mapping[str, Any], axes: Mapping[str, Any], caps: Caps) 
             continue
         fixed[key] = math.degrees(value) if name in ANGLES else value
     try:
-        return Sweep(
+        sweep = Sweep(
             axes=grid,
             fixed=fixed,
             name="rattlesweep explore map",
@@ -453,6 +453,10 @@ def map_sweep(settings: Mapping[str, Any], axes: Mapping[str, Any], caps: Caps) 
         )
     except ValueError as exc:
         raise SettingError(str(exc), None) from None
+    # every point, not only the settings' own run: a step size follows the inputs
+    # (damping, the body), and the most steps of any point are reached at a corner
+    caps.check("time steps of a map point", sweep.max_steps, "max_steps")
+    return sweep
 
 
 def presets() -> list[str]:
