@@ -401,8 +401,10 @@ def design(
     out_dir = None if out is None else Path(out)
     if out_dir is not None:
         from .files import check_out
+        from .mesh import trimesh_module
 
         check_out(out_dir, overwrite)
+        trimesh_module()  # now, not after the search: see trimesh_module
     result = search(part, launches, prefer, grid=grid, refine=refine, progress=say)
     body = body_of(result.part, name="printed rattleback")
     prediction = _prediction(result.part, body, result, launches, margin, prefer)

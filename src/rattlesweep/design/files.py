@@ -82,19 +82,56 @@ def map_sweep(d: "Design") -> Sweep:
             "pitch_deg": math.degrees(pitch),
         },
         stop="first_reversal",
-        name="rattlesweep design: reversal map",
+        name=map_sweep_name(),
     )
+
+
+def map_sweep_name() -> str:
+    """The name of a design's map sweep, by which its ``sweep.toml`` is known."""
+    return "rattlesweep design: reversal map"
+
+
+SWEEP_STATE = ("tiles", "sweep.nc", "sweep.zarr")
+"""What a sweep keeps in its directory (and a design never writes)."""
+
+
+def _another_tool(out: Path) -> str | None:
+    """What in ``out`` belongs to another tool, which a design must not replace: a
+    sweep's state, or a ``sweep.toml`` that is not a design's (no ``design.toml``
+    beside it, and not named as a design's map)."""
+    state = [name for name in SWEEP_STATE if (out / name).exists()]
+    if state:
+        return f"a sweep ({', '.join(state)})"
+    config = out / "sweep.toml"
+    if config.exists() and not (out / "design.toml").exists():
+        try:
+            name = Sweep.from_toml(config).name
+        except (OSError, ValueError):
+            name = None
+        if name != map_sweep_name():
+            return "a sweep's configuration (sweep.toml)"
+    return None
 
 
 def check_out(out: Path, overwrite: bool) -> None:
     """ValueError unless ``out`` is a directory that does not exist yet or is empty
-    (with ``overwrite``: any directory), naming the path and what is there."""
+    (with ``overwrite``: any directory that holds no other tool's files a design
+    would replace), naming the path and what is there."""
     if out.exists() and not out.is_dir():
         raise ValueError(
             f"out = {str(out)!r} is invalid: it is a file, and must be a "
             "directory (new or empty)"
         )
-    if overwrite or not out.is_dir():
+    if not out.is_dir():
+        return
+    if overwrite:
+        foreign = _another_tool(out)
+        if foreign is not None:
+            raise ValueError(
+                f"out = {str(out)!r} holds {foreign}: a design never replaces another "
+                "tool's files, --force (overwrite=True) included; give a new or empty "
+                "directory"
+            )
         return
     held = sorted(entry.name for entry in out.iterdir())
     if not held:
@@ -154,7 +191,10 @@ def write_files(d: "Design", out: Path, overwrite: bool = False) -> dict[str, Pa
     the paths by kind.
 
     Everything is written into a temporary directory beside ``out`` first and moved in
-    when complete (each file by a rename), so a failure leaves no half design."""
+    when complete: a new ``out`` by one rename; into an existing one, its old
+    ``design.toml`` is removed first and the new one renamed in last, so a design
+    directory with a ``design.toml`` always holds one complete design (an install
+    interrupted between its renames leaves none, which a new ``--force`` replaces)."""
     check_out(out, overwrite)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))
@@ -167,8 +207,12 @@ def write_files(d: "Design", out: Path, overwrite: bool = False) -> dict[str, Pa
             os.rename(tmp, out)
         else:
             check_out(out, overwrite)  # nothing appeared there meanwhile
+            record = written["design"]
+            (out / record.name).unlink(missing_ok=True)
             for path in written.values():
-                os.replace(path, out / path.name)
+                if path != record:
+                    os.replace(path, out / path.name)
+            os.replace(record, out / record.name)
             tmp.rmdir()
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)

@@ -14,8 +14,13 @@ curved side up. That pose is the body turned half a turn about its x axis
 
 from __future__ import annotations
 
+import importlib
 import math
+import signal
+import sys
+import threading
 from pathlib import Path
+from types import ModuleType
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -24,6 +29,39 @@ from .mass import Moments, Part
 
 if TYPE_CHECKING:
     from trimesh import Trimesh
+
+
+def trimesh_module() -> ModuleType:
+    """trimesh, imported with a Ctrl-C held until the import returns: its import
+    catches every exception in places, so a Ctrl-C landing there would be lost (the
+    command then finishing and writing files) or leave a half-made module."""
+    if "trimesh" in sys.modules:
+        return sys.modules["trimesh"]
+    if threading.current_thread() is not threading.main_thread():
+        return _import("trimesh")
+    caught: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda number, frame: caught.append(number))
+    try:
+        module = _import("trimesh")
+    finally:
+        signal.signal(signal.SIGINT, previous or signal.default_int_handler)
+    if caught:
+        raise KeyboardInterrupt
+    return module
+
+
+def _import(name: str) -> ModuleType:
+    try:
+        return importlib.import_module(name)
+    except ModuleNotFoundError as exc:
+        if exc.name != name:
+            raise
+        raise ModuleNotFoundError(
+            f"rattlesweep design writes its STL with {name}, which is not installed: "
+            "pip install 'rattlesweep[design]'",
+            name=name,
+        ) from None
+
 
 __all__ = [
     "PRINT_FROM_BODY",
@@ -61,7 +99,7 @@ def segment_mesh(a: float, b: float, c: float, z_top: float) -> "Trimesh":
     """Closed mesh of the part z ≤ z_top (m, −c < z_top ≤ 0) of the ellipsoid with
     semi-axes a, b, c centred at the origin: rings of :data:`SECTIONS` vertices on the
     surface from the bottom pole up to the flat top, which is a fan about its centre."""
-    import trimesh
+    trimesh = trimesh_module()
 
     theta = np.linspace(0.0, math.acos(-z_top / c), RINGS + 1)[1:]
     rings = _ring_vertices(a, b, c, theta)
@@ -90,7 +128,7 @@ def _cylinder(
     y: float,
     inner_radius: float = 0.0,
 ) -> "Trimesh":
-    import trimesh
+    trimesh = trimesh_module()
 
     transform = trimesh.transformations.translation_matrix([x, y, 0.5 * (z_low + z_high)])
     if inner_radius > 0.0:
@@ -103,7 +141,7 @@ def _cylinder(
 
 
 def _difference(base: "Trimesh", cutters: list["Trimesh"]) -> "Trimesh":
-    import trimesh
+    trimesh = trimesh_module()
 
     out = trimesh.boolean.difference([base, *cutters], engine="manifold")
     if not out.is_watertight:  # pragma: no cover - manifold returns closed meshes
