@@ -83,3 +83,25 @@ def test_a_measurement_is_checked_and_a_fit_is_refused_until_one_is_loaded(serve
     finally:
         app._fitting.release()
     assert status == 503 and "another fit is running" in json.loads(body)["error"]
+
+
+def test_gyroscope_data_offer_the_phone_s_yaw_and_late_data_are_refused(server):
+    from rattlesweep.fitting.measurement import PHYPHOX_HEADER
+
+    def text(t0):
+        rows = [f"{t0 + 0.01 * k},0.1,0.0,-3.0,3.0" for k in range(300)]
+        return PHYPHOX_HEADER + "\n" + "\n".join(rows) + "\n"
+
+    status, body = call(
+        server, "api/measurement", {"name": "g.csv", "text": text(0.0)}, "y"
+    )
+    assert status == 200 and "sensor_yaw_deg" in json.loads(body)["free"]
+    status, body = call(
+        server, "api/measurement", {"name": "g.csv", "text": text(12.3)}, "y"
+    )
+    answer = json.loads(body)
+    assert status == 400 and answer["control"] == "measurement"
+    assert (
+        "the recording starts at t = 12.3 s: time zero must be the release"
+        in answer["error"]
+    )

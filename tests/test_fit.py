@@ -178,6 +178,28 @@ def test_the_command_line_compares_models_and_writes_the_preferred_fit(
     assert table["models"]["rolling"]["delta_aicc"] > 10
     fitted = tomllib.loads((out / "fit.toml").read_text())["fitted"]
     assert fitted["mu"]["low"] <= 0.03 <= fitted["mu"]["high"]
+    assert table["models"]["coulomb"]["fitted"]["mu"]["determined"]
+    # a plain fit replacing it takes the comparison, which named another fit, away
+    plain = [str(slipping_gyro), "--body", "kane_levinson", "--out", str(out)]
+    plain += ["--free", "spin=-5:-1", "--fixed", "damping=2e-4", "--fixed", "mu=0.03"]
+    plain += ["--fixed", "roll_deg=6", "--quiet", "--force"]
+    assert main(["fit", *plain]) == 0
+    assert not (out / "models.toml").exists()
+    assert "removed" in capsys.readouterr().out
+
+
+def test_command_line_options_that_cannot_apply_are_refused(
+    slipping_gyro, tmp_path, capsys
+):
+    base = [str(slipping_gyro), "--body", "kane_levinson", "--out", str(tmp_path / "x")]
+    cases = [
+        (["--free", "mu=0.05:1", "--compare-models"], "free at least one input besides"),
+        (["--free", "spin=-5:-1", "--mirrored"], "--mirrored: for a heading (video) data"),
+    ]
+    for extra, message in cases:
+        assert main(["fit", *base, *extra]) == 2
+        assert message in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()
 
 
 def test_friction_in_a_run_that_never_slips_is_reported_not_determined(gyro_file):
@@ -304,6 +326,7 @@ def test_a_csv_and_a_netcdf_file_are_read_as_named(tmp_path):
             "t,h\n" + "".join(f"{0.1 * k},{(100 * k) % 360 - 180}\n" for k in range(30)),
             "the heading was given in radians but lies within ±180",
         ),
+        ("t,h\n", "a header and no rows of data"),
     ],
 )
 def test_bad_files_are_refused_by_name(tmp_path, text, message):
@@ -319,8 +342,35 @@ def test_bad_files_are_refused_by_name(tmp_path, text, message):
 def test_an_unknown_layout_is_refused_with_what_to_do(tmp_path):
     path = tmp_path / "mystery.csv"
     path.write_text("a,b,c\n1,2,3\n")
-    with pytest.raises(ValueError, match="a table whose layout is not known"):
+    with pytest.raises(ValueError, match="a table whose layout is not known") as error:
         read_measurement(path)
+    assert "--format csv --time-column T" in str(error.value)
+    assert "'Gyroscope x (rad/s)'" in str(error.value)  # what a phyphox export has
+    with pytest.raises(ValueError, match="cannot be read as netCDF"):
+        read_measurement(path, format="netcdf")
+    with pytest.raises(ValueError, match="needs its time column named .--time-column"):
+        read_measurement(path, format="csv", columns={"heading": "a"})
+
+
+def test_inputs_and_data_that_cannot_fit_are_refused_in_plain_words():
+    t = np.linspace(0.0, 4.0, 200)
+    gyro = Measurement("gyro", t, np.zeros((200, 3)) + [0.0, 0.0, -3.0], "data")
+    free = {"spin": (-5.0, -1.0)}
+    cases = [
+        ({"roll_deg": 1, "roll": 0.02}, "not both; got roll=0.02 and roll_deg=1"),
+        ({"mu": -0.3}, "mu must be >= 0 (inf allowed: rolling without slip); got -0.3"),
+        (
+            {"sensor_mass": 0.1, "sensor_position": (0.5, 0.0, 0.0)},
+            "sensor_position (0.5, 0, 0) m is not on the body",
+        ),
+    ]
+    for fixed, message in cases:
+        with pytest.raises(ValueError) as error:
+            fit(gyro, BODY, free, fixed)
+        assert message in str(error.value) and "array" not in str(error.value)
+    late = Measurement("gyro", t + 12.3, gyro.values, "data")
+    with pytest.raises(ValueError, match=r"the data start at t = 12.3 s.*--trim-start"):
+        fit(late, BODY, free)
 
 
 @pytest.mark.parametrize(

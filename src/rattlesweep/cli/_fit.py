@@ -63,6 +63,22 @@ def _fixed(items: list[str] | None) -> dict[str, Any]:
     return fixed
 
 
+def _refuse_what_does_not_apply(args: argparse.Namespace, kind: str) -> None:
+    """Options of the other kind of data are refused, not ignored."""
+    wrong = []
+    if kind == "gyro":
+        wrong += ["--mirrored"] if args.mirrored else []
+        wrong += ["--angle-units"] if args.angle_units else []
+    elif args.no_bias:
+        wrong.append("--no-bias")
+    if wrong:
+        other = "a heading (video)" if kind == "gyro" else "gyroscope"
+        raise ValueError(
+            f"{', '.join(wrong)}: for {other} data; {args.data} holds "
+            f"{'gyroscope rates' if kind == 'gyro' else 'a heading'}"
+        )
+
+
 def _cmd_fit(args: argparse.Namespace, argv: list[str] | None) -> int:
     from ..fitting import fit, read_measurement, write_fit
     from ..fitting.files import NAMES, _plain, simulate_command
@@ -77,6 +93,12 @@ def _cmd_fit(args: argparse.Namespace, argv: list[str] | None) -> int:
     if args.compare_models:
         for model in MODELS:
             model_free, model_fixed = model_inputs(model, free, fixed)
+            if not model_free:
+                raise ValueError(
+                    "--compare-models: free at least one input besides the friction "
+                    "(mu, mu_spin), e.g. --free spin=LOW:HIGH: the rolling model "
+                    "would have nothing to fit"
+                )
             check_fixed(model_fixed, bounds_from(model_free))
     else:
         check_fixed(fixed, bounds_from(free))
@@ -109,6 +131,7 @@ def _cmd_fit(args: argparse.Namespace, argv: list[str] | None) -> int:
         angle_units=args.angle_units,
         trim_start=args.trim_start,
     )
+    _refuse_what_does_not_apply(args, data.kind)
     say = (
         (lambda line: None)
         if args.quiet
@@ -132,6 +155,10 @@ def _cmd_fit(args: argparse.Namespace, argv: list[str] | None) -> int:
     else:
         result = fit(data, body, free, fixed, **options)
     paths = write_fit(result, args.out, overwrite=args.force)
+    stale = args.out / "models.toml"
+    if comparison is None and stale.exists():  # it names a fit no longer there
+        stale.unlink()
+        print(f"removed {stale}: the model comparison of the fit this one replaced")
     if comparison is not None:
         print(f"friction models compared on {args.data}:")
         print(comparison.table())
@@ -144,6 +171,9 @@ def _cmd_fit(args: argparse.Namespace, argv: list[str] | None) -> int:
             ),
         )
         paths.append(args.out / "models.toml")
+        runs = sum(s.result.evaluations for s in comparison.scores)
+        seconds = sum(s.result.seconds for s in comparison.scores)
+        print(f"({len(comparison.scores)} models: {runs} model runs in {seconds:.1f} s)")
         print(f"fit of the preferred model, {comparison.preferred}:")
     else:
         print(f"fit of {args.data}:")

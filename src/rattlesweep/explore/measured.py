@@ -29,6 +29,13 @@ __all__ = ["FIT_CONTROLS", "RATE_WINDOW", "bounds_for", "fit_controls", "load", 
 FIT_CONTROLS = ("spin", "roll_deg", "pitch_deg", "mu", "damping", "mu_spin")
 """The controls a fit in the page may free."""
 
+SENSOR_YAW = "sensor_yaw_deg"
+"""Also free for gyroscope data: the phone's turn on the flat face (not a control; the
+fit reports it)."""
+
+LATE_START = 0.5
+"""s: data whose first sample comes later than this do not start at the release."""
+
 RATE_WINDOW = 0.1
 """s: the span over which a video's heading is differentiated for the drawn rate."""
 
@@ -54,6 +61,13 @@ def load(name: str, text: str, caps: Caps) -> Measurement:
         except ValueError as exc:
             message = str(exc).replace(str(path), str(name) or "the file")
             raise SettingError(message, "measurement") from None
+    if m.time[0] > LATE_START:
+        raise SettingError(
+            f"the recording starts at t = {m.time[0]:.4g} s: time zero must be the "
+            "release. Cut the rows before the release and count time from it (the "
+            "command line's rattlesweep fit --trim-start does that)",
+            "measurement",
+        )
     caps.check("measured duration", m.duration, "max_fit_t_end", "s", control="measurement")
     caps.check("measured samples", len(m.time), "max_fit_samples", control="measurement")
     return Measurement(m.kind, m.time, m.values, str(name) or m.source)
@@ -103,6 +117,8 @@ def bounds_for(name: str, value: float) -> tuple[float, float]:
         return (1e-6, 1e-2)
     if name == "mu_spin":
         return (0.0, 2e-3)
+    if name == SENSOR_YAW:
+        return (-90.0, 90.0)
     raise SettingError(
         f"fit: {name!r} cannot be fitted here; tick some of {', '.join(FIT_CONTROLS)}",
         "measurement",
@@ -117,14 +133,15 @@ def fit_controls(
     and intervals, the fit's quality and notes, and the settings to load."""
     if not free:
         raise SettingError("fit: tick at least one control to fit", "measurement")
-    unknown = [n for n in free if n not in FIT_CONTROLS]
+    allowed = FIT_CONTROLS + ((SENSOR_YAW,) if m.kind == "gyro" else ())
+    unknown = [n for n in free if n not in allowed]
     if unknown:
         raise SettingError(
             f"fit: {', '.join(map(repr, unknown))} cannot be fitted here; they are "
-            f"{', '.join(FIT_CONTROLS)}",
+            f"{', '.join(allowed)}",
             "measurement",
         )
-    current = {n: _current(n, spec) for n in free}
+    current = {n: 0.0 if n == SENSOR_YAW else _current(n, spec) for n in free}
     if "mu" in free and not math.isfinite(current["mu"]):
         current["mu"] = 0.5
     bounds = {n: bounds_for(n, current[n]) for n in free}
@@ -144,7 +161,8 @@ def fit_controls(
     fitted = {}
     for name in free:
         f = result.fitted[name]
-        values[name] = f.value
+        if name != SENSOR_YAW:
+            values[name] = f.value
         fitted[name] = {
             "value": f.value,
             "low": f.low,

@@ -48,7 +48,7 @@ from .._version import __version__
 from ..io import write_netcdf
 from .caps import CapExceeded, Caps
 from .maps import MapJob
-from .measured import FIT_CONTROLS, fit_controls, load, overlay
+from .measured import FIT_CONTROLS, SENSOR_YAW, fit_controls, load, overlay
 from .runs import payload, run, to_json
 from .scheduler import Scheduler, Superseded
 from .settings import (
@@ -221,7 +221,7 @@ class Explorer:
             "name": m.source,
             "samples": len(m.time),
             "duration": m.duration,
-            "free": list(FIT_CONTROLS),
+            "free": list(FIT_CONTROLS) + ([SENSOR_YAW] if m.kind == "gyro" else []),
         }
 
     def fit(

@@ -188,6 +188,13 @@ def fit(
             f"window must be a positive number of seconds at most a quarter of the "
             f"measurement ({measurement.duration:g} s), got {window!r}"
         )
+    if measurement.time[0] >= window:
+        raise ValueError(
+            f"the data start at t = {measurement.time[0]:.4g} s: time zero must be the "
+            f"release. Give --trim-start {measurement.time[0]:.4g} (trim_start= of "
+            "read_measurement), or the time of the release, to count time from it"
+        )
+    _check_inputs(the_body, fixed, bounds, measurement.duration)
     rotation = None if sensor_rotation is None else np.asarray(sensor_rotation, float)
     if rotation is not None and (
         rotation.shape != (3, 3)
@@ -244,7 +251,12 @@ def fit(
             0,
             f"the model does not fit these data (reduced chi2 {reduced:.3g}): the "
             "intervals mean little; check the body, the fixed inputs, the defaults and "
-            "the bounds",
+            "the bounds"
+            + (
+                ", and the sensor's axes (a phone turned on the face: fit sensor_yaw_deg)"
+                if measurement.kind == "gyro" and not any(b.name in ANGLES for b in bounds)
+                else ""
+            ),
         )
     values = {b.name: float(b.value(np.array(best[k]))) for k, b in enumerate(bounds)}
     fitted_body = _body_of(the_body, {**fixed, **values})
@@ -270,6 +282,24 @@ def fit(
         notes=notes,
     )
     return result
+
+
+def _check_inputs(
+    body: Body, fixed: Mapping[str, Any], bounds: list[Any], t_end: float
+) -> None:
+    """The fixed inputs, with each free one in the middle of its bounds, checked by
+    the batch's own rules as one launch: an error names the input and its value
+    before any search starts."""
+    from ..rattleback.batch import launch_inputs, split_angles
+
+    given: dict[str, Any] = {**fixed, "t_end": t_end}
+    for b in bounds:
+        if b.name not in ANGLES and b.name not in ("delta", "delta_deg"):
+            given[b.name] = float(b.value(np.array(0.5)))
+    given.pop("delta", None)
+    given.pop("delta_deg", None)
+    plain, radians, _ = split_angles(body, given)
+    launch_inputs(body, announce=False, **plain, **radians)
 
 
 def _measurement(data: Any) -> Measurement:

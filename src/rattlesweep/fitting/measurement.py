@@ -164,11 +164,16 @@ def _detect(p: Path) -> str:
     if len(lines) > 1 and "\t" in lines[1] and lines[1].split("\t")[0].strip() == "t":
         return "tracker"
     if lines and ("," in lines[0] or ";" in lines[0] or "\t" in lines[0]):
+        first = lines[0] if len(lines[0]) <= 160 else lines[0][:157] + "..."
         raise ValueError(
-            f"{p}: a table whose layout is not known (first line {lines[0][:80]!r}): "
-            "name its columns with format='csv' and columns={'time': ..., 'heading': "
-            "...} or {'time': ..., 'x': ..., 'y': ..., 'z': ...} (on the command line "
-            "--format csv --time-column ... --heading-column ... or --rate-columns X Y Z)"
+            f"{p}: a table whose layout is not known (its first line: {first}). A "
+            "phyphox gyroscope export has the columns 'Time (s)' and 'Gyroscope x "
+            "(rad/s)' (y, z); a Tracker export has the track's name on its first line, "
+            "then tab-separated columns 't' and 'θ'. Other tables: name the columns, on "
+            "the command line --format csv --time-column T and --heading-column H (with "
+            "--angle-units) or --rate-columns X Y Z; in Python format='csv', "
+            "columns={'time': ..., 'heading': ...} or {'time': ..., 'x': ..., 'y': ..., "
+            "'z': ...}"
         )
     raise ValueError(
         f"{p}: not a measurement file rattlesweep knows (phyphox or Tracker export, "
@@ -187,6 +192,8 @@ def _table(p: Path, fmt: str) -> tuple[list[str], list[list[str]]]:
         raise ValueError(f"{p}: no columns")
     delimiter = "\t" if "\t" in lines[0] else (";" if ";" in lines[0] else ",")
     table = list(csv.reader(lines, delimiter=delimiter))
+    if len(table) < 2:
+        raise ValueError(f"{p}: a header and no rows of data")
     return [h.strip() for h in table[0]], table[1:]
 
 
@@ -267,9 +274,14 @@ def _generic(
 ) -> Measurement:
     if "time" not in columns:
         raise ValueError(
-            f"{p}: format='csv' needs columns={{'time': ..., 'heading': ...}} or "
-            f"{{'time': ..., 'x': ..., 'y': ..., 'z': ...}} naming its columns (it has "
-            f"{', '.join(map(repr, header))})"
+            f"{p}: a csv file needs its time column named (--time-column; in Python "
+            "columns={'time': ...}), and either its heading column (--heading-column) "
+            "or its three rate columns (--rate-columns X Y Z); its columns are "
+            f"{', '.join(map(repr, header))}"
+        )
+    if "heading" in columns and any(a in columns for a in "xyz"):
+        raise ValueError(
+            f"{p}: name either a heading column or three rate columns, not both"
         )
     t = _column(p, header, rows, columns["time"])
     if "heading" in columns:
@@ -316,7 +328,15 @@ def _heading(p: Path, angle: np.ndarray, units: str) -> np.ndarray:
 def _read_netcdf(p: Path) -> Measurement:
     import xarray as xr
 
-    with xr.open_dataset(p) as ds:
+    try:
+        ds = xr.open_dataset(p)
+    except (OSError, ValueError) as exc:
+        reason = str(exc).splitlines()[0][:120] if str(exc) else type(exc).__name__
+        raise ValueError(
+            f"{p}: cannot be read as netCDF ({reason}); --format (format=) names the "
+            "file's format, or leave it out to have it detected"
+        ) from None
+    with ds:
         return from_dataset(ds, str(p))
 
 

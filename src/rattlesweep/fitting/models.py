@@ -86,6 +86,8 @@ class ModelComparison:
                 f"  {s.name:<13} {s.k:>6} {s.result.reduced_chi2:>12.3g} {s.aicc:>9.2f} "
                 f"{s.delta:>7.2f} {s.weight:>7.2f} {s.bic:>9.2f}{mark}"
             )
+        for s in self.scores:
+            lines += [f"  {s.name}: {note}" for note in s.result.notes]
         return "\n".join(lines)
 
     def document(self) -> dict[str, Any]:
@@ -104,7 +106,16 @@ class ModelComparison:
                     "delta_aicc": s.delta,
                     "weight": s.weight,
                     "bic": s.bic,
-                    "fitted": {f.name: f.value for f in s.result.fitted.values()},
+                    "fitted": {
+                        f.name: {
+                            "value": f.value,
+                            "low": f.low,
+                            "high": f.high,
+                            "determined": f.determined,
+                        }
+                        for f in s.result.fitted.values()
+                    },
+                    "notes": list(s.result.notes),
                 }
                 for s in self.scores
             },

@@ -6,8 +6,9 @@ degrees, each fixed or fitted: the sensor's axes are the body's turned by
 ``sensor_yaw_deg`` about z, then ``sensor_pitch_deg`` about the turned y, then
 ``sensor_roll_deg`` about the twice-turned x (intrinsic z-y'-x''). A phone lying flat on
 the flat face, turned in its plane, has only a yaw. The sensor's mass (``sensor_mass``,
-kg) at ``sensor_position`` (m, body frame from the centre of the flat face; default the
-centre) is added to the body as a point mass: the fitted body carries it.
+kg) at ``sensor_position`` (m, body frame from its origin: the centre of the flat face,
+of a full ellipsoid its centre; default the origin) is added to the body as a point
+mass: the fitted body carries it.
 """
 
 from __future__ import annotations
@@ -79,7 +80,23 @@ def sensor_body(body: Body, sensor: Mapping[str, Any]) -> Body:
     if "sensor_mass" not in sensor:
         return body
     position = np.asarray(sensor.get("sensor_position", (0.0, 0.0, 0.0)), dtype=float)
-    return body.with_point_masses([(float(sensor["sensor_mass"]), position)])
+    x, y, z = position
+    # on the body: within its outline seen from above, and no farther above or below
+    # the origin than the body is deep (a phone lying on the flat face is well within)
+    if (x / body.a) ** 2 + (y / body.b) ** 2 > 1.0 or abs(z) > body.c:
+        raise ValueError(
+            f"sensor_position ({x:g}, {y:g}, {z:g}) m is not on the body: it must lie "
+            f"within its outline x^2/a^2 + y^2/b^2 <= 1 (a = {body.a:g} m, b = "
+            f"{body.b:g} m) and within c = {body.c:g} m of the origin in z (the origin "
+            "is the centre of the flat face; of a full ellipsoid, its centre)"
+        )
+    try:
+        return body.with_point_masses([(float(sensor["sensor_mass"]), position)])
+    except ValueError as exc:
+        raise ValueError(
+            f"sensor_mass {sensor['sensor_mass']:g} kg at sensor_position ({x:g}, "
+            f"{y:g}, {z:g}) m makes an impossible body: {exc}"
+        ) from None
 
 
 def rotations(yaw_deg: Any, pitch_deg: Any, roll_deg: Any) -> np.ndarray:

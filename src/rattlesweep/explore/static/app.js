@@ -702,6 +702,8 @@ function syncSlider() {
 
 // ---------------------------------------------------------------- a measured rattleback
 const FIT_DEFAULT = ['spin', 'roll_deg', 'damping'];
+// the phone's turn on the flat face is fitted too, but is no control of the run
+const fitLabel = (k) => (k === 'sensor_yaw_deg' ? 'phone turned by (yaw)' : state.config.labels[k]);
 async function loadMeasurement() {
   const file = $('measurement').files[0];
   if (!file) return;
@@ -724,7 +726,7 @@ async function loadMeasurement() {
   }
   state.measured = data;
   $('fit-free').innerHTML = data.free.map((k) =>
-    `<label class="tick"><input type="checkbox" value="${k}"${FIT_DEFAULT.includes(k) ? ' checked' : ''}> ${state.config.labels[k]}</label>`).join(' ');
+    `<label class="tick"><input type="checkbox" value="${k}"${FIT_DEFAULT.includes(k) ? ' checked' : ''}> ${fitLabel(k)}</label>`).join(' ');
   $('fit').disabled = false;
   $('fit-status').textContent = `${data.samples} samples over ${fmt(data.duration)} s loaded`;
   setBox($('t_end'), Number(data.duration.toFixed(3)));
@@ -750,7 +752,7 @@ async function fitMeasurement() {
     $('err-measurement').textContent = data.error || `the server answered ${status}`;
     return;
   }
-  for (const [k, v] of Object.entries(data.fitted)) setBox($(k), v.value);
+  for (const [k, v] of Object.entries(data.fitted)) if ($(k)) setBox($(k), v.value);
   setBox($('t_end'), data.settings.t_end);
   syncSlider();
   state.fit = data;
@@ -760,8 +762,8 @@ async function fitMeasurement() {
       Math.max(Math.abs(v.low), Math.abs(v.high)) / Math.max(v.high - v.low, 1e-300)))));
     const range = v.determined ? `95 %: ${fmt(v.low, digits)} … ${fmt(v.high, digits)}`
       : 'not pinned down by these data';
-    const units = state.config.units[k];
-    return `<li>${state.config.labels[k]} = ${fmt(v.value, digits)}${units === '1' ? '' : ' ' + units} (${range})</li>`;
+    const units = state.config.units[k] || (k === 'sensor_yaw_deg' ? 'deg' : '');
+    return `<li>${fitLabel(k)} = ${fmt(v.value, digits)}${units === '1' ? '' : ' ' + units} (${range})</li>`;
   }).join('') + data.notes.map((n) => `<li class="note">${n}</li>`).join('');
   $('fit-status').textContent = `fitted in ${((performance.now() - t0) / 1000).toFixed(1)} s `
     + `(${data.runs} model runs); the controls now hold the fit`;
