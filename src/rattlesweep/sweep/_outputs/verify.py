@@ -105,7 +105,7 @@ def _verify_zarr(
 ) -> Verification:
     import numpy as np
 
-    from .zarr_store import check_coords, check_tiles, tiles_done
+    from .zarr_store import check_coords, check_tiles, metadata_damage, tiles_done
 
     done = tiles_done(location, sweep.n_tiles, options)
     if done is None:
@@ -117,7 +117,10 @@ def _verify_zarr(
         sweep.n_tiles,
         missing,
         dict(sorted(bad.items())),
-        tuple(check_coords(location, sweep, options)),
+        tuple(
+            check_coords(location, sweep, options)
+            + metadata_damage(location, sweep, options)
+        ),
     )
 
 

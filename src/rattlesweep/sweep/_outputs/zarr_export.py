@@ -13,6 +13,7 @@ from .zarr_store import (
     damage_report,
     open_result,
     stored_sweep,
+    metadata_damage,
     tiles_done,
 )
 
@@ -46,6 +47,7 @@ def export_netcdf(
             f"exported. `rattlesweep resume {location}` recomputes them"
         )
     coords = check_coords(location, sweep, storage_options)
+    coords += metadata_damage(location, sweep, storage_options)
     if coords:
         raise ValueError(
             f"{location}: {'; '.join(coords)}; nothing was exported. "

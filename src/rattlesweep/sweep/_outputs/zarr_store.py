@@ -40,6 +40,8 @@ import xarray as xr
 
 from .._execution.lock import SweepLock
 from .digest import feed, finish, tile_digest
+from .zarr_flags import DIGEST_ARRAY, DONE_ARRAY, damage, keys, read_by_chunk
+from .zarr_flags import digests as stored_digests
 from .merge import grid_coords, result_attrs
 from .._config.spec import Sweep
 from .store import write_failure
@@ -65,8 +67,6 @@ __all__ = [
     "tiles_done",
 ]
 
-DONE_ARRAY = "rattlesweep/tile_done"
-DIGEST_ARRAY = "rattlesweep/tile_digest"
 """A digest of each tile's values, written before its done flag: a chunk's checksum
 covers its bytes, not where it lies, so a chunk copied over another tile's passes it."""
 _DONE_CHUNK = 4096
@@ -148,16 +148,6 @@ def _checksummed(array: Any) -> bool:
     return any(type(c).__name__ == "Crc32cCodec" for c in array.metadata.codecs)
 
 
-def _keys(group: Any, prefix: str) -> set[str]:
-    """The keys stored under ``prefix`` in the group's store."""
-    from zarr.core.sync import sync
-
-    async def listing() -> list[str]:
-        return [k async for k in group.store.list_prefix(prefix)]
-
-    return set(sync(listing()))
-
-
 def _first_line(exc: BaseException) -> str:
     text = str(exc).strip().splitlines()
     if text and "checksum" in text[0]:
@@ -178,10 +168,7 @@ def check_tiles(
     group: Any = _group(location, storage_options)
     tiles = range(sweep.n_tiles) if tiles is None else [int(t) for t in tiles]
     problems: dict[int, str] = {}
-    try:  # None: a store written before digests, or its digests unreadable
-        digests: Any = np.asarray(group[DIGEST_ARRAY][:]) if tiles else None
-    except Exception:
-        digests = None
+    digests, unchecked = stored_digests(group, sweep.n_tiles) if tiles else (None, set())
     hashes: dict[int, Any] = {}  # each tile's digest, fed variable by variable
     for name, dtype in result_dtypes(sweep).items():
         try:
@@ -197,7 +184,7 @@ def check_tiles(
         # a store written before checksums left out the chunks holding only fill
         # values; status is never all fill in a computed tile, so its chunks are there
         complete = _checksummed(array) or name == "status"
-        stored = _keys(group, f"{name}/")
+        stored = keys(group, f"{name}/")
         for tile in tiles:
             if tile in problems:
                 continue
@@ -215,12 +202,26 @@ def check_tiles(
                 continue
             if name == "status" and (np.asarray(read) == NOT_COMPUTED).any():
                 problems[tile] = f"chunk {key} holds points not computed"
-            if digests is not None and digests[tile]:
+            if digests is not None:
+                if tile in unchecked or not digests[tile]:
+                    problems[tile] = (
+                        f"its digest ({DIGEST_ARRAY}) is damaged or missing: its values "
+                        "cannot be checked"
+                    )
+                    continue
                 feed(hashes.setdefault(tile, hashlib.blake2b(digest_size=8)), read, dtype)
     for tile, h in hashes.items():
         if tile not in problems and finish(h) != int(digests[tile]):
             problems[tile] = f"its values are not those written ({MOVED})"
     return problems
+
+
+def metadata_damage(
+    location: str, sweep: Sweep, storage_options: Mapping[str, Any] | None = None
+) -> list[str]:
+    """What is wrong with the store's integrity metadata (the done flags and the
+    digests, :mod:`.zarr_flags`), in plain statements; empty when sound."""
+    return damage(_group(location, storage_options), sweep)
 
 
 def check_coords(
@@ -312,10 +313,12 @@ def tiles_done(
         return None
     if done.shape != (n_tiles,):
         return None
-    try:
-        return done[:].astype(bool)
-    except Exception:  # a damaged chunk of the flags: every tile is checked instead
-        return np.ones(n_tiles, dtype=bool)
+    group: Any = _group(location, storage_options)
+    values, unreadable, _ = read_by_chunk(done, keys(group, f"{DONE_ARRAY}/"))
+    flags = values.astype(bool)
+    for a, b in unreadable:  # a damaged chunk of flags: its tiles are checked instead
+        flags[a:b] = True
+    return flags
 
 
 def every_tile_done(
@@ -394,6 +397,9 @@ class ZarrStore:
                     f"{self.location}`, or use a new store"
                 )
             done = tiles_done(self.location, sweep.n_tiles, self.options)
+            damaged = (
+                [] if done is None else metadata_damage(self.location, sweep, self.options)
+            )
         if done is None:
             try:
                 self._layout()
@@ -406,7 +412,12 @@ class ZarrStore:
                 ) from exc
             done = np.zeros(sweep.n_tiles, dtype=bool)
         else:
-            done = self._verify(done)
+            done = self._verify(done, rewrite=bool(damaged))
+            if damaged:
+                self.notes.append(
+                    f"{self.location}: {'; '.join(damaged)}; its tiles were checked "
+                    "and the flags written again"
+                )
             coords = check_coords(self.location, sweep, self.options)
             if coords:
                 write_coords(self.location, sweep, self.options)
@@ -423,17 +434,24 @@ class ZarrStore:
         self.written = int(done.sum())
         return [int(t) for t in np.flatnonzero(~done)]
 
-    def _verify(self, done: np.ndarray) -> np.ndarray:
+    def _verify(self, done: np.ndarray, rewrite: bool = False) -> np.ndarray:
         """The tiles flagged done whose chunks are all there and sound; the others are
-        flagged not done (to be recomputed) and noted."""
+        flagged not done (to be recomputed) and noted. With ``rewrite`` (the flags
+        were damaged), every flag is written again."""
         bad = check_tiles(self.location, self.sweep, np.flatnonzero(done), self.options)
-        if bad:
+        if bad or rewrite:
             group = _group(self.location, self.options, "r+")
+            if rewrite and DIGEST_ARRAY in group:
+                # a tile's digest is written into its chunk, which must be readable
+                array: Any = group[DIGEST_ARRAY]
+                _, unreadable, _ = read_by_chunk(array, keys(group, f"{DIGEST_ARRAY}/"))
+                for a, b in unreadable:
+                    array[a:b] = 0
             flags: Any = group[DONE_ARRAY]
-            flags[:] = np.where(done, 1, 0).astype("uint8")
             for tile in bad:
-                flags[tile] = 0
                 done[tile] = False
+            flags[:] = np.where(done, 1, 0).astype("uint8")
+        if bad:
             first = min(bad)
             self.notes.append(
                 f"{len(bad)} tiles of {self.location} are damaged or missing "
