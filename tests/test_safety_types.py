@@ -152,3 +152,23 @@ def test_body_dimensions_and_sweep_values_refuse_the_same(value):
 def test_run_batch_options_take_their_own_types(name, value):
     with pytest.raises(ValueError, match=rf"{name} must be"):
         rs.run_batch(TOY, spin=1.0, t_end=0.01, **{name: value})
+
+
+def test_array_likes_of_numbers_are_taken_and_a_missing_value_is_a_non_finite_launch():
+    """A pandas Series, a nullable Float64 array and a result's own DataArray are what
+    NumPy takes as numbers: taken (a regression of the types round refused them), with
+    pandas' NA a non_finite launch; a Series of booleans or strings is still refused."""
+    pd = pytest.importorskip("pandas")
+    for value in (
+        pd.Series([-3.0, 3.0]),
+        rs.run_batch(TOY, spin=[-3.0, 3.0], t_end=0.01).launch_spin,
+    ):
+        ds = rs.run_batch(TOY, spin=value, t_end=0.01)
+        np.testing.assert_array_equal(ds.launch_spin.values, [-3.0, 3.0])
+    ds = rs.run_batch(TOY, spin=pd.array([-3.0, None], dtype="Float64"), t_end=0.01)
+    assert list(rs.decode(ds).status.values) == ["ok", "non_finite"]
+    for bad in (pd.Series([True, False]), pd.Series(["1", "2"])):
+        with pytest.raises(
+            ValueError, match="spin must be a number or an array of numbers"
+        ):
+            rs.run_batch(TOY, spin=bad, t_end=0.01)

@@ -98,7 +98,13 @@ def batch_dataset(
     """A batch's results over ``trajectory`` (and ``time`` when recorded), with every
     input as a coordinate; ``attrs_for(name)`` gives the CF attributes of an input."""
     data = observables_dataset(prep.model, raw.observables, "trajectory")
-    coords: dict[str, Any] = {"trajectory": np.arange(prep.n)}
+    coords: dict[str, Any] = {
+        "trajectory": (
+            "trajectory",
+            np.arange(prep.n),
+            {"long_name": "launch number within the batch", "units": "1"},
+        )
+    }
     if raw.records is not None:
         assert record_every is not None  # the kernel records only with a record_every
         data.update(series_dataset(prep.model, raw.records, ("trajectory", "time")))

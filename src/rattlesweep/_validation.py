@@ -82,12 +82,15 @@ def as_float_array(name: str, value: Any) -> np.ndarray:
     """``value`` as a float array (0-d for a scalar; no copy when it already is one).
 
     Only real numbers are accepted: ints and floats of Python or NumPy, arrays and
-    (nested) lists of them, and ``None`` (which becomes NaN, for a finiteness rule to
-    refuse). Raises ``ValueError("<name> must be a number or an array of numbers (real
-    numbers: ...), got <value>")`` for anything else: strings (numeric or not), booleans,
-    complex numbers, ragged lists, times and dates (``timedelta64``, ``datetime64``),
-    masked arrays (their masked entries would be simulated all the same), other objects.
+    (nested) lists of them, array-likes of them (a pandas Series or nullable array, an
+    xarray DataArray; a missing value becomes NaN), and ``None`` (which becomes NaN,
+    for a finiteness rule to refuse). Raises ``ValueError("<name> must be a number or
+    an array of numbers (real numbers: ...), got <value>")`` for anything else:
+    strings (numeric or not), booleans, complex numbers, ragged lists, times and dates
+    (``timedelta64``, ``datetime64``), masked arrays (their masked entries would be
+    simulated all the same), other objects.
     """
+    value = _from_array_like(value)
     if isinstance(value, np.ma.MaskedArray):
         raise ValueError(
             f"{name} must be a plain array of numbers, not a masked array (its masked "
@@ -108,6 +111,26 @@ def as_float_array(name: str, value: Any) -> np.ndarray:
     except (TypeError, ValueError, OverflowError):
         raise ValueError(f"{name} {_RULE}, got {_shown(value)}") from None
     return arr
+
+
+def _from_array_like(value: Any) -> Any:
+    """A NumPy array of an array-like of numbers that is not one (a pandas Series or
+    nullable array, an xarray DataArray): its values, a missing value (pandas' NA) as
+    NaN. Anything else is returned as it is, for the checks to judge."""
+    if isinstance(value, (np.ndarray, list, tuple, str, bytes)) or not hasattr(
+        value, "__array__"
+    ):
+        return value
+    kind = getattr(getattr(value, "dtype", None), "kind", None)
+    if kind in ("i", "u", "f"):
+        to_numpy = getattr(value, "to_numpy", None)
+        try:
+            if to_numpy is not None:
+                return np.asarray(to_numpy(dtype=float, na_value=np.nan))
+        except TypeError:  # a to_numpy without those arguments (xarray's)
+            pass
+        return np.asarray(value, dtype=float)
+    return np.asarray(value)
 
 
 _RULE = (

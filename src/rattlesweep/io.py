@@ -12,9 +12,11 @@ import subprocess
 import sys
 import tempfile
 import threading
+import time
 from pathlib import Path
 from typing import Any, Iterator
 
+import numpy as np
 import xarray as xr
 
 __all__ = [
@@ -82,6 +84,7 @@ def write_netcdf(ds: xr.Dataset, path: str | os.PathLike, *, digest: bool = Fals
     path = Path(path)
     check_netcdf_target(path, digest=digest)
     path.parent.mkdir(parents=True, exist_ok=True)
+    ds, cf = _cf_ready(ds)
     # fletcher32: HDF5 checksums every chunk, so a byte changed on disk fails the read
     # instead of reading as another value (a scalar is not chunked: it has none)
     encoding = {
@@ -90,6 +93,8 @@ def write_netcdf(ds: xr.Dataset, path: str | os.PathLike, *, digest: bool = Fals
         for name, var in ds.variables.items()
         if var.dtype.kind in "fiub" and var.ndim
     }
+    for name, extra in cf.items():
+        encoding[name] = {**encoding.get(name, {}), **extra}
     fd, tmp = _temporary(path)
     os.close(fd)
     try:
@@ -107,6 +112,49 @@ def write_netcdf(ds: xr.Dataset, path: str | os.PathLike, *, digest: bool = Fals
             os.unlink(tmp)
         raise
     return path
+
+
+_INT32 = np.iinfo(np.int32)
+
+
+def _cf_ready(ds: xr.Dataset) -> tuple[xr.Dataset, dict[str, dict[str, Any]]]:
+    """``ds`` as the CF conventions it declares (CF-1.8) have it on disk, and the
+    encoding that goes with it: 64-bit integers stored as 32-bit ones (CF-1.8 has no
+    64-bit types; a value out of their range keeps 64 bits), no ``_FillValue`` on a
+    coordinate, ``flag_values`` of their variable's type, and a ``history`` line. The
+    dataset in memory is not changed. (``time`` is the time since the release in s, not
+    a reference time: it has no ``standard_name = "time"``, which CF reserves for times
+    "since" an epoch.)"""
+    out = ds.copy(deep=False)
+    encoding: dict[str, dict[str, Any]] = {}
+    for name, var in out.variables.items():
+        extra: dict[str, Any] = {}
+        if var.dtype.kind in "iu" and var.dtype.itemsize == 8:
+            values = np.asarray(var.values)
+            if values.size == 0 or (
+                values.min() >= _INT32.min and values.max() <= _INT32.max
+            ):
+                extra["dtype"] = "int32"
+        if name in out.coords:
+            extra["_FillValue"] = None
+        if "flag_values" in var.attrs:
+            kind = np.dtype(extra.get("dtype", var.dtype))
+            var.attrs = {
+                **var.attrs,
+                "flag_values": np.asarray(var.attrs["flag_values"], kind),
+            }
+        if extra:
+            encoding[str(name)] = extra
+    if "history" not in out.attrs:
+        stamp = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
+        out.attrs["history"] = f"{stamp} written by rattlesweep {_version()}"
+    return out, encoding
+
+
+def _version() -> str:
+    from ._version import __version__
+
+    return __version__
 
 
 DIGEST_SUFFIX = ".b2sum"

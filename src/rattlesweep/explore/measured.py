@@ -42,7 +42,7 @@ RATE_WINDOW = 0.1
 _SIM_NAME = {"roll_deg": "roll", "pitch_deg": "pitch"}
 
 # the search's sizes in the page: a fit of 5 s of data takes about 10 s on one core
-_SIZES = dict(global_size=512, global_rounds=3, profile_points=9)
+_GLOBAL_SIZE, _GLOBAL_ROUNDS, _PROFILE_POINTS = 512, 3, 9
 
 
 def load(name: str, text: str, caps: Caps) -> Measurement:
@@ -154,7 +154,16 @@ def fit_controls(
     if "mu" in free:
         fixed.pop("mu_static", None)
     try:
-        result = fit(m, spec.body, bounds, fixed, threads=1, **_SIZES)
+        result = fit(
+            m,
+            spec.body,
+            bounds,
+            fixed,
+            threads=1,
+            global_size=_GLOBAL_SIZE,
+            global_rounds=_GLOBAL_ROUNDS,
+            profile_points=_PROFILE_POINTS,
+        )
     except ValueError as exc:
         raise SettingError(f"fit: {exc}", "measurement") from None
     values = dict(settings)

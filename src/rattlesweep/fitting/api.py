@@ -405,7 +405,7 @@ class _Runner:
     def rotation_of(self, cube: np.ndarray) -> np.ndarray | None:
         """The sensor's rotation: one matrix (3, 3), one per candidate (c, 3, 3) when
         its angles are free, or None."""
-        angles = dict(self.angles)
+        angles: dict[str, Any] = dict(self.angles)
         for k, b in enumerate(self.bounds):
             if b.name in ANGLES:
                 angles[b.name] = b.value(cube[:, k])
@@ -511,9 +511,7 @@ def _dataset(
         + comparison.residuals[0].reshape(measured.values.shape) * measured.scale[:, None]
     )
     ds = xr.Dataset(coords={"time": ("time", data.time), "window": ("window", mid)})
-    ds["time"].attrs.update(
-        units="s", long_name="time from the release", standard_name="time"
-    )
+    ds["time"].attrs.update(units="s", long_name="time from the release")
     ds["window"].attrs.update(units="s", long_name="middle of the feature window")
     if data.kind == "heading":
         offset = comparison.offsets["heading_offset"][0]

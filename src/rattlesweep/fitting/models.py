@@ -136,8 +136,8 @@ def model_inputs(
             "inputs itself (give their bounds with free instead)"
         )
     rest = {k: v for k, v in free.items() if k not in _FRICTION}
-    mu = tuple(free.get("mu", MU_BOUNDS))
-    mu_spin = tuple(free.get("mu_spin", MU_SPIN_BOUNDS))
+    mu = free.get("mu", MU_BOUNDS)
+    mu_spin = free.get("mu_spin", MU_SPIN_BOUNDS)
     if name == "rolling":
         return rest, {**fixed, "mu": math.inf, "mu_spin": 0.0}
     if name == "coulomb":

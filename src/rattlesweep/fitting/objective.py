@@ -103,7 +103,7 @@ def measured_features(data: Measurement, window: float, cross: bool = False) -> 
         return Features(edges, ("heading",), values, scale, noise)
     rows = _gyro_rows(index, data.values.T, n, cross=cross)
     noise = np.array([_noise(data.values[:, a]) for a in range(3)])
-    scale = [
+    scales: list[float] = [
         max(nz / np.sqrt(counts.mean()), 0.01 * np.ptp(row), 1e-6)
         for nz, row in zip(noise[[2, 0, 1]], rows)
     ]
@@ -114,9 +114,9 @@ def measured_features(data: Measurement, window: float, cross: bool = False) -> 
         vx, vy = np.nanmean(rows[1] ** 2), np.nanmean(rows[2] ** 2)
         nx, ny = noise[0], noise[1]
         scatter = np.sqrt(nx**2 * vy + ny**2 * vx + nx**2 * ny**2) / np.sqrt(counts.mean())
-        scale.append(max(scatter, 0.01 * np.sqrt(vx * vy), 1e-12))
+        scales.append(max(scatter, 0.01 * np.sqrt(vx * vy), 1e-12))
         names += ("rocking_xy",)
-    return Features(edges, names, rows, np.array(scale), noise)
+    return Features(edges, names, rows, np.array(scales), noise)
 
 
 def _gyro_rows(
