@@ -19,3 +19,18 @@ def test_a_map_whose_corner_takes_too_many_steps_is_refused_before_any_work():
     assert "exceeds the explorer's cap max_steps = 200000" in str(refused.value)
     axes["x"]["stop"] = 1e-3  # a damping the step size does not follow
     assert map_sweep(settings, axes, Caps()).max_steps <= Caps().max_steps
+
+
+@pytest.mark.parametrize("key", ["num", "levels"])
+def test_a_fractional_count_is_refused_not_truncated(key):
+    axes = {
+        "x": {"param": "spin", "start": -5, "stop": 5, "num": 5},
+        "y": {"param": "mu", "start": 0.2, "stop": 0.5, "num": 3},
+        "levels": 1,
+    }
+    if key == "num":
+        axes["x"]["num"] = 2.5
+    else:
+        axes["levels"] = 1.5
+    with pytest.raises(ValueError, match=r"must be a whole number, got (2\.5|1\.5)"):
+        map_sweep({**defaults(), "t_end": 2.0}, axes, Caps())

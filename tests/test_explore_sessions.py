@@ -138,3 +138,41 @@ def test_a_classroom_connecting_at_once_is_answered(server):
     for t in threads:
         t.join()
     assert statuses == [200] * 30
+
+
+def test_a_half_sent_request_releases_its_thread(monkeypatch):
+    """A client that sends headers and part of a body, then nothing: its connection is
+    closed after the handler's timeout (1 s here) instead of holding a thread."""
+    import socket
+    import time
+
+    monkeypatch.setattr(server_module._Handler, "timeout", 1.0)
+    srv = start(workers=1)
+    try:
+        port = srv.server_address[1]
+        with socket.create_connection(("127.0.0.1", port), timeout=10) as sock:
+            sock.sendall(
+                b"POST /api/run HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: 100\r\n\r\n{"
+            )
+            began = time.monotonic()
+            assert sock.recv(1024) == b""  # closed, no answer to a request never finished
+            assert time.monotonic() - began < 5
+    finally:
+        srv.shutdown()
+        srv.server_close()
+
+
+def test_any_loopback_address_keeps_the_dns_rebinding_guard():
+    """Served on 127.0.0.2, a request naming another host is refused, one naming the
+    address answered."""
+    srv = start(host="127.0.0.2", workers=1)
+    try:
+        port = srv.server_address[1]
+        for host, status in (("evil.example", 403), (f"127.0.0.2:{port}", 200)):
+            conn = http.client.HTTPConnection("127.0.0.2", port, timeout=30)
+            conn.request("GET", "/api/config", headers={"Host": host})
+            assert conn.getresponse().status == status
+            conn.close()
+    finally:
+        srv.shutdown()
+        srv.server_close()

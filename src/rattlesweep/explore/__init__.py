@@ -17,7 +17,7 @@ import webbrowser
 from typing import Any
 
 from .caps import Caps
-from .server import LOCAL_HOSTS, Server, start
+from .server import LOCAL_HOSTS, Server, is_loopback, start
 
 __all__ = ["Caps", "LOCAL_HOSTS", "PortInUse", "Server", "serve", "show", "start", "warm"]
 
@@ -100,7 +100,7 @@ def serve(
     except BaseException:
         server.server_close()
         raise
-    if host not in LOCAL_HOSTS:
+    if not is_loopback(host):
         print(
             f"warning: listening on {host}: anyone who can reach this address can use "
             "the explorer (and the CPU time it spends)",

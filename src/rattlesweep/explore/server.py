@@ -28,6 +28,7 @@ import base64
 import gzip
 import hashlib
 import hmac
+import ipaddress
 import json
 import os
 import re
@@ -62,10 +63,24 @@ from .settings import (
     run_spec,
 )
 
-__all__ = ["Explorer", "LOCAL_HOSTS", "Server", "start"]
+__all__ = ["Explorer", "LOCAL_HOSTS", "Server", "is_loopback", "start"]
 
 STATIC = Path(__file__).with_name("static")
 LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1")
+_REQUEST_TIMEOUT = 30.0  # s a connection may take to send a request's next bytes
+
+
+def is_loopback(host: str) -> bool:
+    """Whether ``host`` (a name or an address) is this machine only: ``localhost`` or
+    a loopback address (all of 127.0.0.0/8, ::1)."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_loopback
+    except ValueError:
+        return False
+
+
 _TYPES = {
     ".html": "text/html; charset=utf-8",
     ".js": "text/javascript; charset=utf-8",
@@ -267,6 +282,9 @@ class Explorer:
 class _Handler(BaseHTTPRequestHandler):
     server: "Server"
     protocol_version = "HTTP/1.1"
+    # a connection that stops sending (a request half sent, a client gone) releases its
+    # thread after this long, rather than holding it for ever
+    timeout = _REQUEST_TIMEOUT
 
     def log_message(self, format: str, *args: Any) -> None:
         if self.server.verbose:
@@ -360,7 +378,8 @@ class _Handler(BaseHTTPRequestHandler):
         name = (
             host.rsplit(":", 1)[0] if not host.startswith("[") else host[1:].split("]")[0]
         )
-        if name in LOCAL_HOSTS:
+        # an address is no DNS name to rebind: any loopback literal is this machine
+        if is_loopback(name):
             return False
         self._json(HTTPStatus.FORBIDDEN, {"error": f"host {host!r} is not this machine"})
         return True
@@ -498,7 +517,7 @@ class Server(ThreadingHTTPServer):
         self.app = Explorer(caps, workers)
         self.static = _static_files()
         self.verbose = verbose
-        self.loopback = host in LOCAL_HOSTS
+        self.loopback = is_loopback(host)
         shown = f"[{host}]" if ":" in host else host
         self.url = f"http://{shown}:{self.server_address[1]}/"
 

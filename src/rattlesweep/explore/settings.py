@@ -390,6 +390,14 @@ def python_code(spec: RunSpec) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _whole(name: str, value: Any, control: str) -> int:
+    """A count the page sent: a whole number, not one truncated from 2.5."""
+    number = _number(name, value, control, finite=True)
+    if not float(number).is_integer():
+        raise SettingError(f"{name} must be a whole number, got {number:g}", control)
+    return int(number)
+
+
 def map_sweep(settings: Mapping[str, Any], axes: Mapping[str, Any], caps: Caps) -> Any:
     """The :class:`rattlesweep.Sweep` of a map: two axes (``x`` and ``y``: ``param``,
     ``start``, ``stop``, ``num``) over the current other settings, refined ``levels``
@@ -398,7 +406,7 @@ def map_sweep(settings: Mapping[str, Any], axes: Mapping[str, Any], caps: Caps) 
 
     spec = run_spec(settings, caps)  # the settings themselves must make a valid run
     caps.check("map t_end", spec.kwargs["t_end"], "max_map_t_end", "s", control="t_end")
-    levels = int(_number("levels", axes.get("levels", 0), "map_levels", finite=True))
+    levels = _whole("map levels", axes.get("levels", 0), "map_levels")
     caps.check("map levels", levels, "max_map_levels", control="map_levels")
     grid: dict[str, Any] = {}
     for key in ("x", "y"):
@@ -409,7 +417,7 @@ def map_sweep(settings: Mapping[str, Any], axes: Mapping[str, Any], caps: Caps) 
                 f"map {key} axis must be one of {sorted(MAP_AXES)}, got {param!r}",
                 f"map_{key}",
             )
-        num = int(_number(f"map {key} num", ax.get("num"), f"map_{key}", finite=True))
+        num = _whole(f"map {key} num", ax.get("num"), f"map_{key}")
         caps.check(f"map {key} num", num, "max_map_num", control=f"map_{key}")
         grid[param] = {
             "start": _number(f"map {key} start", ax.get("start"), f"map_{key}"),
