@@ -218,3 +218,18 @@ def test_simulate_refuses_an_unclear_or_bad_body(tmp_path, capsys, argv, message
     assert message in err
     if not message.startswith("--"):  # a bad file: the message names it
         assert f"{tmp_path}/" in err and ".toml" in err
+
+
+def test_the_top_help_speaks_to_users_and_a_mistyped_option_gets_a_suggestion(capsys):
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    out = capsys.readouterr().out
+    assert "Simulate rattlebacks (celts) and map where their spin reverses" in out
+    assert "parser" not in out.split("positional arguments")[0]
+    for argv, hint in (
+        (["simulate", "--roll", "0.5"], "--roll: did you mean --roll-deg? (angles on the"),
+        (["simulate", "--spinn", "3"], "--spinn: did you mean --spin?"),
+    ):
+        with pytest.raises(SystemExit) as done:
+            main(argv)
+        assert done.value.code == 2 and hint in capsys.readouterr().err

@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import argparse
-from typing import Any
+import difflib
+from typing import Any, NoReturn
 
 from .._version import __version__
 
@@ -57,9 +58,47 @@ class _Parser(argparse.ArgumentParser):
         kwargs.setdefault("allow_abbrev", False)
         super().__init__(*args, **kwargs)
 
+    def error(self, message: str) -> NoReturn:
+        if message.startswith("unrecognized arguments:"):
+            message += _suggestion(self, message.split(":", 1)[1].split())
+        super().error(message)
+
+
+def _suggestion(parser: argparse.ArgumentParser, given: list[str]) -> str:
+    """For options not known, the closest known ones (``--roll``: ``--roll-deg``)."""
+    known: set[str] = set()
+    stack = [parser]
+    while stack:
+        p = stack.pop()
+        for action in p._actions:
+            known.update(o for o in action.option_strings if o.startswith("--"))
+            if isinstance(action, argparse._SubParsersAction):
+                stack.extend(action.choices.values())
+    hints = []
+    for option in (g.split("=", 1)[0] for g in given if g.startswith("--")):
+        if f"{option}-deg" in known:  # an angle given as if in radians
+            close = [f"{option}-deg"]
+        else:
+            close = difflib.get_close_matches(option, sorted(known), n=1, cutoff=0.6)
+        if close:
+            unit = (
+                " (angles on the command line are in degrees)" if "-deg" in close[0] else ""
+            )
+            hints.append(f"{option}: did you mean {close[0]}?{unit}")
+    return ("; " + "; ".join(hints)) if hints else ""
+
+
+DESCRIPTION = (
+    "Simulate rattlebacks (celts) and map where their spin reverses: one launch "
+    "(simulate, animate), a grid of launches (sweep, resume, info, plot, export, "
+    "verify, demo), linear stability (stability), a printable rattleback (design), "
+    "a fit to a measured one (fit), a page in the browser (explore), and the compiled "
+    "kernels built ahead (compile). `rattlesweep COMMAND --help` says more."
+)
+
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="rattlesweep", description=__doc__)
+    parser = _Parser(prog="rattlesweep", description=DESCRIPTION)
     parser.add_argument("--version", action="version", version=f"rattlesweep {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
 
