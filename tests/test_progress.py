@@ -114,3 +114,17 @@ def test_a_wait_for_long_tiles_after_ctrl_c_is_explained_and_a_short_one_is_not(
                 on_stopping=told.append,
             )
         assert told == expected  # the one tile running; queued ones were dropped
+
+
+def test_counts_read_as_english_and_a_resume_with_nothing_to_do_says_so():
+    import io
+
+    from rattlesweep.sweep._execution.progress import Progress
+
+    out = io.StringIO()
+    bar = Progress(1, 10, 1, 10, stream=out, enabled=True)
+    bar.close()
+    text = out.getvalue()
+    assert "resuming: 1 of 1 tile already done" in text
+    assert "0 tiles computed, 1 reused, nothing to compute" in text
+    assert "traj/s" not in text

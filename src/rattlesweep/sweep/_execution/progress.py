@@ -53,7 +53,9 @@ class Progress:
         self._shown = done_tiles  # the tiles the last line counted
         self._tty = hasattr(self.stream, "isatty") and self.stream.isatty()
         if enabled and done_tiles:
-            self._write(f"resuming: {done_tiles} of {total_tiles} tiles already done\n")
+            self._write(
+                f"resuming: {done_tiles} of {_count(total_tiles, 'tile')} already done\n"
+            )
         if enabled and self._compiling:
             self._write(
                 "the workers compile the simulation kernels first (first run only: "
@@ -113,7 +115,7 @@ class Progress:
         left = self.total_points - self.done_points
         eta = _clock(left / rate) if rate > 0 else "?"
         return (
-            f"[{bar:<24}] {self.done_tiles}/{self.total_tiles} tiles  "
+            f"[{bar:<24}] {self.done_tiles}/{_count(self.total_tiles, 'tile')}  "
             f"{rate:,.0f} traj/s  ETA {eta}"
         )
 
@@ -124,10 +126,16 @@ class Progress:
         end = "\n" if self._tty and self.done_tiles > self.reused else ""
         compiled = self.compile_s
         apart = f", and {compiled:.1f} s compiling the kernels" if compiled >= 0.05 else ""
+        computed = self.done_tiles - self.reused
+        work = (
+            f"{self.new_points:,} trajectories in {elapsed - compiled:.1f} s "
+            f"({self.rate:,.0f} traj/s){apart}"
+            if computed
+            else "nothing to compute"
+        )
         self._write(
-            f"{end}{message or 'done'}: {self.done_tiles - self.reused} tiles "
-            f"computed, {self.reused} reused, {self.new_points:,} trajectories "
-            f"in {elapsed - compiled:.1f} s ({self.rate:,.0f} traj/s){apart}\n"
+            f"{end}{message or 'done'}: {_count(computed, 'tile')} computed, "
+            f"{self.reused} reused, {work}\n"
         )
 
     def interrupted(self) -> None:
@@ -144,3 +152,8 @@ class Progress:
 def _clock(seconds: float) -> str:
     s = int(round(seconds))
     return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}"
+
+
+def _count(n: int, noun: str) -> str:
+    """``1 tile``, ``2 tiles``."""
+    return f"{n:,} {noun}{'' if n == 1 else 's'}"
