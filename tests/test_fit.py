@@ -194,7 +194,7 @@ def test_command_line_options_that_cannot_apply_are_refused(
     base = [str(slipping_gyro), "--body", "kane_levinson", "--out", str(tmp_path / "x")]
     cases = [
         (["--free", "mu=0.05:1", "--compare-models"], "free at least one input besides"),
-        (["--free", "spin=-5:-1", "--mirrored"], "--mirrored: for a heading (video) data"),
+        (["--free", "spin=-5:-1", "--mirrored"], "--mirrored: for heading (video) data"),
     ]
     for extra, message in cases:
         assert main(["fit", *base, *extra]) == 2
@@ -369,8 +369,21 @@ def test_inputs_and_data_that_cannot_fit_are_refused_in_plain_words():
             fit(gyro, BODY, free, fixed)
         assert message in str(error.value) and "array" not in str(error.value)
     late = Measurement("gyro", t + 12.3, gyro.values, "data")
-    with pytest.raises(ValueError, match=r"the data start at t = 12.3 s.*--trim-start"):
+    with pytest.raises(ValueError, match=r"the data start at t = 12.3 s.*trim_start="):
         fit(late, BODY, free)
+
+
+def test_the_trim_hint_counts_on_the_file_s_clock(gyro_file, tmp_path, capsys):
+    """Data recorded 12.3 s before the release: the hint gives the release on the
+    file's own clock, whatever --trim-start was given already."""
+    shifted = tmp_path / "late.csv"
+    m = read_measurement(gyro_file)
+    write_phyphox(shifted, m.time + 12.3, m.values)
+    base = [str(shifted), "--body", "kane_levinson", "--free", "spin=-5:-1"]
+    for trim in ("0", "11", "1.3"):
+        out = ["--out", str(tmp_path / f"o{trim}"), "--trim-start", trim]
+        assert main(["fit", *base, *out]) == 2
+        assert "Give --trim-start 12.3 " in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(

@@ -72,7 +72,7 @@ def _refuse_what_does_not_apply(args: argparse.Namespace, kind: str) -> None:
     elif args.no_bias:
         wrong.append("--no-bias")
     if wrong:
-        other = "a heading (video)" if kind == "gyro" else "gyroscope"
+        other = "heading (video)" if kind == "gyro" else "gyroscope"
         raise ValueError(
             f"{', '.join(wrong)}: for {other} data; {args.data} holds "
             f"{'gyroscope rates' if kind == 'gyro' else 'a heading'}"
@@ -132,6 +132,14 @@ def _cmd_fit(args: argparse.Namespace, argv: list[str] | None) -> int:
         trim_start=args.trim_start,
     )
     _refuse_what_does_not_apply(args, data.kind)
+    if data.time[0] >= args.window:  # said on the file's own clock
+        release = args.trim_start + data.time[0]
+        raise ValueError(
+            f"the data start {data.time[0]:.4g} s after "
+            + (f"--trim-start {args.trim_start:g}" if args.trim_start else "time zero")
+            + f": time zero must be the release. Give --trim-start {release:.4g} (or "
+            "the time of the release on the file's clock)"
+        )
     say = (
         (lambda line: None)
         if args.quiet

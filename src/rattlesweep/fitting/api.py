@@ -185,14 +185,15 @@ def fit(
         )
     if not (math.isfinite(window) and 0 < window <= measurement.duration / 4):
         raise ValueError(
-            f"window must be a positive number of seconds at most a quarter of the "
-            f"measurement ({measurement.duration:g} s), got {window!r}"
+            f"window must be a positive number of seconds, at most a quarter of the "
+            f"measurement's {measurement.duration:g} s ({measurement.duration / 4:g} s), "
+            f"got {window!r}"
         )
     if measurement.time[0] >= window:
         raise ValueError(
             f"the data start at t = {measurement.time[0]:.4g} s: time zero must be the "
-            f"release. Give --trim-start {measurement.time[0]:.4g} (trim_start= of "
-            "read_measurement), or the time of the release, to count time from it"
+            "release. Read the file with trim_start= the time of the release (the "
+            "command line's --trim-start) to count time from it"
         )
     _check_inputs(the_body, fixed, bounds, measurement.duration)
     rotation = None if sensor_rotation is None else np.asarray(sensor_rotation, float)

@@ -155,6 +155,8 @@ def read_measurement(
 def _detect(p: Path) -> str:
     with open(p, "rb") as f:
         head = f.read(4096)
+    if not head.strip():
+        raise ValueError(f"{p}: the file is empty")
     if head.startswith((b"CDF", b"\x89HDF")):
         return "netcdf"
     text = head.decode("utf-8", errors="replace")
@@ -331,10 +333,9 @@ def _read_netcdf(p: Path) -> Measurement:
     try:
         ds = xr.open_dataset(p)
     except (OSError, ValueError) as exc:
-        reason = str(exc).splitlines()[0][:120] if str(exc) else type(exc).__name__
         raise ValueError(
-            f"{p}: cannot be read as netCDF ({reason}); --format (format=) names the "
-            "file's format, or leave it out to have it detected"
+            f"{p}: cannot be read as netCDF ({type(exc).__name__}); name the file's own "
+            "format (--format, format=), or leave it out to have it detected"
         ) from None
     with ds:
         return from_dataset(ds, str(p))
