@@ -69,3 +69,14 @@ def test_a_long_sweep_is_announced_before_anything_is_written(tmp_path):
         ):
             run_sweep(s, tmp_path / "out", progress=False)
     assert not (tmp_path / "out").exists()
+
+
+def test_a_launch_shorter_than_the_default_step_ends_at_its_t_end():
+    """t_end = 1e-6 s with a default step of 1.4e-3 s: one step of t_end, not a whole
+    default step (1400 times as long); a longer launch keeps the default step."""
+    toy = rs.Body.preset("toy")
+    run = rs.simulate(toy, spin=-3.0, t_end=1e-6)
+    assert run.time.values[-1] == pytest.approx(1e-6, rel=1e-12)
+    batch = rs.run_batch(toy, spin=-3.0, t_end=[1e-6, 0.5])
+    assert batch.dt.values[0] == pytest.approx(1e-6)
+    assert batch.dt.values[1] == pytest.approx(toy.default_dt())

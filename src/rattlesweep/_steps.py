@@ -198,7 +198,8 @@ def time_steps(
     """Each launch's time step (s), and the inputs it comes from when it is the default
     (None when ``dt`` is given): the ``dt`` of ``flat`` (the flat inputs) or the body's
     default at its ``g``, shortened where the model's bound ``longest`` (each launch's
-    longest step, and the inputs it depends on) is shorter. A ``dt`` given is refused
+    longest step, and the inputs it depends on) is shorter, and to ``t_end`` where
+    that is shorter still (0 < t_end). A ``dt`` given is refused
     beyond ``t_end`` (in both models), and draws a :class:`CoarseStepWarning`
     when far beyond the default (``stacklevel`` as for :func:`warnings.warn`, counted
     from the caller)."""
@@ -209,7 +210,11 @@ def time_steps(
         default = np.minimum(default, bound)
         depends = ("g", *names)
     if "dt" not in flat:
-        return default, {k: flat[k] for k in depends}
+        # a launch shorter than the default step takes one step of its t_end, rather
+        # than a whole default step past it
+        t_end = flat["t_end"]
+        short = (t_end > 0) & (t_end < default)
+        return np.where(short, t_end, default), {k: flat[k] for k in depends}
     dt = flat["dt"]
     fail_where(
         "dt",

@@ -189,7 +189,8 @@ DT = Input(
     None,
     POSITIVE,
     sweep=True,
-    details="A given dt longer than t_end is refused: a launch takes whole steps.",
+    details="A given dt longer than t_end is refused: a launch takes whole steps. The "
+    "default step of a launch shorter than it is its t_end (one step).",
     default_doc="1/64 of the body's shortest small-oscillation period",
 )
 T_END = Input(
