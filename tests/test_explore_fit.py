@@ -3,42 +3,18 @@ caps, and fits refused by name until they can run (the fit itself, through the p
 in test_explore_browser.py)."""
 
 import json
-import urllib.error
-import urllib.request
 
 import numpy as np
 import pytest
 
-from rattlesweep.explore import start, warm
 from rattlesweep.explore.settings import defaults
 
-
-def opener(srv):
-    """The test's browser for ``srv``: it keeps the session token the server sets."""
-    if not hasattr(srv, "test_opener"):
-        srv.test_opener = urllib.request.build_opener(urllib.request.HTTPCookieProcessor())
-    return srv.test_opener
-
-
-def call(srv, path, body=None, session="s"):
-    data = None if body is None else json.dumps({"session": session, **body}).encode()
-    req = urllib.request.Request(
-        srv.url + path, data=data, headers={"Content-Type": "application/json"}
-    )
-    try:
-        with opener(srv).open(req, timeout=60) as r:
-            return r.status, r.read()
-    except urllib.error.HTTPError as e:
-        return e.code, e.read()
+from explore_helpers import call, serving
 
 
 @pytest.fixture(scope="module")
 def server():
-    warm()
-    srv = start(workers=1)
-    yield srv
-    srv.shutdown()
-    srv.server_close()
+    yield from serving()
 
 
 def test_a_measurement_is_checked_and_a_fit_is_refused_until_one_is_loaded(server):

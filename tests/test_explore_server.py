@@ -19,43 +19,17 @@ import pytest
 import xarray as xr
 
 import rattlesweep as rs
-from rattlesweep.explore import Caps, start, warm
+from rattlesweep.explore import Caps, start
 from rattlesweep.explore.scheduler import Scheduler, Superseded
 from rattlesweep.explore.maps import _classes
 from rattlesweep.explore.settings import defaults, map_sweep
 
+from explore_helpers import call, serving
+
 
 @pytest.fixture(scope="module")
 def server():
-    warm()
-    srv = start(workers=1)
-    yield srv
-    srv.shutdown()
-    srv.server_close()
-
-
-def opener(srv):
-    """The test's browser for ``srv``: it keeps the session token the server sets."""
-    if not hasattr(srv, "test_opener"):
-        srv.test_opener = urllib.request.build_opener(urllib.request.HTTPCookieProcessor())
-    return srv.test_opener
-
-
-def browser():
-    """A browser of its own: a cookie jar for the server's session token."""
-    return urllib.request.build_opener(urllib.request.HTTPCookieProcessor())
-
-
-def call(srv, path, body=None, session="s", by=None):
-    data = None if body is None else json.dumps({"session": session, **body}).encode()
-    req = urllib.request.Request(
-        srv.url + path, data=data, headers={"Content-Type": "application/json"}
-    )
-    try:
-        with (by or opener(srv)).open(req, timeout=60) as r:
-            return r.status, r.read()
-    except urllib.error.HTTPError as e:
-        return e.code, e.read()
+    yield from serving()
 
 
 def run(srv, session="s", by=None, **changes):

@@ -5,58 +5,38 @@ and a client flooding the server evicts its own sessions, not another's."""
 import http.client
 import json
 import threading
-import urllib.error
-import urllib.request
 
 import pytest
 
 from rattlesweep.explore import server as server_module
-from rattlesweep.explore import start, warm
+from rattlesweep.explore import start
 from rattlesweep.explore.settings import defaults
+
+from explore_helpers import browser, exchange, serving
 
 
 @pytest.fixture(scope="module")
 def server():
-    warm()
-    srv = start(workers=1)
-    yield srv
-    srv.shutdown()
-    srv.server_close()
-
-
-def browser():
-    return urllib.request.build_opener(urllib.request.HTTPCookieProcessor())
-
-
-def call(srv, by, path, body=None):
-    data = None if body is None else json.dumps(body).encode()
-    req = urllib.request.Request(
-        srv.url + path, data=data, headers={"Content-Type": "application/json"}
-    )
-    try:
-        with by.open(req, timeout=60) as r:
-            return r.status, r.read(), r.headers
-    except urllib.error.HTTPError as e:
-        return e.code, e.read(), e.headers
+    yield from serving()
 
 
 def quick_run(srv, by, tab, spin=-3.0):
     settings = {**defaults(), "spin": spin, "t_end": 0.05}
-    return call(srv, by, "api/run", {"session": tab, "settings": settings})
+    return exchange(srv, by, "api/run", {"session": tab, "settings": settings})
 
 
 def test_a_browser_gets_a_signed_token_and_another_browser_cannot_read_its_session(
     server,
 ):
     victim, other = browser(), browser()
-    status, _, headers = call(server, victim, "")
+    status, _, headers = exchange(server, victim, "")
     cookie = headers["Set-Cookie"]
     assert status == 200 and "HttpOnly" in cookie and "SameSite=Strict" in cookie
     assert quick_run(server, victim, "lesson")[0] == 200
-    assert call(server, victim, "api/run.nc?session=lesson")[0] == 200
+    assert exchange(server, victim, "api/run.nc?session=lesson")[0] == 200
     # the tab id is known to the other browser (chosen, guessed or seen): not enough
     for path in ("api/run.nc?session=lesson", "api/map?session=lesson"):
-        assert call(server, other, path)[0] == 404
+        assert exchange(server, other, path)[0] == 404
     # a forged token is not taken: its request gets a token of its own
     nonce = cookie.split("=", 1)[1].split(";")[0].split(".")[0]
     forged = http.client.HTTPConnection("127.0.0.1", server.server_address[1], timeout=30)
@@ -74,7 +54,7 @@ def test_reads_never_make_a_session(server):
     before = len(server.app._sessions)
     prankster = browser()
     for i in range(300):
-        status, _, _ = call(server, prankster, f"api/map?session=x{i}")
+        status, _, _ = exchange(server, prankster, f"api/map?session=x{i}")
         assert status == 404
     assert len(server.app._sessions) == before
 
@@ -87,7 +67,7 @@ def test_a_browser_keeps_at_most_its_cap_of_sessions(server):
     kept = [
         i
         for i in range(cap + 2)
-        if call(server, tabs, f"api/run.nc?session=tab{i}")[0] == 200
+        if exchange(server, tabs, f"api/run.nc?session=tab{i}")[0] == 200
     ]
     assert kept == list(range(2, cap + 2))  # its own two oldest went
 
@@ -110,7 +90,7 @@ def test_a_flood_from_another_address_evicts_its_own_sessions_only(server, monke
         conn.close()
     assert len(server.app._sessions) <= 12
     for tab in ("one", "two"):
-        assert call(server, teacher, f"api/run.nc?session={tab}")[0] == 200
+        assert exchange(server, teacher, f"api/run.nc?session={tab}")[0] == 200
     clients = [s.client for s in server.app._sessions.values()]
     assert clients.count("127.0.0.2") >= 12 - clients.count("127.0.0.1") - 1
 
@@ -127,7 +107,7 @@ def test_a_classroom_connecting_at_once_is_answered(server):
 
     def one(i):  # each pupil a browser of its own
         settings = {**defaults(), "spin": i - 15.0, "t_end": 0.5}
-        answer = call(
+        answer = exchange(
             server, browser(), "api/run", {"session": f"p{i}", "settings": settings}
         )
         statuses.append(answer[0])
