@@ -312,3 +312,28 @@ def test_a_digest_path_in_the_way_is_named_before_anything_is_removed(tmp_path, 
     err = capsys.readouterr().err
     assert f"{tile}.b2sum is in the way" in err and "is a directory" in err, err
     assert file_stats(out, "*.nc") == before
+
+
+def test_a_full_disk_the_library_calls_a_permission_error_is_named_a_full_disk(
+    tmp_path, monkeypatch
+):
+    """The netCDF library reports a write on a full disk as "Permission denied": the
+    message looks at the disk before blaming the permissions (the disk's free space as
+    statvfs reports it, made nearly nothing here)."""
+    import errno
+
+    from rattlesweep.sweep._outputs import store
+
+    denied = PermissionError(errno.EACCES, "Permission denied")
+    target = tmp_path / "tile-000001.nc"
+    error = store.write_failure(target, denied, 3, "rattlesweep resume out")
+    assert error.errno == errno.EACCES and "fix the permissions" in str(error)
+
+    class Full:
+        f_bavail, f_frsize = 10, 4096
+
+    monkeypatch.setattr(store.os, "statvfs", lambda directory: Full())
+    error = store.write_failure(target, denied, 3, "rattlesweep resume out")
+    assert error.errno == errno.ENOSPC
+    assert "40960 bytes free there" in str(error) and "free some space" in str(error)
+    assert "The 3 tiles written before are intact" in str(error)

@@ -98,9 +98,13 @@ def write_failure(
     the cause and what to do."""
     code = getattr(exc, "errno", None)
     cause = (exc.strerror or str(exc)) if isinstance(exc, OSError) else str(exc)
-    if code is None and isinstance(what, Path):
-        code, diagnosis = _diagnose(what.parent)
-        cause = f"{cause} ({diagnosis})" if diagnosis else cause
+    # HDF5 reports a full disk as "HDF error", and through the netCDF library as a
+    # permission error: the disk is looked at before the permissions are blamed
+    if code in (None, errno.EACCES, errno.EPERM) and isinstance(what, Path):
+        found, diagnosis = _diagnose(what.parent)
+        if code is None or found == errno.ENOSPC:
+            code = found
+            cause = f"{cause} ({diagnosis})" if diagnosis else cause
     hints: dict[int | None, str] = {
         errno.ENOSPC: "free some space",
         errno.EDQUOT: "free some space",
