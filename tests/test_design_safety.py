@@ -112,3 +112,24 @@ def test_a_ctrl_c_during_the_trimesh_import_is_not_lost(tmp_path):
         [sys.executable, "-c", script], capture_output=True, text=True, timeout=120
     )
     assert done.stdout.split() == ["interrupted", "True"], done.stderr
+
+
+def test_the_millimetres_hint_is_given_only_where_it_is_plausible(capsys):
+    """--wall 2 looks like millimetres (2 mm); --wall 0.05 does not (0.05 mm is no
+    wall a printer makes): it is refused with the rule only."""
+    args = [
+        "design",
+        "--a",
+        "0.05",
+        "--b",
+        "0.015",
+        "--c",
+        "0.015",
+        "--out",
+        "/nonexistent/x",
+    ]
+    assert main([*args, "--wall", "2"]) == 2
+    assert "2 looks like millimetres: give metres, e.g. 0.002" in capsys.readouterr().err
+    assert main([*args, "--wall", "0.05"]) == 2
+    err = capsys.readouterr().err
+    assert "wall = 0.05 is invalid" in err and "millimetres" not in err

@@ -97,12 +97,17 @@ def require(
     return v
 
 
+MIN_PRINTED = 1e-4
+"""m: the smallest size a printed part or its fit can have (a tenth of a millimetre)."""
+
+
 def millimetres_hint(test: Callable[[float], bool]) -> Callable[[float], str | None]:
     """A hint for :func:`require`: the value looks like millimetres when a thousandth of
-    it passes ``test``."""
+    it passes ``test`` and is a size a print can have (0.1 mm or more: 0.05 given for a
+    wall is 50 mm too thick, not 0.05 mm)."""
 
     def hint(v: float) -> str | None:
-        if v > 0 and test(v * 1e-3):
+        if v > 0 and v * 1e-3 >= MIN_PRINTED and test(v * 1e-3):
             return f"{v:g} looks like millimetres: give metres, e.g. {v * 1e-3:g}"
         return None
 
