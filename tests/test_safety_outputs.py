@@ -337,3 +337,21 @@ def test_a_full_disk_the_library_calls_a_permission_error_is_named_a_full_disk(
     assert error.errno == errno.ENOSPC
     assert "40960 bytes free there" in str(error) and "free some space" in str(error)
     assert "The 3 tiles written before are intact" in str(error)
+
+
+def test_a_dangling_symlink_at_the_output_or_its_tiles_is_named(tmp_path, capsys):
+    config = tmp_path / "s.toml"
+    config.write_text(small_sweep().to_toml())
+    out = tmp_path / "out"
+    out.symlink_to(tmp_path / "nowhere")
+    assert main(["sweep", str(config), "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert (
+        f"{out} is a symbolic link to {tmp_path / 'nowhere'}, which does not exist" in err
+    )
+    assert "Errno 17" not in err
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "tiles").symlink_to(tmp_path / "nothing")
+    assert main(["sweep", str(config), "--out", str(other), "--quiet"]) == 2
+    assert "tiles is a symbolic link to" in capsys.readouterr().err

@@ -44,6 +44,16 @@ RESULT_NAME = "sweep.nc"
 TILES_DIR = "tiles"
 
 
+def _refuse_dangling(path: Path) -> None:
+    """A symbolic link at ``path`` to nothing is named, with where it points: a
+    directory cannot be made there, and "[Errno 17] File exists" says nothing."""
+    if path.is_symlink() and not path.exists():
+        raise ValueError(
+            f"{path} is a symbolic link to {os.readlink(path)}, which does not exist: "
+            "create that directory, remove the link, or give another path"
+        )
+
+
 def tile_path(tiles_dir: Path, tile: int) -> Path:
     return Path(tiles_dir) / f"tile-{tile:06d}.nc"
 
@@ -159,6 +169,7 @@ class SweepDirectory:
         what a sweep writes): nothing is written into it, not even the lock."""
         from .zarr_store import is_zarr_store
 
+        _refuse_dangling(self.out)
         if self.out.exists() and not self.out.is_dir():
             raise ValueError(
                 f"output {self.out} exists and is not a directory: a netCDF "
@@ -248,6 +259,7 @@ class SweepDirectory:
     def make_tiles_dir(self) -> None:
         """Create the directory of the tile files; a ValueError naming the path when
         something else is in its way."""
+        _refuse_dangling(self.tiles_dir)
         if self.tiles_dir.exists() and not self.tiles_dir.is_dir():
             raise ValueError(
                 f"{self.tiles_dir} is in the way: a sweep keeps its tile files "
