@@ -130,11 +130,12 @@ def announce_long_run(
         + ")"
     )
     warnings.warn(
-        f"this batch takes {total:.3g} steps in all ({len(steps):,} "
+        f"this batch takes up to {total:.3g} steps in all ({len(steps):,} "
         f"launch{'es' if len(steps) != 1 else ''}; the longest "
         f"t_end = {float(t_end.flat[i]):g} s / dt = {float(dt.flat[i]):.3g} s{source} = "
-        f"{int(steps.flat[i]):,} steps): at about 1e6 steps per second on a core, "
-        f"roughly {total / 1e6 / 60:.3g} core-minutes",
+        f"{int(steps.flat[i]):,} steps; fewer where launches end early, at a capsize or "
+        f"a stop): at about 1e6 steps per second on a core, up to roughly "
+        f"{total / 1e6 / 60:.3g} core-minutes",
         LongRunWarning,
         stacklevel=stacklevel + 1,
     )
