@@ -445,3 +445,24 @@ def test_plot_of_an_unfinished_zarr_store_says_so(tmp_path, config, capsys, monk
         f"{store} is unfinished (0 of 4 tiles written; 'rattlesweep resume {store}' "
         "completes it): its points not computed yet are drawn as such"
     ) in capsys.readouterr().out
+
+
+def test_info_of_a_store_whose_configuration_is_unreadable_does_not_advise_resume(
+    tmp_path, config, capsys
+):
+    """resume reads the same configuration and refuses it: info says what can be done."""
+    import json
+
+    pytest.importorskip("zarr")
+    store = tmp_path / "z.zarr"
+    main(["sweep", str(config), "--out", str(store), "--output", "zarr", "--quiet"])
+    meta = store / "zarr.json"
+    doc = json.loads(meta.read_text())
+    doc["attributes"]["sweep_config"] = "garbage = 1"
+    meta.write_text(json.dumps(doc))
+    capsys.readouterr()
+    assert main(["info", str(store)]) == 2
+    err = capsys.readouterr().err
+    assert "it cannot be verified; restore it from a copy, or run the sweep again" in err
+    assert "resume" not in err.splitlines()[-1]
+    assert main(["resume", str(store)]) == 2  # what info no longer advises

@@ -265,13 +265,17 @@ class _Damage:
     out: Path
     what: str
     unread: bool = False
+    resumable: bool = True
 
     def unreadable(self, path: str | Path) -> str:
         """The line that ends a command that could not read ``path`` for this damage."""
-        return (
-            f"cannot read {path}: {self.what}; `rattlesweep resume {self.out}` "
-            "recomputes what is missing or damaged"
+        advice = (
+            f"`rattlesweep resume {self.out}` recomputes what is missing or damaged"
+            if self.resumable
+            # resume reads the same configuration, and would refuse it too
+            else "restore it from a copy, or run the sweep again into a new output"
         )
+        return f"cannot read {path}: {self.what}; {advice}"
 
 
 def _warn_damaged(path: Path, command: str) -> _Damage | None:
@@ -291,7 +295,7 @@ def _warn_damaged(path: Path, command: str) -> _Damage | None:
             f"rattlesweep {command}: warning: {out} cannot be verified: {exc}",
             file=sys.stderr,
         )
-        return _Damage(out, "it cannot be verified")
+        return _Damage(out, "it cannot be verified", resumable=False)
     if not (found.damaged or found.problems or (found.missing and found.finished)):
         return None
     # one line: the first thing wrong; verify lists them all
