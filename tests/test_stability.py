@@ -312,3 +312,31 @@ def test_a_non_finite_spin_is_refused_as_a_sweep_refuses_it():
         st.eigen(TOY, math.inf)
     assert str(linear.value) == "spin must be finite; got inf"
     assert str(swept.value).endswith(str(linear.value))
+
+
+def test_a_growth_map_draws_the_zero_growth_line_where_the_sign_changes():
+    """With damping, upright spin is stable (negative growth) near zero spin and for
+    the 'right' sense: the map draws the zero of the growth rate, dashed, with a legend
+    entry saying which side is stable; a map whose growth never changes sign draws
+    none."""
+    from rattlesweep.plot import stability_map
+
+    shell = {"a": 0.05, "b": 0.01, "c": 0.01, "mass": 0.01}
+    axes = {
+        "spin": {"start": -8, "stop": 8, "num": 9},
+        "delta_deg": {"start": -5, "stop": 5, "num": 5},
+    }
+    damped = st.stability_dataset(rs.Sweep(axes=axes, fixed={**shell, "damping": 2e-6}))
+    assert float(damped.growth_rate.min()) < 0 < float(damped.growth_rate.max())
+    fig = stability_map(damped, "launch_spin", "delta_deg")
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert labels == ["growth rate 0: linear stability boundary (stable where < 0)"]
+    line = fig.axes[0].collections[-1]
+    assert line.get_linestyle()[0][1] is not None  # dashed
+    level = next(iter(line.get_paths())).vertices  # points on the zero of the growth
+    assert level.size
+    spins = st.stability_dataset(
+        rs.Sweep(axes={"spin": [4.0, 8.0], "delta_deg": [2.0, 5.0]}, fixed=shell)
+    )
+    assert float(spins.growth_rate.min()) > 0
+    assert not stability_map(spins, "launch_spin", "delta_deg").legends

@@ -136,6 +136,7 @@ def reversal_map(
     ncols: int = 3,
     cmap: str = "viridis",
     overlay: xr.Dataset | None = None,
+    zero_line: str | None = None,
 ) -> Figure:
     """Map of a sweep result over two of its axes.
 
@@ -155,6 +156,9 @@ def reversal_map(
     overlay : a sweep result on the same axes: its simulated reversal boundary (where
         the fraction of launches that reversed at least once crosses 1/2) is drawn on
         every panel as a black line, e.g. over a stability map.
+    zero_line : a continuous variable's zero drawn on every panel as a dashed white
+        line, with this label in the legend (a growth rate's: the linear stability
+        boundary).
 
     Returns a matplotlib Figure.
     """
@@ -238,6 +242,7 @@ def reversal_map(
     ylog = ylabels is None and is_log_spaced(ys)
     mesh: QuadMesh | None = None
     any_nan = False
+    drew_zero = False
     for k, (value, panel) in enumerate(panels):
         ax = axes[k // ncols][k % ncols]
         z = panel.transpose(y, x).values.astype(float)
@@ -258,6 +263,9 @@ def reversal_map(
             _draw_boundary(
                 ax, overlay, x, y, {**(select or {}), **({facet: value} if facet else {})}
             )
+        if zero_line and not categorical and np.nanmin(z) < 0.0 < np.nanmax(z):
+            ax.contour(xs, ys, z, levels=[0.0], colors="white", linestyles="--")
+            drew_zero = True
         if value is not None and facet is not None:  # a value comes with its facet
             ax.set_title(_fmt_coord(da, facet, value), fontsize="medium")
         if xlabels:
@@ -288,6 +296,10 @@ def reversal_map(
         handles.append(
             Line2D([], [], color="black", lw=1.5, label="simulated reversal boundary")
         )
+    if drew_zero:
+        from matplotlib.lines import Line2D
+
+        handles.append(Line2D([], [], color="0.4", ls="--", lw=1.2, label=zero_line))
     if any_nan:
         # matplotlib takes an RGBA array as a colour; its stubs' ColorType has no arrays
         bad = cm.get_bad() if not categorical else "white"
@@ -385,8 +397,13 @@ def stability_map(
     """Map of a linear-stability result (:func:`rattlesweep.stability.stability_dataset`)
     over two axes: ``growth_rate`` (1/s) by default, or ``mode`` (stable / neutral /
     pitch- or roll-unstable) as categories, any other variable of the file alike.
-    ``overlay`` (a sweep result on the same axes) adds the simulated reversal boundary.
-    Other keyword arguments as for :func:`reversal_map`."""
+    ``overlay`` (a sweep result on the same axes) adds the simulated reversal boundary;
+    a growth rate's zero, the linear stability boundary, is drawn dashed. Other keyword
+    arguments as for :func:`reversal_map`."""
+    if var == "growth_rate":
+        kwargs.setdefault(
+            "zero_line", "growth rate 0: linear stability boundary (stable where < 0)"
+        )
     return reversal_map(ds, x, y, var, overlay=overlay, **kwargs)
 
 
