@@ -340,3 +340,30 @@ def test_a_growth_map_draws_the_zero_growth_line_where_the_sign_changes():
     )
     assert float(spins.growth_rate.min()) > 0
     assert not stability_map(spins, "launch_spin", "delta_deg").legends
+
+
+def test_the_command_line_plot_of_a_growth_map_draws_its_zero(tmp_path, monkeypatch):
+    from rattlesweep.cli import main
+    from rattlesweep.plot import maps
+
+    shell = {"a": 0.05, "b": 0.01, "c": 0.01, "mass": 0.01, "damping": 2e-6}
+    config = tmp_path / "s.toml"
+    config.write_text(
+        rs.Sweep(
+            axes={"spin": [-6.0, -1.0, 1.0, 6.0], "delta_deg": [-4.0, 4.0]}, fixed=shell
+        ).to_toml()
+    )
+    assert main(["stability", str(config), "--out", str(tmp_path / "s.nc")]) == 0
+    drawn = {}
+    real = maps.reversal_map
+
+    def watched(*args, **kwargs):
+        drawn["zero_line"] = kwargs.get("zero_line")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(maps, "reversal_map", watched)
+    import rattlesweep.plot as plot
+
+    monkeypatch.setattr(plot, "reversal_map", watched)
+    assert main(["plot", str(tmp_path / "s.nc"), "--out", str(tmp_path / "s.png")]) == 0
+    assert drawn["zero_line"] == maps.GROWTH_ZERO

@@ -56,6 +56,7 @@ def _check_readable(path: Path) -> None:
 def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
 
     from ..plot import reversal_map, reversal_vs_growth
+    from ..plot.maps import GROWTH_ZERO
 
     select = {}
     for item in args.select or []:
@@ -140,6 +141,7 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
                     select={**first, **select} or None,
                     reduce=args.reduce,
                     overlay=overlay,
+                    zero_line=GROWTH_ZERO if var == "growth_rate" else None,
                 )
                 if first:
                     print(

@@ -385,6 +385,10 @@ def _draw_boundary(
         )
 
 
+GROWTH_ZERO = "growth rate 0: linear stability boundary (stable where < 0)"
+"""The legend's words for a growth rate's zero line."""
+
+
 def stability_map(
     ds: xr.Dataset,
     x: str,
@@ -401,9 +405,7 @@ def stability_map(
     a growth rate's zero, the linear stability boundary, is drawn dashed. Other keyword
     arguments as for :func:`reversal_map`."""
     if var == "growth_rate":
-        kwargs.setdefault(
-            "zero_line", "growth rate 0: linear stability boundary (stable where < 0)"
-        )
+        kwargs.setdefault("zero_line", GROWTH_ZERO)
     return reversal_map(ds, x, y, var, overlay=overlay, **kwargs)
 
 
