@@ -156,3 +156,13 @@ def test_any_loopback_address_keeps_the_dns_rebinding_guard():
     finally:
         srv.shutdown()
         srv.server_close()
+
+
+def test_a_cookie_that_is_not_ascii_gets_a_new_token_not_an_error(server):
+    conn = http.client.HTTPConnection("127.0.0.1", server.server_address[1], timeout=30)
+    conn.putrequest("GET", "/")
+    conn.putheader("Cookie", "rattlesweep_session=caf\xe9.\xe9t\xe9")
+    conn.endheaders()
+    answer = conn.getresponse()
+    assert answer.status == 200 and "rattlesweep_session=" in answer.headers["Set-Cookie"]
+    conn.close()

@@ -134,6 +134,8 @@ class Explorer:
         return f"{nonce}.{self._sign(nonce)}"
 
     def valid_token(self, token: str) -> bool:
+        if not token.isascii():  # compare_digest takes ASCII text only
+            return False
         nonce, _, mac = token.partition(".")
         return bool(nonce) and hmac.compare_digest(mac, self._sign(nonce))
 
