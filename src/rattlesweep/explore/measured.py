@@ -142,8 +142,6 @@ def fit_controls(
             "measurement",
         )
     current = {n: 0.0 if n == SENSOR_YAW else _current(n, spec) for n in free}
-    if "mu" in free and not math.isfinite(current["mu"]):
-        current["mu"] = 0.5
     bounds = {n: bounds_for(n, current[n]) for n in free}
     freed = {_SIM_NAME.get(n, n) for n in free}
     fixed = {
