@@ -81,7 +81,7 @@ def _refuse_what_does_not_apply(args: argparse.Namespace, kind: str) -> None:
 
 def _cmd_fit(args: argparse.Namespace, argv: list[str] | None) -> int:
     from ..fitting import fit, read_measurement, write_fit
-    from ..fitting.files import NAMES, _plain, simulate_command
+    from ..fitting.files import NAMES, plain_record, simulate_command
     from ..fitting.models import MODELS, compare_models, model_inputs
     from ..fitting.parameters import bounds_from, check_fixed
     from ..io import write_text_atomic
@@ -173,7 +173,7 @@ def _cmd_fit(args: argparse.Namespace, argv: list[str] | None) -> int:
         write_text_atomic(
             args.out / "models.toml",
             format_toml(
-                _plain(comparison.document()),
+                plain_record(comparison.document()),
                 comment="rattlesweep fit --compare-models: the friction models "
                 "ranked by AICc; fit.toml holds the preferred one's fit",
             ),

@@ -8,33 +8,21 @@ map."""
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Any, Mapping
 
 from .._version import __version__
 from ..rattleback.body import Body
 from ..sweep._config.schema import body_from_table, body_table
-from ..sweep._config.toml_io import format_toml, read_toml
+from ..sweep._config.toml_io import format_toml, plain, read_toml
 
 __all__ = ["body_table", "design_document", "load_body", "write_toml"]
-
-
-def _plain(value: Any) -> Any:
-    """Floats rounded to 12 significant digits (TOML-writable plain data)."""
-    if isinstance(value, float):
-        return float(f"{value:.12g}") if math.isfinite(value) else value
-    if isinstance(value, Mapping):
-        return {k: _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    return value
 
 
 def write_toml(document: Mapping[str, Any], path: Path, comment: str) -> Path:
     """Write ``document`` as TOML to ``path`` (through a temporary file)."""
     tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(format_toml(_plain(dict(document)), comment=comment), encoding="ascii")
+    tmp.write_text(format_toml(plain(dict(document)), comment=comment), encoding="ascii")
     tmp.replace(path)
     return path
 

@@ -5,7 +5,6 @@ and ``fit.png`` (data over model, residuals and the intervals)."""
 
 from __future__ import annotations
 
-import math
 import os
 from pathlib import Path
 from typing import Any
@@ -15,28 +14,19 @@ import numpy as np
 from .._version import __version__
 from ..io import write_netcdf, write_text_atomic
 from ..sweep._config.schema import body_table
-from ..sweep._config.toml_io import format_toml
+from ..sweep._config.toml_io import format_toml, plain
 from .api import FitResult
 from .sensor import SENSOR_NAMES
 
-__all__ = ["write_fit"]
+__all__ = ["plain_record", "simulate_command", "write_fit"]
 
 NAMES = ("fit.toml", "fit.nc", "fit.png")
 
 
-def _plain(value: Any) -> Any:
-    if isinstance(value, (float, np.floating)):
-        value = float(value)
-        return float(f"{value:.8g}") if math.isfinite(value) else value
-    if isinstance(value, np.ndarray):
-        return [_plain(v) for v in value.tolist()]
-    if isinstance(value, dict):
-        return {k: _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    if isinstance(value, np.integer):
-        return int(value)
-    return value
+def plain_record(value: Any) -> Any:
+    """A fit's record as TOML data, to 8 significant digits (its intervals are good to
+    far fewer)."""
+    return plain(value, digits=8)
 
 
 def simulate_command(result: FitResult, toml: str = "fit.toml") -> str:
@@ -64,7 +54,7 @@ def document(result: FitResult) -> dict[str, Any]:
         }
         for f in result.fitted.values()
     }
-    return _plain(
+    return plain_record(
         {
             "rattlesweep_version": __version__,
             "body": body_table(result.body),

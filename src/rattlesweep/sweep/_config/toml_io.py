@@ -22,7 +22,7 @@ import tomllib
 from pathlib import Path
 from typing import Any, Mapping
 
-__all__ = ["format_toml", "read_toml"]
+__all__ = ["format_toml", "plain", "read_toml"]
 
 _BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
 _SHORT_ESCAPES = {
@@ -81,6 +81,27 @@ def format_toml(document: Mapping[str, Any], comment: str | None = None) -> str:
         lines.append(f"[{_key(key)}]")
         lines += [f"{_key(k)} = {_value(v)}" for k, v in table.items()]
     return "\n".join(lines) + "\n"
+
+
+def plain(value: Any, digits: int = 12) -> Any:
+    """``value`` as the plain data :func:`format_toml` writes: NumPy numbers and arrays
+    as Python ones, finite floats rounded to ``digits`` significant digits (a record
+    reads as what was computed, not as its last bits), mappings and sequences
+    throughout."""
+    import numpy as np
+
+    if isinstance(value, (float, np.floating)):
+        value = float(value)
+        return float(f"{value:.{digits}g}") if math.isfinite(value) else value
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, np.ndarray):
+        return [plain(v, digits) for v in value.tolist()]
+    if isinstance(value, Mapping):
+        return {k: plain(v, digits) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [plain(v, digits) for v in value]
+    return value
 
 
 def _key(key: str) -> str:

@@ -23,6 +23,7 @@ __all__ = [
     "flag_damage",
     "keys",
     "read_by_chunk",
+    "tile_key",
 ]
 
 DONE_ARRAY = "rattlesweep/tile_done"
@@ -73,6 +74,14 @@ def flag_damage(
     return out
 
 
+def tile_key(array: Any, sweep: Any, tile: int) -> str:
+    """The store key of ``tile``'s chunk of ``array`` (a result variable: its chunks
+    are the sweep's tiles)."""
+    region = sweep.tile_region(tile)
+    coords = tuple(r.start // c for r, c in zip(region, sweep.tile_shape))
+    return f"{array.path}/{array.metadata.encode_chunk_key(coords)}"
+
+
 def keys(group: Any, prefix: str) -> set[str]:
     """The keys stored under ``prefix`` in the group's store."""
     from zarr.core.sync import sync
@@ -107,9 +116,7 @@ def damage(group: Any, sweep: Any) -> list[str]:
     status: Any = group["status"]
     finished = np.zeros(sweep.n_tiles, dtype=bool)
     for tile in range(sweep.n_tiles):
-        region = sweep.tile_region(tile)
-        coords = tuple(r.start // c for r, c in zip(region, sweep.tile_shape))
-        finished[tile] = f"status/{status.metadata.encode_chunk_key(coords)}" in stored
+        finished[tile] = tile_key(status, sweep, tile) in stored
     done, unreadable, missing = read_by_chunk(flags, keys(group, f"{DONE_ARRAY}/"))
     out = flag_damage(DONE_ARRAY, unreadable, missing, finished)
     if DIGEST_ARRAY in group:

@@ -40,7 +40,7 @@ import xarray as xr
 
 from .._execution.lock import SweepLock
 from .digest import feed, finish, tile_digest
-from .zarr_flags import DIGEST_ARRAY, DONE_ARRAY, damage, keys, read_by_chunk
+from .zarr_flags import DIGEST_ARRAY, DONE_ARRAY, damage, keys, read_by_chunk, tile_key
 from .zarr_flags import digests as stored_digests
 from .merge import grid_coords, result_attrs
 from .._config.spec import Sweep
@@ -189,8 +189,7 @@ def check_tiles(
             if tile in problems:
                 continue
             region = sweep.tile_region(tile)
-            coords = tuple(r.start // c for r, c in zip(region, sweep.tile_shape))
-            key = f"{name}/{array.metadata.encode_chunk_key(coords)}"
+            key = tile_key(array, sweep, tile)
             if key not in stored:
                 if complete:
                     problems[tile] = f"chunk {key} missing"
@@ -307,14 +306,14 @@ def tiles_done(
 ) -> np.ndarray | None:
     """Which tiles of the store are complete (bool per tile), None when the store's
     layout was never finished."""
+    group: Any = _group(location, storage_options)
     try:
         # Any: zarr types a member as an array or a group; this is the array _layout made
-        done: Any = _group(location, storage_options)[DONE_ARRAY]
+        done: Any = group[DONE_ARRAY]
     except KeyError:
         return None
     if done.shape != (n_tiles,):
         return None
-    group: Any = _group(location, storage_options)
     values, unreadable, _ = read_by_chunk(done, keys(group, f"{DONE_ARRAY}/"))
     flags = values.astype(bool)
     for a, b in unreadable:  # a damaged chunk of flags: its tiles are checked instead
