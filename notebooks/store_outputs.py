@@ -1,7 +1,7 @@
 """Run the notebooks at full size and store their outputs in them, for the documentation,
 which renders them as stored (docs/conf.py: nb_execution_mode = "off").
 
-    .venv/bin/python notebooks/store_outputs.py                 # all seven, 2-3 minutes
+    .venv/bin/python notebooks/store_outputs.py                 # all eight, 2-3 minutes
     .venv/bin/python notebooks/store_outputs.py 02 05           # those whose names start so
 
 Each notebook runs in a scratch directory (its files, notebook-output/, are thrown away),

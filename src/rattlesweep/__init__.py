@@ -37,6 +37,7 @@ __all__ = [
     "kernel_cache",
     "planar",
     "plot",
+    "poincare_section",
     "rattleback",
     "resume",
     "run_batch",
@@ -75,6 +76,7 @@ _FROM = {
     "DesignRefused": ".design.constraints",
     "compile_kernels": ".kernel_cache",
     "fit": ".fitting",
+    "poincare_section": ".chaos",
 }
 """Each name of the package and the module it comes from."""
 
@@ -82,6 +84,7 @@ if TYPE_CHECKING:
     # what __getattr__ imports on first use, seen by type checkers as it is
     from . import design, explore, fitting, inputs, kernel_cache, planar, plot
     from . import rattleback, stability, sweep
+    from .chaos import poincare_section
     from .fitting import fit
     from . import io as io  # documented; out of __all__, not to shadow the stdlib's
     from .design.constraints import DesignRefused

@@ -71,6 +71,14 @@ class Prepared:
     n: int  # trajectories
     shape: tuple[int, ...]  # broadcast shape of the inputs
     coords: dict[str, Any]  # name -> (dims, flat values), every input per trajectory
+    # each trajectory's lane among all of the blocks' lanes, when they are not the first n
+    # in order (a Lyapunov batch: each launch beside its shadow, rattlesweep._shadows)
+    lanes: np.ndarray | None = None
+
+    def per_trajectory(self, arr: np.ndarray) -> np.ndarray:
+        """(n_blocks, n_rows, BLOCK) → (n_rows, n): each trajectory's lane."""
+        flat = arr.transpose(1, 0, 2).reshape(arr.shape[1], -1)
+        return flat[:, : self.n] if self.lanes is None else flat[:, self.lanes]
 
 
 @dataclass(frozen=True)

@@ -15,6 +15,7 @@ import xarray as xr
 from ._version import __version__
 from ._core.workspace import O_STATUS, O_T_END, OK, STATUS_NAMES
 from ._model import Model, Prepared, Raw
+from ._shadows import lyapunov_attrs
 
 __all__ = [
     "MAX_DEFAULT_SAMPLES",
@@ -183,10 +184,16 @@ def run_dataset(
 
 
 def run_attrs(
-    method: str, record_every: int | None, band: float | None, stop: str | None = None
+    method: str,
+    record_every: int | None,
+    band: float | None,
+    stop: str | None = None,
+    *,
+    lyapunov: bool = False,
 ) -> dict[str, Any]:
     """Global attributes common to every result (``band`` None: no reversal tracking;
-    ``stop`` the stop rule, recorded when one is given)."""
+    ``stop`` the stop rule, recorded when one is given; ``lyapunov`` True: how the
+    exponents were computed)."""
     attrs = {
         "title": "rattlesweep rattleback simulation",
         "source": f"rattlesweep {__version__}",
@@ -204,4 +211,6 @@ def run_attrs(
         del attrs["reversal_band"]
     if stop is not None:
         attrs["stop"] = stop
+    if lyapunov:
+        attrs.update(lyapunov_attrs())
     return attrs

@@ -12,7 +12,6 @@ import numpy as np
 from numba import types
 
 from ._model import Model, Prepared, Raw
-from ._pack import unblock
 from ._validation import check_boolean, memory_left
 from ._cold_start import announce, compiling
 from ._core import specialisations, stepper
@@ -132,7 +131,7 @@ def announce_compile(prep: Prepared) -> None:
 def batch_level(prep: Prepared) -> int:
     """The friction level the launches of ``prep`` need
     (:func:`._core.workspace.friction_level`)."""
-    mu_s, mu_spin, mu_roll = unblock(prep.P[:, [MU_S, MU_SPIN, MU_ROLL]], prep.n)
+    mu_s, mu_spin, mu_roll = prep.per_trajectory(prep.P[:, [MU_S, MU_SPIN, MU_ROLL]])
     return friction_level(mu_s, mu_spin, mu_roll)
 
 
@@ -243,7 +242,6 @@ def execute(
     rec = None
     if n_rec:
         kept = REC if columns is None else REC[:, :, columns, :]
-        rec = kept.transpose(0, 3, 1, 2).reshape(n_blocks * BLOCK, n_rec, kept.shape[2])[
-            : prep.n
-        ]
-    return Raw(unblock(O, prep.n), rec, unblock(Y, prep.n))
+        lanes = kept.transpose(0, 3, 1, 2).reshape(n_blocks * BLOCK, n_rec, kept.shape[2])
+        rec = lanes[: prep.n] if prep.lanes is None else lanes[prep.lanes]
+    return Raw(prep.per_trajectory(O), rec, prep.per_trajectory(Y))

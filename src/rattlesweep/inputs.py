@@ -464,6 +464,22 @@ RATTLEBACK_INPUTS: tuple[Input, ...] = (
         "mean_final_spin is the mean over the part of the last 10 % of t_end it ran.",
         kind='{None, "first_reversal"}',
     ),
+    Input(
+        "lyapunov",
+        "1",
+        "compute each launch's largest Lyapunov exponent",
+        "Add lyapunov (1/s): each launch's largest finite-time Lyapunov exponent over "
+        "its run.",
+        "run",
+        False,
+        in_results=False,
+        details="Computed in the kernel from a shadow launch displaced by 1e-8 and "
+        "renormalised every 0.05 s of the launch's time; it needs rolling contact (mu = "
+        "inf, the default, and no friction couples) and costs about twice the plain run. "
+        "Near an unstable upright spin it is the largest growth rate of the linear "
+        "stability analysis; near a stable one it tends to zero.",
+        kind="bool",
+    ),
     PARALLEL,
     THREADS,
 )

@@ -182,6 +182,20 @@ _lane_hook(stick_couples, rattleback_model.stick_couples, planar_model.stick_cou
 
 
 # --- hooks with more arguments --------------------------------------------------------
+def separation(W, model, j, k):
+    """Distance between the states of lanes j and k in the model's phase-space metric
+    (dimensionless), from lane j's parameters (:mod:`.lyapunov`)."""
+
+
+@_hook(separation)
+def _separation(W, model, j, k):
+    return _pick(
+        model,
+        lambda W, model, j, k: rattleback_model.separation(W, j, k),
+        lambda W, model, j, k: planar_model.separation(W, j, k),
+    )
+
+
 def finish(W, model, j, O, launched):
     """Write the model's own observables of lane j into O."""
 

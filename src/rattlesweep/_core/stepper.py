@@ -45,6 +45,7 @@ from . import models
 from .events import LOCATE_ROWS, located
 from .jit import allocating_kernel, kernel
 from .levels import evaluate_state, rk4_step, switch_modes
+from .lyapunov import HALF, exponent, renormalise, tracked
 from .reversals import note_reversals, observe
 from .stages import set_step_fractions
 from .switching import any_slipping, note_slip, pass_step
@@ -78,6 +79,7 @@ from .workspace import (
     K_WIN_CNT,
     K_WIN_SUM,
     LIFTED_OFF,
+    LYAP_STEPS,
     MU_ROLL,
     MU_S,
     MU_SPIN,
@@ -93,6 +95,7 @@ from .workspace import (
     O_E_END,
     O_FINAL_SPIN,
     O_FIRST_REV,
+    O_LYAPUNOV,
     O_MEAN_FINAL_SPIN,
     O_N_REV,
     O_SLIP_FRAC,
@@ -219,6 +222,7 @@ def finish_lane(W, model, j, P, status, Y, O):
     O[O_MEAN_FINAL_SPIN, j] = (
         W[at(OFF_K, K_WIN_SUM, j)] / win_cnt if win_cnt > 0 else np.nan
     )
+    O[O_LYAPUNOV, j] = exponent(W, model, j, stop) if launched else np.nan
     if launched:
         O[O_FINAL_SPIN, j] = models.spin_and_watch(W, model, j)[0]
         O[O_E_END, j] = models.energy(W, model, j)
@@ -263,6 +267,10 @@ def end_marked(W, model, P, status, Y, O, step, undo):
                     W[at(off_y, k, j)] = W[at(off_b, k, j)]
             finish_lane(W, model, j, P, status[j], Y, O)
             freeze_lane(W, model, j)
+            # a shadow (lyapunov.py) is stepped no longer than its lane
+            if j < HALF and W[at(OFF_P, LYAP_STEPS, j)] > 0.0:
+                if W[at(OFF_K, K_OPEN, j + HALF)] > 0.5:
+                    freeze_lane(W, model, j + HALF)
 
 
 @kernel
@@ -376,6 +384,10 @@ def advance_block(model, level, P, Y, nsteps, method, record_every, band, O, REC
             and (W[at(OFF_P, MU_S, j)] < math.inf or W[at(OFF_S, S_MODE, j)] > 0.5)
         )
 
+    shadowed = tracked(W)  # some lane has a shadow (lyapunov.py)
+    if shadowed:
+        renormalise(W, model, 0, True)
+
     # --- time loop ------------------------------------------------------------------
     # Each pass evaluates the state the last step reached (the first stage of the next
     # step), corrects the lanes whose contact mode changed inside the last step, observes
@@ -419,6 +431,8 @@ def advance_block(model, level, P, Y, nsteps, method, record_every, band, O, REC
         if flag_bad_step(W, model) > 0:
             end_marked(W, model, P, status, Y, O, step, True)
             stop = next_stop(W)
+        if shadowed:
+            renormalise(W, model, step + 1, False)
     # every lane ends at or before max_steps and is written out there; this is a guard
     for j in range(BLOCK):
         if W[at(OFF_K, K_OPEN, j)] > 0.5:

@@ -317,6 +317,12 @@ BOOK = Rows(
         "1 from the first reversal time on, while the heading "
         "has not reversed and the spin has not crossed back to its launch side",
     ),
+    Row(
+        "lyapunov_log",
+        "1",
+        "sum of the logarithms of the shadow lane's growth over the renormalisation "
+        "intervals so far (NaN once the shadow is lost; lyapunov.py)",
+    ),
 )
 K_RUN = BOOK.start("running")
 K_OPEN = BOOK.start("open")
@@ -341,6 +347,7 @@ K_HEAD_EXT_X = BOOK.start("heading_extreme")
 K_HEAD_EXT_Y = K_HEAD_EXT_X + 1
 K_HEAD_SENSE = BOOK.start("heading_sense")
 K_PENDING = BOOK.start("reversal_pending")
+K_LYAP_LOG = BOOK.start("lyapunov_log")
 
 NOT_MARKED = 0.0
 SWITCHES = 1.0  # K_MARK_SWITCH: the lane's sliding mode changes
@@ -387,6 +394,13 @@ COMMON_PARAMS = Rows(
         "reversal (of the spin and of the heading) when that comes sooner",
         pack=lambda f: f.get("stop_rule", 0.0 * f["dt"]),
     ),
+    Row(
+        "lyapunov_steps",
+        "1",
+        "steps between renormalisations of the lane's shadow, the lane BLOCK/2 above it "
+        "(lyapunov.py); 0: no Lyapunov exponent",
+        pack=lambda f: f.get("lyapunov_steps", 0.0 * f["dt"]),
+    ),
 )
 DT = COMMON_PARAMS.start("dt")
 MU_K = COMMON_PARAMS.start("mu")
@@ -396,6 +410,7 @@ MU_SPIN = COMMON_PARAMS.start("mu_spin")
 MU_ROLL = COMMON_PARAMS.start("mu_roll")
 EPS_U = COMMON_PARAMS.start("slip_speed_floor")
 STOP_RULE = COMMON_PARAMS.start("stop_rule")
+LYAP_STEPS = COMMON_PARAMS.start("lyapunov_steps")
 
 # --- values of the stop_rule row -------------------------------------------------------
 # A parameter row rather than a literal argument: the rule costs no compiled variant.
@@ -435,6 +450,11 @@ OBSERVABLES = Rows(
         "number of heading reversals: changes of the long axis' sense "
         "of turning seen from above, each a turn back by more than 0.1 rad",
     ),
+    Row(
+        "lyapunov",
+        "s-1",
+        "largest finite-time Lyapunov exponent",
+    ),
 )
 O_STATUS = OBSERVABLES.start("status")
 O_STEPS = OBSERVABLES.start("steps")
@@ -447,4 +467,5 @@ O_FINAL_SPIN = OBSERVABLES.start("final_spin")
 O_MEAN_FINAL_SPIN = OBSERVABLES.start("mean_final_spin")
 O_FIRST_REV = OBSERVABLES.start("first_reversal_time")
 O_N_REV = OBSERVABLES.start("n_reversals")
+O_LYAPUNOV = OBSERVABLES.start("lyapunov")
 N_SHARED_OBS = OBSERVABLES.size

@@ -55,7 +55,7 @@ def _check_readable(path: Path) -> None:
 
 def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
 
-    from ..plot import reversal_map, reversal_vs_growth
+    from ..plot import lyapunov_map, reversal_map, reversal_vs_growth
     from ..plot.maps import GROWTH_ZERO
 
     select = {}
@@ -132,17 +132,33 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
                     raise ValueError(f"{path}: a map needs two dimensions, found {dims}")
                 _check_names(ds, var, {"--x": x, "--y": y, "--facet": args.facet}, select)
                 first = _first_values(ds, var, (x, y, args.facet), select, args.reduce)
-                fig = reversal_map(
-                    ds,
-                    x=x,
-                    y=y,
-                    var=var,
-                    facet=args.facet,
-                    select={**first, **select} or None,
-                    reduce=args.reduce,
-                    overlay=overlay,
-                    zero_line=GROWTH_ZERO if var == "growth_rate" else None,
-                )
+                if var == "lyapunov":
+                    if overlay is not None:
+                        raise ValueError(
+                            "--overlay does not apply to a map of lyapunov: it is drawn "
+                            "with the linear stability boundary of the sweep's grid"
+                        )
+                    fig = lyapunov_map(
+                        ds,
+                        x=x,
+                        y=y,
+                        stability=_stability_of(path, ds),
+                        facet=args.facet,
+                        select={**first, **select} or None,
+                        reduce=args.reduce,
+                    )
+                else:
+                    fig = reversal_map(
+                        ds,
+                        x=x,
+                        y=y,
+                        var=var,
+                        facet=args.facet,
+                        select={**first, **select} or None,
+                        reduce=args.reduce,
+                        overlay=overlay,
+                        zero_line=GROWTH_ZERO if var == "growth_rate" else None,
+                    )
                 if first:
                     print(
                         f"{path}: {var} at "
@@ -170,6 +186,21 @@ def _cmd_plot(args: argparse.Namespace, argv: list[str] | None) -> int:
     if overlay is not None:
         overlay.close()
     return 0
+
+
+def _stability_of(path: str, ds: xr.Dataset) -> xr.Dataset | None:
+    """The linear stability of steady spin over the grid of the sweep that wrote ``ds``
+    (its ``sweep_config``), or None, said, when it cannot be had."""
+    from ..stability import stability_dataset
+
+    config = ds.attrs.get("sweep_config")
+    try:
+        if not isinstance(config, str):
+            raise ValueError("the file holds no sweep configuration")
+        return stability_dataset(config)
+    except ValueError as error:
+        print(f"{path}: the linear stability boundary is not drawn: {error}")
+        return None
 
 
 def _unfinished_store(path: Path) -> str | None:

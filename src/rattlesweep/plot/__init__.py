@@ -3,6 +3,7 @@
 they work headless and inside libraries. Axis labels carry the variables' units."""
 
 from .animation import InlineAnimation, animate, animate_inline
+from .chaos import lyapunov_map, poincare_plot
 from .maps import (
     OUTCOME_COLOURS,
     mpl_cmap,
@@ -19,7 +20,9 @@ __all__ = [
     "animate",
     "animate_inline",
     "contact_path",
+    "lyapunov_map",
     "mpl_cmap",
+    "poincare_plot",
     "reversal_map",
     "reversal_vs_growth",
     "reversed_fraction",

@@ -3,7 +3,7 @@ simulated reversal times with linear growth rates."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, Hashable, Mapping
+from typing import TYPE_CHECKING, Any, Hashable, Mapping, Sequence
 
 import xarray as xr
 from matplotlib.figure import Figure
@@ -137,6 +137,8 @@ def reversal_map(
     cmap: str = "viridis",
     overlay: xr.Dataset | None = None,
     zero_line: str | None = None,
+    centred: bool = False,
+    handles: Sequence[Artist] = (),
 ) -> Figure:
     """Map of a sweep result over two of its axes.
 
@@ -159,6 +161,12 @@ def reversal_map(
     zero_line : a continuous variable's zero drawn on every panel as a dashed white
         line, with this label in the legend (a growth rate's: the linear stability
         boundary).
+    centred : a continuous variable's colour scale runs from -m to m, so that zero sits
+        in the middle of a diverging ``cmap``; m is the 95th percentile of the values'
+        magnitudes (a few extreme values, such as those of launches that capsize, take
+        the end colours instead of washing out the rest).
+    handles : more legend entries (matplotlib artists with labels), for what a caller
+        draws on the panels.
 
     Returns a matplotlib Figure.
     """
@@ -236,6 +244,9 @@ def reversal_map(
         cm = mpl_cmap(cmap)
         finite = da.values[np.isfinite(da.values)]
         norm = Normalize(*(finite.min(), finite.max()) if finite.size else (0, 1))
+        if centred and finite.size:
+            m = float(np.percentile(np.abs(finite), 95)) or 1.0
+            norm = Normalize(-m, m)
     xs, xlabels = _axis_values(da, x)
     ys, ylabels = _axis_values(da, y)
     xlog = xlabels is None and is_log_spaced(xs)
@@ -279,35 +290,38 @@ def reversal_map(
     for k in range(len(panels), nrows * ncols):
         axes[k // ncols][k % ncols].set_visible(False)
 
-    handles: list[Artist] = []
+    entries: list[Artist] = list(handles)
     if categorical:
         present = set(np.unique(da.values[~np.isnan(da.values.astype(float))]).tolist())
-        handles = [
+        entries += [
             Patch(color=c, label=m.replace("_", " "))
             for f, m, c in zip(flags, meanings, colours)
             if f in present
         ]
     else:
         assert mesh is not None  # there is a panel
-        fig.colorbar(mesh, ax=axes.ravel().tolist(), label=_label(da, var))
+        extend = (
+            "both" if centred and norm.vmax < np.nanmax(np.abs(da.values)) else "neither"
+        )
+        fig.colorbar(mesh, ax=axes.ravel().tolist(), label=_label(da, var), extend=extend)
     if overlay is not None:
         from matplotlib.lines import Line2D
 
-        handles.append(
+        entries.append(
             Line2D([], [], color="black", lw=1.5, label="simulated reversal boundary")
         )
     if drew_zero:
         from matplotlib.lines import Line2D
 
-        handles.append(Line2D([], [], color="0.4", ls="--", lw=1.2, label=zero_line))
+        entries.append(Line2D([], [], color="0.4", ls="--", lw=1.2, label=zero_line))
     if any_nan:
         # matplotlib takes an RGBA array as a colour; its stubs' ColorType has no arrays
         bad = cm.get_bad() if not categorical else "white"
-        handles.append(Patch(color=bad, label="no value (NaN)"))  # type: ignore[arg-type]
-    if handles:
+        entries.append(Patch(color=bad, label="no value (NaN)"))  # type: ignore[arg-type]
+    if entries:
         # beside the panels, level with their middle: clear of the title above them
         fig.legend(
-            handles=handles,
+            handles=entries,
             loc="outside right center" if categorical else "outside lower center",
             title=da.attrs.get("long_name", var) if categorical else None,
         )

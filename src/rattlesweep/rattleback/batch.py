@@ -39,10 +39,17 @@ from .._options import (
     check_stop,
 )
 from .._pack import blocked, prepared
+from .._shadows import (
+    DISPLACEMENT,
+    check_rolling,
+    shadowed,
+    with_lyapunov,
+)
 from .._run import announce_compile, contact_slip_velocity, execute
 from .._steps import step_counts, time_steps
-from .._validation import as_float_array, fail_where
+from .._validation import as_float_array, check_boolean, fail_where
 from .._core.models import RATTLEBACK
+from .._core.workspace import BLOCK
 from .._core.rattleback import layout
 from ..inputs import RATTLEBACK as INPUTS
 from .body import Bodies, Body
@@ -293,10 +300,35 @@ def _coords(
     return coords
 
 
+def _displaced(
+    state: dict[str, np.ndarray], columns: dict[str, np.ndarray], shadow: np.ndarray
+) -> None:
+    """Launch each shadow lane (``shadow``) turned by :data:`DISPLACEMENT` rad about its
+    body x and y axes, its angular velocity raised by DISPLACEMENT sqrt(g/c) in each body
+    component: a displacement in every direction :func:`separation
+    <rattlesweep._core.rattleback.model.separation>` measures."""
+    e = DISPLACEMENT
+    w, x, y, z = state["quaternion"][shadow].T
+    # q ⊗ (1, e/2, e/2, 0): a turn by e about body x and by e about body y
+    turned = np.stack(
+        [
+            w - 0.5 * e * (x + y),
+            x + 0.5 * e * (w - z),
+            y + 0.5 * e * (w + z),
+            z + 0.5 * e * (x - y),
+        ],
+        axis=-1,
+    )
+    state["quaternion"][shadow] = turned / np.linalg.norm(turned, axis=-1, keepdims=True)
+    rate = np.sqrt(columns["g"][shadow] / columns["c"][shadow])
+    state["omega"][shadow] += e * rate[:, None]
+
+
 def prepare(
     body: Bodies,
     *,
     stop: str | None = None,
+    lyapunov: bool = False,
     degrees: Mapping[str, ArrayLike] | None = None,
     announce: bool = True,
     **kwargs: Any,
@@ -304,17 +336,25 @@ def prepare(
     """Check, broadcast and pack launches for the kernel; arguments as for
     :func:`run_batch`, angles in radians; ``degrees`` maps ``roll``, ``pitch``, ``yaw``
     to the values the user gave in degrees, which the coordinates keep as given
-    (``announce`` as for :func:`launch_inputs`)."""
+    (``announce`` as for :func:`launch_inputs`). With ``lyapunov``, each launch is
+    packed beside its shadow (:mod:`rattlesweep._shadows`)."""
     rule = check_stop(stop)
+    lyapunov = check_boolean("lyapunov", lyapunov)
     inputs = launch_inputs(body, announce=announce, **kwargs)
     n = inputs.n
     columns = {**inputs.body_columns(), **inputs.flat, "stop_rule": np.full(n, rule)}
-    prep = prepared(
-        MODEL, columns, _launch_state(inputs), inputs.nsteps, n, inputs.shape, {}
-    )
+    state = _launch_state(inputs)
+    if lyapunov:
+        check_rolling(inputs.flat, inputs.shape)
+        prep = shadowed(
+            with_lyapunov(MODEL), columns, state, inputs.nsteps, n, inputs.shape, _displaced
+        )
+    else:
+        prep = prepared(MODEL, columns, state, inputs.nsteps, n, inputs.shape, {})
     # G's velocity: rolling (material contact point at rest) unless given
     announce_compile(prep)  # before the first kernel, naming what the batch compiles
-    rolling = -contact_slip_velocity(MODEL, prep.P, prep.Y)[:, :n]
+    every_lane = -contact_slip_velocity(MODEL, prep.P, prep.Y)
+    rolling = prep.per_trajectory(every_lane.reshape(2, -1, BLOCK).transpose(1, 0, 2))
     given = inputs.vectors.get("velocity")
     if given is not None:
         v = given.T
@@ -327,7 +367,9 @@ def prepare(
         )
     else:
         v = rolling
-    prep.Y[:, layout.STATE.slice("velocity"), :] = blocked(v, n)
+    if prep.lanes is not None:  # every lane rolls: a sliding launch is refused above
+        v = every_lane
+    prep.Y[:, layout.STATE.slice("velocity"), :] = blocked(v, v.shape[1])
     return dataclasses.replace(prep, coords=_coords(inputs, columns, given, degrees or {}))
 
 
@@ -339,6 +381,7 @@ def run_batch(
     record_every: int | None = None,
     reversal_band: float = INPUTS["reversal_band"].default,
     stop: str | None = None,
+    lyapunov: bool = False,
     parallel: bool = INPUTS["parallel"].default,
     threads: int | None = None,
     **inputs: ArrayLike | None,
@@ -348,9 +391,14 @@ def run_batch(
     Every per-launch input (the launch, the friction, the numerics) may be an array;
     all are broadcast together with the body (vector inputs ``omega``, ``orientation``
     and ``velocity`` on their leading axes) and flattened onto a ``trajectory``
-    dimension. ``method``, ``record_every``, ``reversal_band``, ``stop``, ``parallel``
-    and ``threads`` are options of the whole batch. The inputs and their descriptions:
-    :data:`rattlesweep.inputs.RATTLEBACK`.
+    dimension. ``method``, ``record_every``, ``reversal_band``, ``stop``, ``lyapunov``,
+    ``parallel`` and ``threads`` are options of the whole batch. The inputs and their
+    descriptions: :data:`rattlesweep.inputs.RATTLEBACK`.
+
+    ``lyapunov=True`` adds ``lyapunov`` (1/s): each launch's largest finite-time
+    Lyapunov exponent over its run, from a shadow launch renormalised every 0.05 s
+    (docs/lyapunov.md). It needs rolling contact (``mu`` = inf, the default, and no
+    friction couples) and costs about twice the plain batch.
 
     Parameters
     ----------
@@ -367,7 +415,8 @@ def run_batch(
         the furthest it had turned), ``initial_spin``, ``final_spin``, ``mean_final_spin``
         (rad/s), ``max_tilt`` (rad), ``energy_initial``, ``energy_final``, ``energy_lost``
         (J), ``slip_fraction``, ``t_final`` (s), ``steps`` and ``status`` (CF flags: ok,
-        capsized, lifted_off, non_finite), with every input as a coordinate.
+        capsized, lifted_off, non_finite), ``lyapunov`` (1/s) with ``lyapunov=True``,
+        with every input as a coordinate.
 
     Raises
     ------
@@ -392,7 +441,7 @@ def run_batch(
     rec_every = check_record_every(record_every)
     band = check_band(reversal_band)
     given, radians, degrees = split_angles(body, inputs)
-    prep = prepare(body, **given, **radians, degrees=degrees, stop=stop)
+    prep = prepare(body, **given, **radians, degrees=degrees, stop=stop, lyapunov=lyapunov)
     if rec_every is not None:
         check_single_step(prep)
     raw = execute(
@@ -404,14 +453,23 @@ def run_batch(
         threads=threads,
     )
     return results.batch_dataset(
-        prep, raw, rec_every, attrs_for, run_attrs(method, rec_every, band, stop)
+        prep,
+        raw,
+        rec_every,
+        attrs_for,
+        run_attrs(method, rec_every, band, stop, lyapunov=prep.lanes is not None),
     )
 
 
 def run_attrs(
-    method: str, record_every: int | None, band: float, stop: str | None = None
+    method: str,
+    record_every: int | None,
+    band: float,
+    stop: str | None = None,
+    *,
+    lyapunov: bool = False,
 ) -> dict[str, Any]:
     """Global attributes of a rattleback result."""
-    attrs = results.run_attrs(method, record_every, band, stop)
+    attrs = results.run_attrs(method, record_every, band, stop, lyapunov=lyapunov)
     attrs["title"] = TITLE
     return attrs

@@ -27,6 +27,7 @@ def simulate(
     method: str = INPUTS["method"].default,
     record_every: int | None = None,
     reversal_band: float = INPUTS["reversal_band"].default,
+    lyapunov: bool = False,
     **inputs: ArrayLike | None,
 ) -> xr.Dataset:
     """Simulate one launch and return its time series.
@@ -35,6 +36,8 @@ def simulate(
     ``orientation`` (4,), ``velocity`` (2,)); angles in radians, or in degrees as
     ``roll_deg``, ``pitch_deg``, ``yaw_deg``. ``record_every`` defaults to the smallest
     stride that keeps at most 10 000 samples (1 for runs of up to 10 000 steps).
+    ``lyapunov=True`` adds the launch's largest finite-time Lyapunov exponent as
+    ``lyapunov`` (1/s), as in :func:`rattlesweep.run_batch`.
 
     Parameters
     ----------
@@ -91,7 +94,7 @@ def simulate(
             )
         if width > 1 and np.shape(value) != (width,):
             raise ValueError(f"{name} must have shape ({width},), got {np.shape(value)}")
-    prep = prepare(body, degrees=degrees, **launch)
+    prep = prepare(body, degrees=degrees, lyapunov=lyapunov, **launch)
     rec_every = results.default_record_every(prep, rec_every)
     raw = execute(prep, method=m, record_every=rec_every, band=band, parallel=False)
     config = {
@@ -104,7 +107,7 @@ def simulate(
         "method": method,
         "record_every": rec_every,
         "reversal_band": band,
+        "lyapunov": prep.lanes is not None,
     }
-    return results.run_dataset(
-        prep, raw, rec_every, attrs_for, run_attrs(method, rec_every, band), config
-    )
+    attrs = run_attrs(method, rec_every, band, lyapunov=prep.lanes is not None)
+    return results.run_dataset(prep, raw, rec_every, attrs_for, attrs, config)

@@ -66,6 +66,7 @@ __all__ = [
     "park",
     "record",
     "roll_start",
+    "separation",
     "spin_and_watch",
     "start_lane",
     "stick_couples",
@@ -108,6 +109,16 @@ def energy(W, j):
         W[at(OFF_Y, RATE, j)],
         W[at(OFF_Y, VXG, j)],
     )
+
+
+@kernel
+def separation(W, j, k):
+    """Distance between the states Y of lanes j and k (lane j's parameters): the angle
+    (rad) and the rate in units of sqrt(g/b). The motion does not depend on x_G."""
+    rate2 = W[at(OFF_P, GRAV, j)] / math.sqrt(W[at(OFF_P, B2, j)])
+    da = W[at(OFF_Y, THETA, k)] - W[at(OFF_Y, THETA, j)]
+    dw = W[at(OFF_Y, RATE, k)] - W[at(OFF_Y, RATE, j)]
+    return math.sqrt(da * da + dw * dw / rate2)
 
 
 @kernel

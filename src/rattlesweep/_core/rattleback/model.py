@@ -14,6 +14,7 @@ from ..jit import inline_kernel, kernel
 from ..workspace import (
     BLOCK,
     DT,
+    GRAV,
     K_HEAD_EXT_X,
     K_HEAD_EXT_Y,
     K_HEAD_TURNS,
@@ -116,6 +117,7 @@ __all__ = [
     "park",
     "record",
     "roll_start",
+    "separation",
     "spin_and_watch",
     "start_lane",
     "stick_couples",
@@ -178,6 +180,23 @@ def up_vector(W, off, j):
 def energy(W, j):
     """Mechanical energy of the state Y, J."""
     return energy_terms(W, OFF_Y, j)[0]
+
+
+@kernel
+def separation(W, j, k):
+    """Distance between the states Y of lanes j and k (lane j's parameters) in the
+    variables the motion of a rolling body depends on: the world up-vector in body
+    components (dimensionless) and the body angular velocity in units of sqrt(g/c).
+    Position and heading are left out: the motion does not depend on them."""
+    gj = up_vector(W, OFF_Y, j)
+    gk = up_vector(W, OFF_Y, k)
+    rate2 = W[at(OFF_P, GRAV, j)] / math.sqrt(W[at(OFF_P, C2, j)])
+    d2 = 0.0
+    for i in range(3):
+        d2 += (gk[i] - gj[i]) ** 2
+        dw = W[at(OFF_Y, OMEGA_X + i, k)] - W[at(OFF_Y, OMEGA_X + i, j)]
+        d2 += dw * dw / rate2
+    return math.sqrt(d2)
 
 
 @kernel

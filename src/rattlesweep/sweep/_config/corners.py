@@ -14,6 +14,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from ..._shadows import check_rolling
 from ...rattleback import batch
 from ...rattleback.body import Body
 from .grid import Axis, RandomParam, batch_inputs
@@ -58,6 +59,8 @@ def check_corners(
     fixed_si: dict[str, float],
     fixed_body: str | Body | None,
     fixed_shown: str = "",
+    *,
+    lyapunov: bool = False,
 ) -> int:
     """Check every combination of the extremes of the varying parameters (for a launch
     angle, :func:`angle_corners`) against the batch layer's rules; return the largest
@@ -67,7 +70,8 @@ def check_corners(
     ``fixed_body`` the fixed body (a preset name, a Body, or None when it varies). A
     broken rule is a ValueError naming the first offending corner and, when given,
     ``fixed_shown``, the fixed values as the configuration spells them (a rule may
-    tie a fixed value to a varying one, or break on a fixed value alone).
+    tie a fixed value to a varying one, or break on a fixed value alone). With
+    ``lyapunov``, every corner must roll (:func:`rattlesweep._shadows.check_rolling`).
     """
     varying: list[tuple[str, str, list[Any]]] = []
     for ax in grid_axes:
@@ -112,6 +116,18 @@ def check_corners(
             None if body_column is None else body_column[sel],
             fixed_body,
         )
+        if lyapunov:
+            given = {k: v[sel] for k, v in columns.items()}
+            n = len(combos[sel])
+            mu = given.get("mu", np.full(n, math.inf))
+            check_rolling(
+                {
+                    "mu_static": given.get("mu_static", mu),
+                    "mu_spin": given.get("mu_spin", np.zeros(n)),
+                    "mu_roll": given.get("mu_roll", np.zeros(n)),
+                },
+                (n,),
+            )
         return _max_steps(bodies, kwargs)
 
     try:

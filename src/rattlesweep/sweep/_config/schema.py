@@ -54,6 +54,7 @@ CONFIG_KEYS = (
     "tile_size",
     "output",
     "stop",
+    "lyapunov",
     "refine",
 )
 """The keys a configuration table may have."""
@@ -449,12 +450,13 @@ def normalise_config(
     output: Any = "netcdf",
     stop: Any = None,
     refine: Any = None,
+    lyapunov: Any = False,
 ) -> dict[str, Any]:
     """The normal form of a configuration: a dict with the keys of :data:`CONFIG_KEYS`,
     scalars first (the order of the TOML file). ``tile_size`` stays None when not given
-    (:func:`rattlesweep.sweep._config.corners.choose_tile_size` chooses it); ``stop`` and
-    ``refine`` are there only when given, so that the configurations (and hashes) of
-    sweeps without them do not change.
+    (:func:`rattlesweep.sweep._config.corners.choose_tile_size` chooses it); ``stop``,
+    ``lyapunov`` and ``refine`` are there only when given (``lyapunov`` when true), so
+    that the configurations (and hashes) of sweeps without them do not change.
 
     ``fixed`` gains the parameters left out: the ``toy`` body when neither a body nor a
     semi-ellipsoid parameter is given, and
@@ -494,6 +496,7 @@ def normalise_config(
             stop is None or stop in STOPS,
             f"one of {', '.join(map(repr, STOPS))} (or left out: run to t_end)",
         ),
+        ("lyapunov", lyapunov, isinstance(lyapunov, bool), "true or false"),
     ):
         if not ok:
             raise ValueError(f"{label} must be {rule}, got {v!r}")
@@ -514,6 +517,8 @@ def normalise_config(
     }
     if stop is not None:
         config["stop"] = stop
+    if lyapunov:
+        config["lyapunov"] = True
     config.update({"axes": axes_n, "fixed": fixed_n, "random": random_n})
     if refine is not None:
         config["refine"] = normalise_refine(refine, axes_n, output)

@@ -70,6 +70,7 @@ _ARGUMENTS = (
     "name",
     "stop",
     "refine",
+    "lyapunov",
 )
 
 
@@ -110,6 +111,8 @@ class Sweep:
     stop : None (every launch runs to ``t_end``) or ``"first_reversal"``: a launch ends at
         its first reversal, or when it capsizes or lifts off (see
         :func:`rattlesweep.run_batch`).
+    lyapunov : True adds each point's largest Lyapunov exponent, ``lyapunov`` (1/s; see
+        :func:`rattlesweep.run_batch`); it needs rolling contact at every point.
     refine : adaptive refinement (:mod:`rattlesweep.sweep._refinement.plan`): a number of
         levels or a table ``{"levels": L, "axes": [...], "reversal_time_jump": s}``. Each
         level halves the spacing of the refined axes (default: every range axis), and only
@@ -164,6 +167,7 @@ class Sweep:
         output: str = "netcdf",
         stop: str | None = None,
         refine: Mapping[str, Any] | int | None = None,
+        lyapunov: bool = False,
     ) -> None:
         config = normalise_config(
             axes=axes,
@@ -178,6 +182,7 @@ class Sweep:
             output=output,
             stop=stop,
             refine=refine,
+            lyapunov=lyapunov,
         )
         grid_axes = _grid_axes(config["axes"])
         random_params = _random_params(config["random"])
@@ -191,6 +196,7 @@ class Sweep:
             _fixed_si(config["fixed"]),
             _fixed_body(config["fixed"]),
             _fixed_shown({k: v for k, v in config["fixed"].items() if k in fixed}),
+            lyapunov=config.get("lyapunov", False),
         )
         if config["tile_size"] is None:
             config = {
@@ -258,6 +264,11 @@ class Sweep:
     def stop(self) -> str | None:
         """The stop rule: None (run to t_end) or "first_reversal"."""
         return self._config.get("stop")
+
+    @property
+    def lyapunov(self) -> bool:
+        """True when each point's largest Lyapunov exponent is computed."""
+        return self._config.get("lyapunov", False)
 
     @property
     def refine(self) -> dict[str, Any] | None:

@@ -98,7 +98,9 @@ def _calibrate(sweep: Sweep, index: np.ndarray, most: int) -> tuple[float, int, 
     in a sweep: a launch that ended before ``most`` (its stop rule, a capsize) takes the
     steps it ran, one stopped at ``most`` all of its own."""
     bodies, kwargs = sweep.points_at(index)
-    prep = prepare(bodies, stop=sweep.stop, announce=False, **kwargs)
+    prep = prepare(
+        bodies, stop=sweep.stop, lyapunov=sweep.lyapunov, announce=False, **kwargs
+    )
     bounded = dataclasses.replace(prep, nsteps=np.minimum(prep.nsteps, most))
     t0 = time.perf_counter()
     raw = engine.execute(
@@ -111,8 +113,8 @@ def _calibrate(sweep: Sweep, index: np.ndarray, most: int) -> tuple[float, int, 
     seconds = time.perf_counter() - t0
     ran = results.observables_dataset(MODEL, raw.observables, "point")["steps"].values
     ran = ran.astype(np.int64)
-    own = prep.nsteps.reshape(-1)[: prep.n]
-    cut = bounded.nsteps.reshape(-1)[: prep.n]
+    own = prep.per_trajectory(prep.nsteps[:, None, :])[0]
+    cut = bounded.per_trajectory(bounded.nsteps[:, None, :])[0]
     full = np.where(ran < cut, ran, own)
     return seconds, int(ran.sum()), int(full.sum())
 

@@ -13,6 +13,7 @@ import numpy as np
 
 from ... import _results as results
 from ... import _run as engine
+from ..._shadows import with_lyapunov
 from ...rattleback.batch import MODEL, prepare
 from ..._options import check_method
 from ...inputs import RATTLEBACK
@@ -22,6 +23,7 @@ from .._config.spec import Sweep
 __all__ = [
     "NOT_COMPUTED",
     "RESULT_VARS",
+    "result_vars",
     "LevelTile",
     "LevelTileResult",
     "TileResult",
@@ -74,16 +76,25 @@ def extra_vars(sweep: Sweep) -> tuple[str, ...]:
     )
 
 
+def result_vars(sweep: Sweep) -> tuple[str, ...]:
+    """The kernel observables the sweep keeps for every point: :data:`RESULT_VARS`, and
+    ``lyapunov`` when the sweep computes it."""
+    return (*RESULT_VARS, "lyapunov") if sweep.lyapunov else RESULT_VARS
+
+
 def result_names(sweep: Sweep) -> tuple[str, ...]:
     """Every per-point variable of the sweep's result, in order."""
-    return (*RESULT_VARS, "outcome", *extra_vars(sweep))
+    return (*result_vars(sweep), "outcome", *extra_vars(sweep))
 
 
 def result_dtypes(sweep: Sweep) -> dict[str, np.dtype]:
     """The dtype of every per-point variable, known before anything is computed."""
-    n_obs = 1 + max(MODEL.observable_row(k) for k in RESULT_VARS if k not in MODEL.derived)
-    empty = results.observables_dataset(MODEL, np.zeros((n_obs, 0)), "point")
-    dtypes = {k: empty[k].dtype for k in RESULT_VARS}
+    model = with_lyapunov(MODEL)
+    n_obs = 1 + max(
+        model.observable_row(k) for k in model.observables if k not in MODEL.derived
+    )
+    empty = results.observables_dataset(model, np.zeros((n_obs, 0)), "point")
+    dtypes = {k: empty[k].dtype for k in result_vars(sweep)}
     dtypes["outcome"] = np.dtype(np.int8)
     dtypes.update({k: np.dtype(float) for k in extra_vars(sweep)})
     return dtypes
@@ -135,7 +146,9 @@ def compute_points(sweep: Sweep, index: np.ndarray) -> tuple[dict[str, np.ndarra
     (:func:`result_names`) and the trajectory-steps taken. Touches no file."""
     bodies, kwargs = sweep.points_at(index)
     # a sweep announces its size as a whole, not each tile
-    prep = prepare(bodies, stop=sweep.stop, announce=False, **kwargs)
+    prep = prepare(
+        bodies, stop=sweep.stop, lyapunov=sweep.lyapunov, announce=False, **kwargs
+    )
     raw = engine.execute(
         prep,
         method=check_method(sweep.method),
@@ -143,8 +156,8 @@ def compute_points(sweep: Sweep, index: np.ndarray) -> tuple[dict[str, np.ndarra
         band=sweep.reversal_band,
         parallel=False,
     )
-    obs = results.observables_dataset(MODEL, raw.observables, "point")
-    data = {k: obs[k].values for k in RESULT_VARS}
+    obs = results.observables_dataset(prep.model, raw.observables, "point")
+    data = {k: obs[k].values for k in result_vars(sweep)}
     data["outcome"] = classify(
         data["status"],
         data["n_reversals"],

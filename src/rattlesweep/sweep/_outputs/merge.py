@@ -101,7 +101,9 @@ def grid_coords(sweep: Sweep) -> dict[str, Any]:
 def result_attrs(sweep: Sweep, command: str | None) -> dict[str, Any]:
     """Global attributes of a sweep's result: the run's settings, the configuration,
     versions and ``history``."""
-    attrs = run_attrs(sweep.method, None, sweep.reversal_band, sweep.stop)
+    attrs = run_attrs(
+        sweep.method, None, sweep.reversal_band, sweep.stop, lyapunov=sweep.lyapunov
+    )
     del attrs["record_every"]
     attrs.update(sweep_attrs(sweep, f"rattlesweep parameter sweep: {sweep.name}", command))
     return attrs

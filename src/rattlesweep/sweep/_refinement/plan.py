@@ -9,7 +9,8 @@ that level's lattice, over the refined axes; every combination of the other dime
 is a separate map):
 
 * a cell whose corners are all simulated is a *boundary* cell when their ``outcome``
-  differs or, with ``reversal_time_jump``, when all of them reversed and their
+  differs, or the sign of their ``lyapunov`` exponent (a sweep that computes it), or,
+  with ``reversal_time_jump``, when all of them reversed and their
   ``first_reversal_time`` spans more than that;
 * the boundary cells and the cells next to them (a margin of one cell, diagonals
   included, so a feature thinner than a cell next to a visible boundary is not missed)
@@ -208,11 +209,14 @@ def plan_level(
     :func:`fill_from_corners`) and return the flat indices, into the finest grid, of the
     points to simulate now, longest predicted run first (a filled point's ``t_final``
     predicts its run's length; ties in C order). ``values`` must hold ``outcome``,
-    ``first_reversal_time`` and ``t_final``."""
+    ``first_reversal_time`` and ``t_final``, and may hold ``lyapunov``."""
     axes = levels.axes
     coarse = levels.lattice(level - 1)
+    outcome = values["outcome"][coarse]
+    if "lyapunov" in values:  # the exponent's sign boundary is refined too
+        outcome = 2 * outcome.astype(np.int64) + (values["lyapunov"][coarse] > 0.0)
     boundary, full = boundary_cells(
-        values["outcome"][coarse],
+        outcome,
         values["first_reversal_time"][coarse],
         computed[coarse],
         axes,
