@@ -150,6 +150,26 @@ def test_reversal_time_jump_refines_inside_one_outcome():
     assert np.mean(error > 0.5) < 0.25 * np.mean(error_plain > 0.5)
 
 
+def test_the_sign_of_the_lyapunov_exponent_is_refined_like_an_outcome():
+    """One outcome everywhere, the exponent positive inside the disc: refinement follows
+    the sign boundary, and every point ends with the right sign."""
+
+    def outcome(x, y, m):
+        return np.ones_like(x)
+
+    plain = Synthetic(outcome, linear_time, levels=2).run()
+    assert plain.computed.sum() == plain.levels.level0().size
+    run = Synthetic(outcome, linear_time, levels=2)
+    x, y, m = np.meshgrid(
+        np.linspace(-1, 1, 129), np.linspace(-1, 1, 97), np.arange(2), indexing="ij"
+    )
+    run.truth["lyapunov"] = np.where(disc(x, y, m), 0.3, -0.05) + 0.01 * x
+    run.values["lyapunov"] = np.full(x.shape, np.nan)
+    run.run()
+    assert run.computed.sum() > 2 * run.levels.level0().size
+    assert np.array_equal(run.values["lyapunov"] > 0, run.truth["lyapunov"] > 0)
+
+
 # --- the specification ------------------------------------------------------------------
 
 

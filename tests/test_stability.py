@@ -367,3 +367,23 @@ def test_the_command_line_plot_of_a_growth_map_draws_its_zero(tmp_path, monkeypa
     monkeypatch.setattr(plot, "reversal_map", watched)
     assert main(["plot", str(tmp_path / "s.nc"), "--out", str(tmp_path / "s.png")]) == 0
     assert drawn["zero_line"] == maps.GROWTH_ZERO
+
+
+def test_a_friction_axis_is_said_to_repeat_the_values(tmp_path, capsys):
+    """Friction does not enter the linearisation: along a mu axis the values repeat,
+    and the file and the command say so once."""
+    from rattlesweep.cli import main
+
+    sweep = rs.Sweep(axes={"spin": [-5.0, 5.0], "mu": [0.2, 0.5, math.inf]}, fixed={})
+    ds = st.stability_dataset(sweep)
+    growth = ds.growth_rate.transpose("launch_spin", "mu").values
+    assert (growth == growth[:, :1]).all()
+    assert ds.attrs["friction"].startswith(st.FRICTION_NOTE)
+    assert ds.attrs["friction"].endswith("the values repeat along mu")
+    plain = st.stability_dataset(rs.Sweep(axes={"spin": [-5.0, 5.0]}, fixed={}))
+    assert plain.attrs["friction"] == st.FRICTION_NOTE
+    config = tmp_path / "s.toml"
+    config.write_text(sweep.to_toml())
+    assert main(["stability", str(config), "--out", str(tmp_path / "s.nc")]) == 0
+    out = capsys.readouterr().out
+    assert out.count("the values repeat along mu") == 1

@@ -512,6 +512,12 @@ def test_cli_demo_info_plot(tmp_path, capsys):
     err = capsys.readouterr().err
     assert f"cannot read {junk}: expected a rattlesweep result file" in err
     assert f"{tmp_path} is a directory without sweep.nc or sweep.toml" in err
+    # the demo resumed draws its map, as the demo does
+    (out / "reversal_map.png").unlink()
+    assert main(["resume", str(out), "--quiet"]) == 0
+    assert f"wrote {out / 'reversal_map.png'}" in capsys.readouterr().out
+    assert (out / "reversal_map.png").stat().st_size > 10_000
+    (out / RESULT_NAME).unlink()
     assert main(["demo", "--out", str(out), "--quiet"]) == 0  # resumes: merges again
     capsys.readouterr()
     png = tmp_path / "t.png"

@@ -51,12 +51,14 @@ if TYPE_CHECKING:
     from .sweep import Sweep
 
 __all__ = [
+    "FRICTION_NOTE",
     "MODE_NAMES",
     "MODE_ATTRS",
     "body_arrays",
     "linearisation",
     "trace_identity",
     "eigen",
+    "friction_dims",
     "zero_spin_frequencies",
     "small_spin_growth_rates",
     "stability_dataset",
@@ -379,6 +381,24 @@ def stability_dataset(
             "Conventions": "CF-1.8",
             "model": "rolling contact linearised about steady upright spin",
             "references": "S. Jones and H. E. M. Hunt, Am. J. Phys. 87, 699 (2019)",
+            "friction": FRICTION_NOTE,
         }
     )
+    repeated = friction_dims(ds)
+    if repeated:
+        ds.attrs["friction"] += f"; the values repeat along {', '.join(repeated)}"
     return ds
+
+
+FRICTION_NOTE = (
+    "friction does not enter: the linearisation is that of rolling contact without "
+    "couples, the same for every mu > 0, mu_spin and mu_roll (a frictionless floor, "
+    "mu = 0, cannot hold a rolling contact, and is not described)"
+)
+"""What a stability file says of its friction coefficients."""
+
+
+def friction_dims(ds: xr.Dataset) -> list[str]:
+    """The dimensions of a stability file along which only friction varies: its values
+    repeat along them."""
+    return [str(d) for d in ds.dims if d in ("mu", "mu_static", "mu_spin", "mu_roll")]

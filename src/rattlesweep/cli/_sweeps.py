@@ -179,7 +179,14 @@ def _noted_interrupts() -> Iterator[_NotedInterrupts]:
         signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
-def _run(sweep: Sweep, out: str, args: argparse.Namespace, argv: list[str] | None) -> int:
+def _run(
+    sweep: Sweep,
+    out: str,
+    args: argparse.Namespace,
+    argv: list[str] | None,
+    draw: Path | None = None,
+) -> int:
+    """Run (or resume) ``sweep`` into ``out``; with ``draw``, also draw its map there."""
     existed = Path(out).exists()
     with _noted_interrupts() as noted:
         try:
@@ -192,6 +199,8 @@ def _run(sweep: Sweep, out: str, args: argparse.Namespace, argv: list[str] | Non
     if noted.count:  # lost in a library; the merge went on to the end (atomically)
         return _interrupted(f"the merged result was complete: {written} is written")
     print(f"wrote {written}: {_points(ds)}; {_summary(ds)}")
+    if draw is not None:
+        print(f"wrote {_save_map(ds, draw)}")
     return 0
 
 
@@ -247,11 +256,16 @@ def _cmd_resume(args: argparse.Namespace, argv: list[str] | None) -> int:
     from ..sweep._execution.run import stored_sweep
 
     out = _output_named(args.dir)
+    from ..sweep import Sweep
+    from ..sweep._config.demo import DEMO_TOML
+
     try:
         sweep = stored_sweep(out)
     except KeyboardInterrupt:  # while its configuration was read: nothing touched yet
         return _interrupted(f"{out} is unchanged")
-    return _run(sweep, out, args, argv)
+    # the demo draws its map when it finishes, resumed or not
+    demo = sweep == Sweep.from_toml(DEMO_TOML) and sweep.output == "netcdf"
+    return _run(sweep, out, args, argv, Path(out) / "reversal_map.png" if demo else None)
 
 
 def _output_named(name: str) -> str:
@@ -341,6 +355,7 @@ def _cmd_demo(args: argparse.Namespace, argv: list[str] | None) -> int:
 def _cmd_stability(args: argparse.Namespace, argv: list[str] | None) -> int:
     from ..io import check_netcdf_target, write_netcdf
     from ..stability import NEUTRAL, PITCH_UNSTABLE, ROLL_UNSTABLE, stability_dataset
+    from ..stability import friction_dims
     from ..sweep import Sweep
 
     check_netcdf_target(args.out)
@@ -357,4 +372,11 @@ def _cmd_stability(args: argparse.Namespace, argv: list[str] | None) -> int:
         + (f", {neutral:.0%} neutral" if neutral else "")
         + f", largest growth rate {float(ds.growth_rate.max()):.4g} s-1"
     )
+    repeated = friction_dims(ds)
+    if repeated:
+        names = " and ".join(repeated)
+        print(
+            f"friction does not enter the linearisation (rolling contact, the same for "
+            f"every mu > 0): the values repeat along {names}"
+        )
     return 0
