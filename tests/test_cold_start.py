@@ -107,7 +107,7 @@ def test_a_first_compile_says_so_once_with_its_time(untold, caplog):
         "compiling the simulation kernels for rattleback launches with Coulomb friction "
         f"(first use after installing: about {minutes} min on one core;"
     ), said
-    assert said[0].endswith("'rattlesweep compile' builds every kernel ahead, in parallel.")
+    assert said[0].endswith("`rattlesweep compile` builds every kernel ahead, in parallel.")
 
 
 def _needs(name, other):

@@ -78,7 +78,7 @@ def test_maps_are_clean_with_human_units(sweeps):
     panels = [ax for ax in fig.axes if ax.get_visible()]
     assert panels[0].get_xlabel() == "initial spin about the vertical [rad/s]"
     assert [ax.get_title() for ax in panels] == ["μ = 0.3", "μ = ∞ (rolling)"]
-    assert "roll_deg = 0.5°" in fig.get_suptitle()
+    assert "roll = 0.5°" in fig.get_suptitle()
     # a legend beside the panels, clear of the title, with a title of many values
     fig = reversal_map(logs, "launch_spin", "damping")
     _clean(fig)

@@ -266,7 +266,7 @@ def test_a_rolling_run_compiles_no_slip_work(tmp_path):
     assert re.fullmatch(
         r"compiling the simulation kernels for rattleback launches with rolling contact "
         r"\(first use after installing: about \d+ s on one core; later processes load "
-        r"them in about a second\)\. 'rattlesweep compile' builds every kernel ahead, in "
+        r"them in about a second\)\. `rattlesweep compile` builds every kernel ahead, in "
         r"parallel\.",
         told[0],
     ), told

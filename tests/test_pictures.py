@@ -281,4 +281,4 @@ def test_a_map_title_names_the_values_shown_the_selected_first(tmp_path):
     ds = run_sweep(s, tmp_path / "o", progress=False)
     ds = xr.Dataset(ds.data_vars, coords=dict(sorted(ds.coords.items())), attrs=ds.attrs)
     fig = reversal_map(ds, x="launch_spin", y="delta_deg", select={"mu": 0.3})
-    assert fig.get_suptitle().startswith("μ = 0.3, t_end = 0.5 s, roll_deg = 0.5°")
+    assert fig.get_suptitle().startswith("μ = 0.3, t_end = 0.5 s, roll = 0.5°")

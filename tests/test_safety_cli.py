@@ -78,7 +78,7 @@ def test_plot_of_a_sweep_directory_draws_its_result(tmp_path, config, capsys):
     assert main(["plot", str(out)]) == 2
     assert (
         f"cannot plot {out}: the sweep is unfinished (no sweep.nc yet); "
-        f"'rattlesweep resume {out}' completes it" in capsys.readouterr().err
+        f"`rattlesweep resume {out}` completes it" in capsys.readouterr().err
     )
     assert main(["plot", str(tmp_path)]) == 2
     assert (
@@ -409,7 +409,7 @@ def test_info_and_verify_of_an_output_being_written_name_its_writer(
         report = capsys.readouterr().out
         assert writing in report and "rattlesweep resume" not in report
     assert main(["info", str(out)]) == 0
-    assert f"'rattlesweep resume {out}' completes it" in capsys.readouterr().out
+    assert f"`rattlesweep resume {out}` completes it" in capsys.readouterr().out
 
 
 def test_info_gives_the_fixed_values_with_their_units(tmp_path, capsys):
@@ -442,7 +442,7 @@ def test_plot_of_an_unfinished_zarr_store_says_so(tmp_path, config, capsys, monk
     capsys.readouterr()
     assert main(["plot", str(store), "--out", str(tmp_path / "m.png")]) == 0
     assert (
-        f"{store} is unfinished (0 of 4 tiles written; 'rattlesweep resume {store}' "
+        f"{store} is unfinished (0 of 4 tiles written; `rattlesweep resume {store}` "
         "completes it): its points not computed yet are drawn as such"
     ) in capsys.readouterr().out
 

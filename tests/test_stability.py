@@ -233,10 +233,15 @@ def test_stability_dataset_on_a_sweep_grid_and_cli(tmp_path, capsys):
     fig = reversal_vs_growth(ds, sim)
     ax = fig.axes[0]
     assert ax.get_xlabel().endswith("[s]") and ax.get_ylabel().endswith("[s]")
+    median = ax.get_legend().get_texts()[-1].get_text()
+    assert median.startswith("first reversal = ") and "the median ratio" in median
+    assert all(c.get_alpha() == 0.5 for c in ax.collections)  # overlaps show
     legend = reversal_vs_growth(ds, sim, color_by="delta_deg")  # 5 values: a legend
-    assert all(t.get_text().endswith("°") for t in legend.axes[0].get_legend().get_texts())
+    values = [t.get_text() for t in legend.axes[0].get_legend().get_texts()][:-1]
+    assert values == ["δ = -6°", "δ = -3°", "δ = 3°", "δ = 6°"]  # δ = 0 never reverses
     bar = reversal_vs_growth(ds, sim, color_by="launch_spin")  # 9 values: a colour bar
-    assert bar.axes[0].get_legend() is None
+    labels = [t.get_text() for t in bar.axes[0].get_legend().get_texts()]
+    assert labels == [median]  # the values on the colour bar, not in the legend
     assert bar.axes[1].get_ylabel() == "initial spin about the vertical [rad/s]"
     # faster growth, earlier reversal: the two times are positively correlated
     both = xr_points(ds, sim)

@@ -543,3 +543,16 @@ def test_cli_demo_info_plot(tmp_path, capsys):
     demo = Sweep.from_toml(capsys.readouterr().out)
     assert demo.size == 41 * 33 * 2 and demo.finest().size == 321 * 257 * 2
     assert demo.stop == "first_reversal"
+
+
+def test_a_map_title_names_the_sweeps_body(tmp_path):
+    from rattlesweep.plot import reversal_map
+
+    sweep = Sweep(
+        axes={"spin": [-5.0, 5.0], "roll_deg": [0.5, 1.0]},
+        fixed={"body": "kane_levinson", "t_end": 0.1},
+    )
+    ds = run_sweep(sweep, tmp_path / "kl", progress=False)
+    title = reversal_map(ds, "launch_spin", "roll_deg")._suptitle.get_text()
+    assert title.startswith("kane_levinson body, t_end = 0.1 s")
+    assert "roll_deg" not in title

@@ -84,8 +84,8 @@ def announce(job_names: list[str]) -> None:
         _STATE["told"] = True
     LOG.warning(
         "compiling the simulation kernels for %s (first use after installing: %s on "
-        "one core; later processes load them in about a second). 'rattlesweep "
-        "compile' builds every kernel ahead, in parallel.",
+        "one core; later processes load them in about a second). `rattlesweep "
+        "compile` builds every kernel ahead, in parallel.",
         specialisations.job(job_names[0]).label,
         _minutes(estimate_s(missing)),
     )
@@ -105,8 +105,8 @@ def compiling(job_name: str | None) -> Iterator[None]:
     elif not _STATE["told"]:
         _STATE["told"] = True
         LOG.warning(
-            "compiling a simulation kernel (first use after installing); 'rattlesweep "
-            "compile' builds the kernels ahead, in parallel."
+            "compiling a simulation kernel (first use after installing); `rattlesweep "
+            "compile` builds the kernels ahead, in parallel."
         )
     ticker = None
     with _LOCK:

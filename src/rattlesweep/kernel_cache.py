@@ -240,7 +240,7 @@ def compile_kernels(
         kept = len(compiled)
         write(
             f"interrupted: {kept} specialisation{' is' if kept == 1 else 's are'} compiled "
-            "and kept in the cache; 'rattlesweep compile' again compiles the rest"
+            "and kept in the cache; `rattlesweep compile` again compiles the rest"
         )
         raise
     finally:

@@ -283,8 +283,8 @@ def _plotted_file(path: Path) -> str:
         )
     raise ValueError(
         f"cannot plot {path}: a directory without {RESULT_NAME} or {CONFIG_NAME}; "
-        "expected a result file or a sweep directory (what 'rattlesweep sweep --out "
-        "DIR' writes)"
+        "expected a result file or a sweep directory (what `rattlesweep sweep --out "
+        "DIR` writes)"
     )
 
 
@@ -372,7 +372,7 @@ def _info_directory(path: Path) -> Path | None:
     if not (path / "sweep.toml").is_file():
         raise ValueError(
             f"{path} is a directory without sweep.nc or sweep.toml: expected a "
-            "sweep directory (what 'rattlesweep sweep --out DIR' writes)"
+            "sweep directory (what `rattlesweep sweep --out DIR` writes)"
         )
     from ..sweep._outputs.directory import read_config
     from ..sweep._outputs.verify import finish_advice

@@ -408,7 +408,7 @@ def build_parser() -> argparse.ArgumentParser:
         "launch and friction as controls, a 3-D view of the run with linked "
         "plots of spin, tilt, energy and slip speed, and a reversal map whose "
         "points load their launch. Warms the kernels first (a first run after "
-        "installing compiles them, minutes unless 'rattlesweep compile' did it "
+        "installing compiles them, minutes unless `rattlesweep compile` did it "
         "ahead), then prints the address and opens the browser. Ctrl-C stops it.",
     )
     p.add_argument(

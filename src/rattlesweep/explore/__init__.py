@@ -91,7 +91,7 @@ def serve(
     server = _bind(host, port, caps=caps, workers=workers)
     print(
         "rattlesweep explore: warming the kernels (a first run after installing "
-        "compiles them, which takes minutes unless 'rattlesweep compile' did it "
+        "compiles them, which takes minutes unless `rattlesweep compile` did it "
         "ahead; later starts take seconds)...",
         flush=True,
     )

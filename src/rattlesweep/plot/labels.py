@@ -23,7 +23,19 @@ HUMAN_UNITS = {
 }
 """CF unit strings of results and how pictures write them; others read as they are."""
 
-_SYMBOLS = {"mu": "μ", "mu_static": "μ_static", "mu_spin": "μ_spin", "mu_roll": "μ_roll"}
+_SYMBOLS = {
+    "mu": "μ",
+    "mu_static": "μ_static",
+    "mu_spin": "μ_spin",
+    "mu_roll": "μ_roll",
+    "delta_deg": "δ",
+    "roll_deg": "roll",
+    "pitch_deg": "pitch",
+    "yaw_deg": "yaw",
+    "launch_spin": "spin",
+}
+"""How titles and legends name a coordinate: a symbol, or the word without its code
+suffix (the units say degrees)."""
 
 
 def human_units(units: str | None) -> str:
@@ -44,7 +56,7 @@ def axis_label(da: xr.DataArray, fallback: str) -> str:
 
 def value_label(ds: xr.Dataset | xr.DataArray, name: Hashable, value: Any) -> str:
     """``name = value units`` for a coordinate value in a title or legend: ``μ = 0.3``,
-    ``μ = ∞ (rolling)``, ``delta_deg = 4°``, ``launch_spin = 5 rad/s``."""
+    ``μ = ∞ (rolling)``, ``δ = 4°``, ``spin = 5 rad/s``."""
     units = (
         human_units(ds[name].attrs.get("units"))
         if name in ds.coords or (isinstance(ds, xr.Dataset) and name in ds)

@@ -331,8 +331,25 @@ def reversal_map(
     scalars = [c for c in da.coords if da[c].ndim == 0 and da[c].dtype.kind in "fiu"]
     scalars.sort(key=lambda c: order.index(c) if c in order else len(order))
     fixed = [_fmt_coord(da, c, da[c].values.item()) for c in scalars]
-    fig.suptitle(title or _wrap_items(fixed[:6], fig), fontsize="small")
+    body = _body_named(ds)
+    items = ([f"{body} body"] if body else []) + fixed[:6]
+    fig.suptitle(title or _wrap_items(items, fig), fontsize="small")
     return fig
+
+
+def _body_named(ds: xr.Dataset) -> str | None:
+    """The name of the fixed body of the sweep that made ``ds`` (a preset's, or the
+    name of a body table), from its ``sweep_config``; None when there is none."""
+    import tomllib
+
+    try:
+        config = tomllib.loads(str(ds.attrs.get("sweep_config", "")))
+    except tomllib.TOMLDecodeError:
+        return None
+    body = config.get("fixed", {}).get("body")
+    if isinstance(body, dict):
+        body = body.get("name")
+    return body if isinstance(body, str) and body else None
 
 
 def _given_fixed(ds: xr.Dataset) -> list[str]:
@@ -453,7 +470,8 @@ def reversal_vs_growth(
     """Predicted against simulated: first reversal time (s) of each launch that reversed
     against the linear e-folding time 1/growth_rate (s) at the same grid point, log-log,
     coloured by ``color_by`` (a dimension) when given: a legend when the dimension has up to
-    8 values, a colour bar when it has more."""
+    8 values, a colour bar when it has more. A dashed line marks the median ratio of the
+    two times: a reversal that follows the linear growth lies near it."""
     import numpy as np
 
     for ds, role, name, made_by in (
@@ -507,17 +525,28 @@ def reversal_vs_growth(
                     efold.values[sel],
                     t_rev.values[sel],
                     s=8,
+                    alpha=0.5,
                     color=f"C{i % 10}",
                     label=_fmt_coord(t_rev, color_by, v.item()),
                 )
-            ax.legend(fontsize="small")
         else:  # too many values for a legend: a colour bar
             points = ax.scatter(
-                efold.values[ok], t_rev.values[ok], s=8, c=c[ok], cmap="viridis"
+                efold.values[ok], t_rev.values[ok], s=8, alpha=0.5, c=c[ok], cmap="viridis"
             )
             fig.colorbar(points, ax=ax, label=_label(t_rev[color_by], color_by))
     else:
-        ax.scatter(efold.values[ok], t_rev.values[ok], s=8)
+        ax.scatter(efold.values[ok], t_rev.values[ok], s=8, alpha=0.5)
+    ratio = float(np.median(t_rev.values[ok] / efold.values[ok]))
+    span = np.array([efold.values[ok].min(), efold.values[ok].max()])
+    ax.plot(
+        span,
+        ratio * span,
+        color="0.3",
+        ls="--",
+        lw=1,
+        label=f"first reversal = {ratio:.3g} e-folding times (the median ratio)",
+    )
+    ax.legend(fontsize="small")
     ax.set_xscale("log")
     ax.set_yscale("log")
     _log_ticks(ax.xaxis, efold.values[ok])

@@ -125,7 +125,7 @@ def estimate(sweep: Sweep, workers: int) -> Estimate:
     if not sweep.simulates:
         raise ValueError(
             "the sweep has no t_end, so it simulates nothing (it serves "
-            "'rattlesweep stability' only)"
+            "`rattlesweep stability` only)"
         )
     workers = max(1, int(workers))
     n = sweep.size

@@ -78,7 +78,7 @@ def finish_advice(out: str | os.PathLike, resume: str | None = None) -> str:
     writing = writer(out)
     if writing:
         return f"a sweep is writing it now: {writing}"
-    return resume or f"'rattlesweep resume {out}' completes it"
+    return resume or f"`rattlesweep resume {out}` completes it"
 
 
 def _tiles(n: int) -> str:
