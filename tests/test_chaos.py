@@ -34,6 +34,22 @@ def test_periodic_rocking_crosses_its_section_at_one_point_once_a_period():
     assert layout_problems(fig) == []
 
 
+def test_a_section_says_what_it_cannot_show():
+    """A plane the run never crosses gives an empty section and says the range it
+    spanned; a coarse record says it blurs the section; a level must be a number."""
+    run = rs.simulate(ALIGNED, roll_deg=0.3, t_end=0.5, record_every=5)
+    with pytest.warns(
+        RuntimeWarning, match="never crosses energy = 0 J upward: energy spans"
+    ):
+        empty = rs.poincare_section(run, "energy")
+    assert empty.sizes["crossing"] == 0
+    with pytest.warns(RuntimeWarning, match="records every 5th step"):
+        coarse = rs.poincare_section(run, "gamma_y")
+    assert coarse.attrs["section"] == "gamma_y = 0, crossed upward"
+    with pytest.raises(ValueError, match="level must be a finite number"):
+        rs.poincare_section(run, level=float("nan"))
+
+
 def test_a_section_names_its_choices():
     run = rs.simulate(ALIGNED, roll_deg=0.3, t_end=0.2)
     with pytest.raises(ValueError, match="plane must be one of .*'tilt_rate'"):
@@ -71,9 +87,22 @@ def test_a_lyapunov_map_centres_its_colours_and_shows_the_stability(chaos_sweep)
     assert any(label.startswith("exponent near 0") for label in labels)
     assert "linear stability boundary" in labels
     assert LYAPUNOV_ZERO in labels or float(ds.lyapunov.min()) > 0
-    hatched = [c for c in fig.axes[0].collections if getattr(c, "hatches", None)]
+    hatched = [c for c in fig.axes[0].collections if c.get_hatch() == "//"]
     assert hatched  # the toy's upright spin is unstable over part of the map
     assert layout_problems(fig) == []
+    # unstable everywhere: every cell hatched to its edges, and no boundary to list
+    everywhere = stability.assign(growth_rate=abs(stability.growth_rate) + 1.0)
+    fig = lyapunov_map(ds, "launch_spin", "delta_deg", stability=everywhere)
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert "linear stability boundary" not in labels
+    assert "hatched: steady upright spin linearly unstable" in labels
+    (hatch,) = [c for c in fig.axes[0].collections if c.get_hatch() == "//"]
+    corners = np.concatenate([p.vertices for p in hatch.get_paths()])
+    spins, deltas = ds.launch_spin.values, ds.delta_deg.values
+    assert corners[:, 0].min() == pytest.approx(spins[0] - (spins[1] - spins[0]) / 2)
+    assert corners[:, 1].max() == pytest.approx(deltas[-1] + (deltas[1] - deltas[0]) / 2)
+    bar = [ax for ax in fig.axes if ax.get_label() == "<colorbar>"][0]
+    assert bar.get_ylabel() == "largest finite-time Lyapunov exponent [1/s]"
 
 
 def test_the_command_line_draws_a_lyapunov_map(chaos_sweep, tmp_path, capsys):

@@ -133,11 +133,23 @@ def test_sweep_keeps_the_exponent(tmp_path):
     ],
 )
 def test_stick_slip_friction_is_refused(name, friction):
-    with pytest.raises(ValueError, match="lyapunov=True needs rolling contact") as info:
+    with pytest.raises(ValueError, match="lyapunov needs rolling contact") as info:
         rs.run_batch(TOY, spin=[5.0, 6.0], t_end=1.0, lyapunov=True, **friction)
     assert name in str(info.value)
     with pytest.raises(ValueError, match="rolling contact"):
         Sweep(axes={"spin": [1.0, 2.0]}, fixed={"t_end": 1.0, **friction}, lyapunov=True)
+
+
+def test_a_static_friction_that_never_gives_way_rolls():
+    ds = rs.run_batch(TOY, spin=-5.0, t_end=0.5, mu=0.3, mu_static=np.inf, lyapunov=True)
+    assert np.isfinite(ds["lyapunov"].values).all()
+
+
+def test_a_run_of_a_few_intervals_is_said_to_be_mostly_transient():
+    with pytest.warns(RuntimeWarning, match="0.2 renormalisation intervals"):
+        rs.run_batch(TOY, spin=[-5.0, 5.0], t_end=0.01, lyapunov=True)
+    with pytest.warns(RuntimeWarning, match="mostly the launch's transient"):
+        rs.simulate(TOY, spin=-5.0, t_end=0.2, lyapunov=True)
 
 
 def test_lyapunov_must_be_a_boolean():

@@ -14,6 +14,7 @@ inputs alone.
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
@@ -25,10 +26,12 @@ from ._pack import prepared
 
 __all__ = [
     "INTERVAL",
+    "SHORT_RUN",
     "check_rolling",
     "lane_sources",
     "lyapunov_attrs",
     "shadowed",
+    "warn_short",
     "with_lyapunov",
 ]
 
@@ -41,6 +44,25 @@ DISPLACEMENT = D0
 """Size of the launch displacement of a shadow in each direction of
 :func:`displaced`'s tangent vector (the kernel rescales it to D0 before the first
 step)."""
+
+
+SHORT_RUN = 10 * INTERVAL
+"""s: a run shorter than this is a few renormalisation intervals: its exponent is mostly
+the launch transient, and a warning says so."""
+
+
+def warn_short(t_end: np.ndarray, stacklevel: int) -> None:
+    """Warn (RuntimeWarning) when some launch runs for less than :data:`SHORT_RUN`."""
+    short = np.asarray(t_end) < SHORT_RUN
+    if np.any(short):
+        t = float(np.min(np.asarray(t_end)))
+        warnings.warn(
+            f"lyapunov over a run of t_end = {t:g} s, {t / INTERVAL:.3g} renormalisation "
+            f"intervals of {INTERVAL:g} s: the exponent is mostly the launch's transient; "
+            "runs of several seconds give exponents worth comparing",
+            RuntimeWarning,
+            stacklevel=stacklevel + 1,
+        )
 
 
 def lyapunov_attrs() -> dict[str, Any]:
@@ -58,35 +80,41 @@ def with_lyapunov(model: Model) -> Model:
 
 
 def check_rolling(flat: Mapping[str, np.ndarray], shape: Sequence[int]) -> None:
-    """Refuse a Lyapunov batch any of whose launches has stick/slip friction or a
-    friction couple (``flat``: the batch's flat inputs by name, over ``shape``).
+    """Refuse a Lyapunov batch any of whose launches can slip or has a friction couple
+    (``flat``: the batch's flat inputs by name, ``mu``, ``mu_static``, ``mu_spin`` and
+    ``mu_roll`` among them, over ``shape``).
 
     Across a switch between sticking and slipping the flow changes, and the tangent
     vector jumps (its saltation); a shadow lane that switches a step earlier or later
     than its launch would measure that jump as growth. The exponent is computed only
-    where every step follows the one smooth rolling flow."""
-    for name, rolls in (
-        ("mu_static", lambda v: v == np.inf),
-        ("mu_spin", lambda v: v == 0.0),
-        ("mu_roll", lambda v: v == 0.0),
+    where every step follows the one smooth rolling flow: an infinite static friction
+    (``mu_static``, which defaults to ``mu``) and no couples."""
+    mu_static = np.asarray(flat["mu_static"])
+    for name, bad in (
+        ("mu_static", ~(mu_static == np.inf)),
+        ("mu_spin", ~(np.asarray(flat["mu_spin"]) == 0.0)),
+        ("mu_roll", ~(np.asarray(flat["mu_roll"]) == 0.0)),
     ):
-        values = np.asarray(flat[name])
-        bad = ~rolls(values)
-        if np.any(bad):
-            i = int(np.argmax(bad))
-            where = (
-                f" at index {tuple(int(k) for k in np.unravel_index(i, tuple(shape)))}"
-                if values.size > 1
-                else ""
-            )
-            shown = "mu (and mu_static)" if name == "mu_static" else name
-            raise ValueError(
-                f"lyapunov=True needs rolling contact throughout: mu = inf (the "
-                f"default), mu_spin = 0 and mu_roll = 0; got {shown} = "
-                f"{values.flat[i]:g}{where}. The exponent is not computed across "
-                "stick/slip switches, where the flow changes and the tangent vector "
-                "jumps."
-            )
+        if not np.any(bad):
+            continue
+        i = int(np.argmax(bad))
+        where = (
+            f" at index {tuple(int(k) for k in np.unravel_index(i, tuple(shape)))}"
+            if bad.size > 1
+            else ""
+        )
+        if name == "mu_static":
+            got = f"mu = {np.asarray(flat['mu']).flat[i]:g}"
+            if np.asarray(flat["mu"]).flat[i] != mu_static.flat[i]:
+                got += f", mu_static = {mu_static.flat[i]:g}"
+        else:
+            got = f"{name} = {np.asarray(flat[name]).flat[i]:g}"
+        raise ValueError(
+            "lyapunov needs rolling contact throughout: mu = inf (the default; or "
+            f"mu_static = inf) and mu_spin = mu_roll = 0; got {got}{where}. The "
+            "exponent is not computed across stick/slip switches, where the flow "
+            "changes and the tangent vector jumps."
+        )
 
 
 def lane_sources(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

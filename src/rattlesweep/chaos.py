@@ -7,6 +7,8 @@ picture behind what the largest Lyapunov exponent (``lyapunov=True``) reports.
 
 from __future__ import annotations
 
+import math
+import warnings
 from typing import Any
 
 import numpy as np
@@ -59,10 +61,12 @@ def _series(run: xr.Dataset) -> dict[str, tuple[np.ndarray, dict[str, Any]]]:
 
 
 def poincare_section(
-    run: xr.Dataset, plane: str = "tilt_rate", level: float = 0.0, direction: str = "up"
+    run: xr.Dataset, plane: str = "omega_x", level: float = 0.0, direction: str = "up"
 ) -> xr.Dataset:
     """The state of a run (:func:`rattlesweep.simulate`) each time the variable ``plane``
-    crosses ``level`` in ``direction`` (``"up"``, ``"down"`` or ``"both"``).
+    crosses ``level`` in ``direction`` (``"up"``, ``"down"`` or ``"both"``). By default
+    the roll rate ``omega_x`` crossing zero upward: once per rocking about the long axis,
+    at the roll's most negative.
 
     ``plane`` and the section's variables are those of :data:`SECTION_VARIABLES`:
     the recorded ``spin``, ``tilt`` (rad), ``heading``, ``energy`` and
@@ -70,10 +74,14 @@ def poincare_section(
     differences); the body components of the angular velocity ``omega_x`` ...
     (rad/s) and of the world up-vector ``gamma_x`` ... Each is interpolated linearly
     between the two samples around a crossing, so the section is as fine as the run's
-    record: record every step (``record_every=1``) for a sharp one.
+    record: record every step (``record_every=1``) for a sharp one (a coarser record
+    warns). The tilt is a magnitude, with a cusp at upright: a tilt-rate plane is
+    crossed on both sides of upright, twice per rocking.
 
     Returns a Dataset over ``crossing`` with ``crossing_time`` (s) and every section
-    variable at each crossing; its attribute ``section`` names the plane.
+    variable at each crossing; its attribute ``section`` names the plane. A plane the
+    run never crosses gives an empty section, with a warning saying the range it
+    spanned.
     """
     if not isinstance(run, xr.Dataset) or "quaternion" not in run or "time" not in run.dims:
         raise ValueError(
@@ -87,7 +95,9 @@ def poincare_section(
     try:
         level = float(level)
     except (TypeError, ValueError):
-        raise ValueError(f"level must be a number, got {level!r}") from None
+        level = math.nan
+    if not math.isfinite(level):
+        raise ValueError(f"level must be a finite number, got {level!r}")
     t = run["time"].values
     s = series[plane][0] - level
     before, after = s[:-1], s[1:]
@@ -104,12 +114,30 @@ def poincare_section(
             {"units": "s", "long_name": "time of the crossing"},
         )
     }
-    for name, (values, attrs) in series.items():
+    for name in SECTION_VARIABLES:
+        values, attrs = series[name]
         data[name] = ("crossing", values[i] + frac * (values[i + 1] - values[i]), attrs)
     ds = xr.Dataset(data, coords={"crossing": np.arange(i.size)})
     unit = series[plane][1]["units"]
-    ds.attrs["section"] = f"{plane} = {level:g} {unit}, crossed {direction}ward".replace(
-        "bothward", "either way"
-    )
+    crossed = "either way" if direction == "both" else f"{direction}ward"
+    where = f"{plane} = {level:g}{'' if unit == '1' else ' ' + unit}"
+    ds.attrs["section"] = f"{where}, crossed {crossed}"
     ds.attrs["Conventions"] = "CF-1.8"
+    every = int(run.attrs.get("record_every", 1))
+    if i.size == 0:
+        finite = s[np.isfinite(s)] + level
+        spanned = f"{finite.min():.4g} to {finite.max():.4g}" if finite.size else "nothing"
+        warnings.warn(
+            f"the run never crosses {where} {crossed}: {plane} spans {spanned} "
+            f"{'' if unit == '1' else unit}".rstrip(),
+            RuntimeWarning,
+            stacklevel=2,
+        )
+    elif every > 1:
+        warnings.warn(
+            f"the run records every {every}th step: each crossing is interpolated over "
+            f"{every} steps; simulate with record_every=1 for a sharp section",
+            RuntimeWarning,
+            stacklevel=2,
+        )
     return ds

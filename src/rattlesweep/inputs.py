@@ -475,7 +475,8 @@ RATTLEBACK_INPUTS: tuple[Input, ...] = (
         in_results=False,
         details="Computed in the kernel from a shadow launch displaced by 1e-8 and "
         "renormalised every 0.05 s of the launch's time; it needs rolling contact (mu = "
-        "inf, the default, and no friction couples) and costs about twice the plain run. "
+        "inf, the default, or mu_static = inf; mu_spin = mu_roll = 0) and costs about "
+        "twice the plain run. "
         "Near an unstable upright spin it is the largest growth rate of the linear "
         "stability analysis; near a stable one it tends to zero.",
         kind="bool",

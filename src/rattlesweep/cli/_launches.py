@@ -88,7 +88,8 @@ def _simulate_from_args(args: argparse.Namespace) -> xr.Dataset:
     from ..rattleback.simulate import simulate
 
     inputs = {key: getattr(args, key) for key in launch_options()}
-    return simulate(_body_from_args(args), method=args.method, **inputs)
+    lyapunov = getattr(args, "lyapunov", False)  # an option of simulate, not animate
+    return simulate(_body_from_args(args), method=args.method, lyapunov=lyapunov, **inputs)
 
 
 def _cmd_simulate(args: argparse.Namespace, argv: list[str] | None) -> int:
@@ -116,6 +117,7 @@ def _cmd_simulate(args: argparse.Namespace, argv: list[str] | None) -> int:
         f"first reversal: {'none' if t_rev != t_rev else f'{t_rev:.4f} s'}; "
         f"reversals: {int(ds.n_reversals)}; final spin {float(ds.final_spin):+.4f} rad/s; "
         f"status: {ds.status.attrs['flag_meanings'].split()[int(ds.status)]}"
+        + (f"; Lyapunov exponent {float(ds.lyapunov):.4g} 1/s" if "lyapunov" in ds else "")
     )
     return 0
 

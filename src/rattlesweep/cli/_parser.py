@@ -138,6 +138,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="end each launch at its first reversal, or run it to t_end "
         "(default: the configuration's 'stop', t_end)",
     )
+    p.add_argument(
+        "--lyapunov",
+        action="store_true",
+        help="add each launch's largest Lyapunov exponent, lyapunov (1/s; rolling "
+        "contact only); default: the configuration's 'lyapunov', false",
+    )
     _add_run_options(p)
     p.set_defaults(func=_cmd_sweep)
 
@@ -192,7 +198,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--var",
         default=None,
-        help="variable (default: outcome, or growth_rate for stability files)",
+        help="variable (default: outcome, or growth_rate for stability files); "
+        "lyapunov draws the exponent over the linear stability of steady spin",
     )
     p.add_argument("--x", default=None, help="dimension across (default: the first)")
     p.add_argument("--y", default=None, help="dimension up (default: the second)")
@@ -370,6 +377,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default=None, help="netCDF file to write (default: none)")
     p.add_argument(
         "--png", default=None, help="PNG of spin against time to write (default: none)"
+    )
+    p.add_argument(
+        "--lyapunov",
+        action="store_true",
+        help="also compute the launch's largest Lyapunov exponent (1/s; rolling "
+        "contact only; default: not computed)",
     )
     p.set_defaults(func=_cmd_simulate)
 

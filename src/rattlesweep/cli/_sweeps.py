@@ -213,6 +213,8 @@ def _cmd_sweep(args: argparse.Namespace, argv: list[str] | None) -> int:
         changes["output"] = args.output
     if args.stop is not None:
         changes["stop"] = None if args.stop == "t_end" else args.stop
+    if args.lyapunov:
+        changes["lyapunov"] = True
     if args.refine is not None and args.refine < 0:
         raise ValueError(
             f"--refine must be an integer >= 0 (levels of refinement; 0: "

@@ -9,9 +9,10 @@ import xarray as xr
 from matplotlib.figure import Figure
 
 from .labels import axis_label
-from .maps import _select, mpl_cmap, reversal_map
+from .maps import _axis_values, _edges, _select, is_log_spaced, mpl_cmap, reversal_map
 
 if TYPE_CHECKING:
+    import numpy as np
     from matplotlib.axes import Axes
 
 __all__ = ["LYAPUNOV_ZERO", "lyapunov_map", "poincare_plot"]
@@ -63,18 +64,32 @@ def lyapunov_map(
             "stability: expected a linear-stability dataset with growth_rate "
             "(rattlesweep.stability.stability_dataset)"
         )
+    panels = [None] if facet is None else list(ds[facet].values)
+    growth = (
+        []
+        if stability is None
+        else [
+            _growth_on(
+                stability, ds, x, y, {**(select or {}), **({facet: v} if facet else {})}
+            )
+            for v in panels
+        ]
+    )
     colours = mpl_cmap(cmap)
     handles: list[Any] = [Patch(color=colours(v), label=text) for v, text in _REGIONS]
-    if stability is not None:
-        handles += [
+    if any(bool((g > 0.0).any()) for g in growth):
+        handles.append(
             Patch(
                 facecolor="none",
                 edgecolor="0.2",
                 hatch="//",
                 label="hatched: steady upright spin linearly unstable",
-            ),
-            Line2D([], [], color="black", lw=1.5, label="linear stability boundary"),
-        ]
+            )
+        )
+    if any(bool((g > 0.0).any() and (g < 0.0).any()) for g in growth):
+        handles.append(
+            Line2D([], [], color="black", lw=1.5, label="linear stability boundary")
+        )
     fig = reversal_map(
         ds,
         x,
@@ -93,22 +108,21 @@ def lyapunov_map(
     # room for the legend's lines below the panels
     width, height = fig.get_size_inches()
     fig.set_size_inches(width, height + 0.2 * (len(handles) + 1))
-    if stability is not None:
-        values = [None] if facet is None else list(ds[facet].values)
-        panels = [ax for ax in fig.axes if ax.get_label() != "<colorbar>"]
-        for ax, value in zip(panels, values):
-            where = {**(select or {}), **({facet: value} if facet else {})}
-            _draw_stability(ax, stability, x, y, where)
+    axes = [ax for ax in fig.axes if ax.get_label() != "<colorbar>"]
+    for ax, g in zip(axes, growth):
+        _draw_stability(ax, ds, x, y, g)
     return fig
 
 
-def _draw_stability(
-    ax: Axes, stability: xr.Dataset, x: str, y: str, where: Mapping[str, Any]
-) -> None:
-    """Hatch where steady spin is unstable and draw the boundary on ``ax``."""
-    import numpy as np
-
+def _growth_on(
+    stability: xr.Dataset, ds: xr.Dataset, x: str, y: str, where: Mapping[str, Any]
+) -> np.ndarray:
+    """The growth rate of ``stability`` on the map's cells (y, x) of one panel."""
     growth = stability["growth_rate"]
+    if "mode" in stability:  # a growth rate of rounding size is neutral, not unstable
+        from ..stability import NEUTRAL
+
+        growth = growth.where(stability["mode"] != NEUTRAL, 0.0)
     for dim in (x, y):
         if dim not in growth.dims:
             raise ValueError(
@@ -118,13 +132,31 @@ def _draw_stability(
     extra = [d for d in growth.dims if d not in (x, y)]
     if extra:
         growth = growth.isel({d: 0 for d in extra})
-    z = growth.transpose(y, x).values
-    if not np.nanmax(z) > 0.0:
+    try:
+        growth = growth.sel({x: ds[x].values, y: ds[y].values})
+    except KeyError:
+        raise ValueError(
+            f"stability: its {x} and {y} values are not those of the map"
+        ) from None
+    return growth.transpose(y, x).values
+
+
+def _draw_stability(ax: Axes, ds: xr.Dataset, x: str, y: str, growth: np.ndarray) -> None:
+    """Hatch the cells where steady spin is unstable and draw the boundary on ``ax``."""
+    import numpy as np
+
+    if not (growth > 0.0).any():
         return
-    xs, ys = growth[x].values, growth[y].values
-    ax.contourf(xs, ys, z, levels=[0.0, np.inf], colors="none", hatches=["//"])
-    if np.nanmin(z) < 0.0:
-        ax.contour(xs, ys, z, levels=[0.0], colors="black", linewidths=1.5)
+    edges = []
+    for dim in (x, y):
+        values, labels = _axis_values(ds["lyapunov"], dim)
+        log = labels is None and is_log_spaced(values)
+        edges.append(_edges(values, log))
+    unstable = np.ma.masked_where(~(growth > 0.0), np.ones(growth.shape))
+    ax.pcolor(*edges, unstable, facecolor="none", edgecolor="0.2", hatch="//", lw=0)
+    if (growth < 0.0).any():
+        xs, ys = (_axis_values(ds["lyapunov"], dim)[0] for dim in (x, y))
+        ax.contour(xs, ys, growth, levels=[0.0], colors="black", linewidths=1.5)
 
 
 def poincare_plot(

@@ -254,6 +254,7 @@ def reversal_map(
     mesh: QuadMesh | None = None
     any_nan = False
     drew_zero = False
+    zero_colour = "0.2" if centred else "white"
     for k, (value, panel) in enumerate(panels):
         ax = axes[k // ncols][k % ncols]
         z = panel.transpose(y, x).values.astype(float)
@@ -275,7 +276,8 @@ def reversal_map(
                 ax, overlay, x, y, {**(select or {}), **({facet: value} if facet else {})}
             )
         if zero_line and not categorical and np.nanmin(z) < 0.0 < np.nanmax(z):
-            ax.contour(xs, ys, z, levels=[0.0], colors="white", linestyles="--")
+            # white on a sequential scale; dark on a diverging one, white at zero
+            ax.contour(xs, ys, z, levels=[0.0], colors=zero_colour, linestyles="--")
             drew_zero = True
         if value is not None and facet is not None:  # a value comes with its facet
             ax.set_title(_fmt_coord(da, facet, value), fontsize="medium")
@@ -300,8 +302,10 @@ def reversal_map(
         ]
     else:
         assert mesh is not None  # there is a panel
-        extend = (
-            "both" if centred and norm.vmax < np.nanmax(np.abs(da.values)) else "neither"
+        low = bool(finite.size and finite.min() < norm.vmin)
+        high = bool(finite.size and finite.max() > norm.vmax)
+        extend = {(True, True): "both", (True, False): "min", (False, True): "max"}.get(
+            (low, high), "neither"
         )
         fig.colorbar(mesh, ax=axes.ravel().tolist(), label=_label(da, var), extend=extend)
     if overlay is not None:
@@ -313,7 +317,8 @@ def reversal_map(
     if drew_zero:
         from matplotlib.lines import Line2D
 
-        entries.append(Line2D([], [], color="0.4", ls="--", lw=1.2, label=zero_line))
+        shown = zero_colour if centred else "0.4"  # white would not show in the legend
+        entries.append(Line2D([], [], color=shown, ls="--", lw=1.2, label=zero_line))
     if any_nan:
         # matplotlib takes an RGBA array as a colour; its stubs' ColorType has no arrays
         bad = cm.get_bad() if not categorical else "white"

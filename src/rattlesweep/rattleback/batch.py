@@ -43,6 +43,7 @@ from .._shadows import (
     DISPLACEMENT,
     check_rolling,
     shadowed,
+    warn_short,
     with_lyapunov,
 )
 from .._run import announce_compile, contact_slip_velocity, execute
@@ -346,6 +347,8 @@ def prepare(
     state = _launch_state(inputs)
     if lyapunov:
         check_rolling(inputs.flat, inputs.shape)
+        if announce:  # run_batch or simulate -> prepare: warn at the user's call
+            warn_short(inputs.flat["t_end"], stacklevel=3)
         prep = shadowed(
             with_lyapunov(MODEL), columns, state, inputs.nsteps, n, inputs.shape, _displaced
         )
@@ -396,9 +399,10 @@ def run_batch(
     descriptions: :data:`rattlesweep.inputs.RATTLEBACK`.
 
     ``lyapunov=True`` adds ``lyapunov`` (1/s): each launch's largest finite-time
-    Lyapunov exponent over its run, from a shadow launch renormalised every 0.05 s
-    (docs/lyapunov.md). It needs rolling contact (``mu`` = inf, the default, and no
-    friction couples) and costs about twice the plain batch.
+    Lyapunov exponent over its run, from a shadow launch renormalised every 0.05 s (the
+    chaos guide, docs/guide/chaos.md). It needs rolling contact (``mu`` = inf, the
+    default, or ``mu_static`` = inf; ``mu_spin`` = ``mu_roll`` = 0) and costs about
+    twice the plain batch.
 
     Parameters
     ----------

@@ -122,6 +122,7 @@ def check_corners(
             mu = given.get("mu", np.full(n, math.inf))
             check_rolling(
                 {
+                    "mu": mu,
                     "mu_static": given.get("mu_static", mu),
                     "mu_spin": given.get("mu_spin", np.zeros(n)),
                     "mu_roll": given.get("mu_roll", np.zeros(n)),
