@@ -119,3 +119,20 @@ def test_a_map_without_exponents_says_how_to_get_them():
     ds = rs.Sweep(axes={"spin": [1.0, 2.0], "delta_deg": [1.0, 2.0]}, fixed={})
     with pytest.raises(ValueError, match="lyapunov = true"):
         lyapunov_map(st.stability_dataset(ds), "launch_spin", "delta_deg")
+
+
+def test_the_stability_boundary_runs_only_where_unstable_meets_stable():
+    """Neutral cells (growth 0: no misalignment, no spin) meet neither side: the
+    boundary runs along cell edges between unstable and stable cells only."""
+    from rattlesweep.plot.chaos import _boundary
+
+    growth = np.array(
+        [
+            [1.0, 1.0, -1.0],
+            [0.0, 0.0, 0.0],  # a neutral row between two unstable ones
+            [2.0, 1.0, 0.5],
+        ]
+    )
+    across, along = _boundary(growth)
+    assert across.tolist() == [[False, True], [False, False], [False, False]]
+    assert not along.any()

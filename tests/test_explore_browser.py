@@ -488,3 +488,75 @@ def test_a_measurement_is_drawn_and_fitted_into_the_controls(page, shots, tmp_pa
     )
     page.screenshot(path=str(shots / "explore-fitted.png"))
     assert page.errors == []
+
+
+def test_classroom_mode_hides_the_advanced_and_guides_a_first_experiment(page, shots):
+    """The switch (or ``?classroom=1`` in the address) hides what a first lesson does not
+    need, shows a first experiment, and leaves the timing out of the status line; the
+    key to the 3-D view is always there."""
+    advanced = ["#mu_spin", "#mu_roll", "#damping", "#masses", "#mu_static", "#caps"]
+    assert page.is_visible("#view-key") and "path of the contact point" in page.inner_text(
+        "#view-key"
+    )
+    assert all(page.is_visible(sel) for sel in advanced)
+    assert not page.is_visible("#guide")
+    page.check("#classroom")
+    assert page.url.endswith("?classroom=1")
+    assert not any(page.is_visible(sel) for sel in advanced)
+    assert page.is_visible("#guide") and page.is_visible("#spin") and page.is_visible("#mu")
+    set_control(page, "#spin", "5")
+    assert page.inner_text("#status") == "ready"
+    page.screenshot(path=str(shots / "explore-classroom.png"))
+    page.reload()  # the address keeps it
+    page.wait_for_function("window.explorer && window.explorer.ready", timeout=60_000)
+    assert page.is_checked("#classroom") and not page.is_visible("#damping")
+    page.uncheck("#classroom")
+    assert "classroom" not in page.url and page.is_visible("#damping")
+    set_control(page, "#spin", "-5")
+    assert page.inner_text("#status").endswith(" ms")
+    assert page.errors == []
+
+
+def test_plot_ticks_are_round_human_numbers(page):
+    """Each plot shows at least three round tick values; a toy's energy (under a
+    hundredth of a joule) in mJ rather than in powers of ten."""
+    set_control(page, "#mu", "0.3")
+    for sel in ("#plot-spin", "#plot-tilt", "#plot-energy", "#plot-slip"):
+        ticks = page.eval_on_selector(sel, "c => c._ticks")
+        assert len(ticks) >= 3, (sel, ticks)
+    energy = page.evaluate(
+        "Math.max(...window.explorer.run.energy.filter(Number.isFinite))"
+    )
+    assert energy < 0.1
+    ticks = page.eval_on_selector("#plot-energy", "c => c._ticks")
+    assert max(abs(t) for t in ticks) >= 0.1  # shown in mJ
+    assert all(len(str(t).replace("-", "").replace(".", "")) <= 4 for t in ticks)
+
+
+def test_the_map_legend_lists_what_the_map_shows(page):
+    page.select_option("#map-x-param", "spin")
+    page.select_option("#map-y-param", "delta_deg")
+    for sel, value in (("#map-x-num", "5"), ("#map-y-num", "3"), ("#map-levels", "0")):
+        page.fill(sel, value)
+    page.fill("#map-x-start", "2")
+    page.fill("#map-x-stop", "10")
+    page.fill("#map-y-start", "2")
+    page.fill("#map-y-stop", "6")
+    set_control(page, "#t_end", "1")
+    set_control(page, "#mu", "inf")  # rolling: the map shows the linear stability
+    page.click("#map-go")
+    page.wait_for_function(
+        "window.explorer.map && window.explorer.map.done && "
+        "window.explorer.map.x.values.length === 5",
+        timeout=60_000,
+    )
+    page.wait_for_timeout(200)
+    m = page.evaluate("window.explorer.map")
+    present = {m["outcome_names"][o] for row in m["outcome"] for o in row}
+    legend = page.inner_text("#map-legend")
+    for name in m["outcome_names"]:
+        assert (name.replace("_", " ") in legend) == (name in present), (name, legend)
+    unstable = any(u == 1 for row in m["unstable"] for u in row)
+    assert unstable  # rolling, misaligned: steady spin is unstable somewhere
+    assert ("hatched: steady spin unstable" in legend) == unstable
+    assert page.errors == []

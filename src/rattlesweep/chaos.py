@@ -60,6 +60,12 @@ def _series(run: xr.Dataset) -> dict[str, tuple[np.ndarray, dict[str, Any]]]:
     return out
 
 
+def _ordinal(n: int) -> str:
+    """2 -> "2nd", 11 -> "11th", 23 -> "23rd"."""
+    tail = "th" if 10 <= n % 100 <= 20 else {1: "st", 2: "nd", 3: "rd"}.get(n % 10, "th")
+    return f"{n}{tail}"
+
+
 def poincare_section(
     run: xr.Dataset, plane: str = "omega_x", level: float = 0.0, direction: str = "up"
 ) -> xr.Dataset:
@@ -135,7 +141,8 @@ def poincare_section(
         )
     elif every > 1:
         warnings.warn(
-            f"the run records every {every}th step: each crossing is interpolated over "
+            f"the run records every {_ordinal(every)} step: each crossing is "
+            f"interpolated over "
             f"{every} steps; simulate with record_every=1 for a sharp section",
             RuntimeWarning,
             stacklevel=2,

@@ -157,7 +157,8 @@ def _stability(sweep: Any) -> tuple[list[list[int | None]] | None, str]:
     except ValueError as exc:
         return None, f"linear stability boundary: not available ({exc})"
     return _classes(ds.growth_rate.transpose(*sweep.dims).values).T.tolist(), (
-        "dashed line: linear stability boundary of steady upright spin (rolling contact)"
+        "linear stability of steady upright spin (rolling contact): hatched where it is "
+        "unstable, dashed where it turns stable"
     )
 
 

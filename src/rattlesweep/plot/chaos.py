@@ -76,7 +76,12 @@ def lyapunov_map(
         ]
     )
     colours = mpl_cmap(cmap)
-    handles: list[Any] = [Patch(color=colours(v), label=text) for v, text in _REGIONS]
+    shown = _shown_regions(ds["lyapunov"], select, reduce)
+    handles: list[Any] = [
+        Patch(color=colours(v), label=text)
+        for (v, text), there in zip(_REGIONS, shown)
+        if there
+    ]
     if any(bool((g > 0.0).any()) for g in growth):
         handles.append(
             Patch(
@@ -86,7 +91,7 @@ def lyapunov_map(
                 label="hatched: steady upright spin linearly unstable",
             )
         )
-    if any(bool((g > 0.0).any() and (g < 0.0).any()) for g in growth):
+    if any(_boundary(g)[0].any() or _boundary(g)[1].any() for g in growth):
         handles.append(
             Line2D([], [], color="black", lw=1.5, label="linear stability boundary")
         )
@@ -112,6 +117,39 @@ def lyapunov_map(
     for ax, g in zip(axes, growth):
         _draw_stability(ax, ds, x, y, g)
     return fig
+
+
+def _shown_regions(
+    da: xr.DataArray, select: Mapping[str, Any] | None, reduce: str | None
+) -> tuple[bool, bool, bool]:
+    """Whether the map shows a positive, a near-zero and a negative exponent: a value
+    beyond a tenth of the colour scale's end m (the 95th percentile of the magnitudes,
+    as :func:`rattlesweep.plot.reversal_map` takes it) either way, or within it."""
+    import numpy as np
+
+    if select:
+        da = _select(da, select)
+    values = da.values[np.isfinite(da.values)]
+    if values.size == 0:
+        return (False, False, False)
+    if reduce == "mean":  # the drawn means lie within the values' range
+        values = np.array([values.min(), values.max(), values.mean()])
+    m = float(np.percentile(np.abs(values), 95)) or 1.0
+    return (
+        bool((values > 0.1 * m).any()),
+        bool((np.abs(values) <= 0.1 * m).any()),
+        bool((values < -0.1 * m).any()),
+    )
+
+
+def _boundary(growth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Where an unstable cell (growth > 0) meets a stable one (growth < 0; a neutral
+    cell, growth 0, meets neither): (between columns i and i + 1, (ny, nx - 1); between
+    rows j and j + 1, (ny - 1, nx))."""
+    up, down = growth > 0.0, growth < 0.0
+    across = (up[:, :-1] & down[:, 1:]) | (down[:, :-1] & up[:, 1:])
+    along = (up[:-1, :] & down[1:, :]) | (down[:-1, :] & up[1:, :])
+    return across, along
 
 
 def _growth_on(
@@ -154,9 +192,19 @@ def _draw_stability(ax: Axes, ds: xr.Dataset, x: str, y: str, growth: np.ndarray
         edges.append(_edges(values, log))
     unstable = np.ma.masked_where(~(growth > 0.0), np.ones(growth.shape))
     ax.pcolor(*edges, unstable, facecolor="none", edgecolor="0.2", hatch="//", lw=0)
-    if (growth < 0.0).any():
-        xs, ys = (_axis_values(ds["lyapunov"], dim)[0] for dim in (x, y))
-        ax.contour(xs, ys, growth, levels=[0.0], colors="black", linewidths=1.5)
+    # the boundary along the cells' edges, where an unstable cell meets a stable one
+    xe, ye = edges
+    across, along = _boundary(growth)
+    segments = [
+        [(xe[i + 1], ye[j]), (xe[i + 1], ye[j + 1])] for j, i in zip(*across.nonzero())
+    ]
+    segments += [
+        [(xe[i], ye[j + 1]), (xe[i + 1], ye[j + 1])] for j, i in zip(*along.nonzero())
+    ]
+    if segments:
+        from matplotlib.collections import LineCollection
+
+        ax.add_collection(LineCollection(segments, colors="black", linewidths=1.5))
 
 
 def poincare_plot(

@@ -30,13 +30,13 @@ function settings() {
 
 // a box shows a value rounded to 6 significant digits; while it shows that, the request
 // carries the full value (a map point, a preset's mass)
-function short(v) {
+function short(v, digits = 6) {
   const x = Number(v);
   return (typeof v === 'number' || (v !== '' && Number.isFinite(x))) && Number.isFinite(x)
-    ? String(Number(x.toPrecision(6))) : String(v);
+    ? String(Number(x.toPrecision(digits))) : String(v);
 }
-function setBox(el, v) {
-  el.value = short(v);
+function setBox(el, v, digits = 6) {
+  el.value = short(v, digits);
   el.dataset.full = String(v);
   el.dataset.shown = el.value;
 }
@@ -107,7 +107,15 @@ async function doRun() {
   state.lastError = null;
   showErrors(null);
   state.latencies.push(performance.now() - t0);
-  $('status').textContent = `run ${state.runs} in ${(performance.now() - t0).toFixed(0)} ms`;
+  // classroom mode leaves the timing out: a first lesson does not need it
+  $('status').textContent = state.classroom ? 'ready'
+    : `run ${state.runs} in ${(performance.now() - t0).toFixed(0)} ms`;
+}
+
+function setClassroom(on) {
+  state.classroom = on;
+  document.body.classList.toggle('classroom', on);
+  $('classroom').checked = on;
 }
 
 function failed(error, control, status) {
@@ -413,15 +421,33 @@ function drawPlotBase(c) {
     ctx.fillText(`dots: measured ${state.measured.what}`, f.x0 + 4, f.y0 + 24);
   }
   ctx.fillStyle = '#333'; ctx.font = '11px sans-serif';
-  ctx.fillText(c.dataset.label, f.x0 + 4, f.y0 + 11);
-  const digits = Math.min(8, 3 + Math.max(0, Math.round(Math.log10(
-    Math.max(Math.abs(f.hi), Math.abs(f.lo)) / (f.hi - f.lo)))));
-  ctx.fillText(fmt(f.hi, digits), 2, f.y0 + 9);
-  ctx.fillText(fmt(f.lo, digits), 2, f.y1);
+  const u = plotUnits(c, f);
+  ctx.fillText(u.label, f.x0 + 4, f.y0 + 11);
+  // round values in human units (mJ rather than 8.0e-4 J), at least three of them
+  let vs = ticks(f.lo * u.scale, f.hi * u.scale, 4);
+  if (vs.length < 3) vs = ticks(f.lo * u.scale, f.hi * u.scale, 6);
+  ctx.textAlign = 'right';
+  for (const v of vs) {
+    const y = Y(v / u.scale);
+    ctx.fillText(tickText(v), f.x0 - 3, Math.min(f.y1, Math.max(f.y0 + 8, y + 4)));
+    ctx.strokeStyle = '#bbb'; ctx.beginPath(); ctx.moveTo(f.x0 - 2, y); ctx.lineTo(f.x0, y); ctx.stroke();
+  }
+  ctx.textAlign = 'left';
+  c._ticks = vs;
   ctx.fillText('0', f.x0, c.height - 4);
   ctx.fillText(`${fmt(f.T)} s`, f.x1 - 34, c.height - 4);
   c._base = ctx.getImageData(0, 0, c.width, c.height);
   c._frame = f;
+}
+
+// a plot's label and the factor its tick values are shown with: energies under 0.1 J in
+// mJ, speeds under 0.1 m/s in mm/s
+function plotUnits(c, f) {
+  const big = Math.max(Math.abs(f.lo), Math.abs(f.hi));
+  const small = big < 0.1;
+  if (c.dataset.series === 'energy' && small) return { scale: 1000, label: 'energy (mJ)' };
+  if (c.dataset.series === 'slip_speed' && small) return { scale: 1000, label: 'slip speed (mm/s)' };
+  return { scale: 1, label: c.dataset.label };
 }
 
 function drawCursor(c) {
@@ -553,17 +579,33 @@ function drawMap() {
       ctx.fillRect(x0 + i * w, Y1 - (j + 1) * h, w + 0.5, h + 0.5);
     }
   }
-  if (m.unstable) {  // edges between linearly stable and unstable cells
-    ctx.strokeStyle = '#000'; ctx.lineWidth = 2; ctx.setLineDash([5, 3]); ctx.beginPath();
+  state.mapEdges = false;
+  if (m.unstable) {  // hatch the linearly unstable cells, then the edges to stable ones
     const u = m.unstable;
+    ctx.save(); ctx.strokeStyle = 'rgba(0, 0, 0, 0.35)'; ctx.lineWidth = 1;
+    for (let j = 0; j < ny; j++) {
+      for (let i = 0; i < nx; i++) {
+        if (u[j][i] !== 1) continue;
+        ctx.save(); ctx.beginPath(); ctx.rect(x0 + i * w, Y1 - (j + 1) * h, w, h); ctx.clip();
+        ctx.beginPath();
+        for (let d = -h; d < w + h; d += 6) {
+          ctx.moveTo(x0 + i * w + d, Y1 - j * h); ctx.lineTo(x0 + i * w + d + h, Y1 - (j + 1) * h);
+        }
+        ctx.stroke(); ctx.restore();
+      }
+    }
+    ctx.restore();
+    ctx.strokeStyle = '#000'; ctx.lineWidth = 2; ctx.setLineDash([5, 3]); ctx.beginPath();
     for (let j = 0; j < ny; j++) {
       for (let i = 0; i < nx; i++) {
         // null: neutral to rounding (no spin, no misalignment): no edge beside it
         if (u[j][i] === null) continue;
         if (i + 1 < nx && u[j][i + 1] !== null && u[j][i] !== u[j][i + 1]) {
+          state.mapEdges = true;
           ctx.moveTo(x0 + (i + 1) * w, Y1 - j * h); ctx.lineTo(x0 + (i + 1) * w, Y1 - (j + 1) * h);
         }
         if (j + 1 < ny && u[j + 1][i] !== null && u[j][i] !== u[j + 1][i]) {
+          state.mapEdges = true;
           ctx.moveTo(x0 + i * w, Y1 - (j + 1) * h); ctx.lineTo(x0 + (i + 1) * w, Y1 - (j + 1) * h);
         }
       }
@@ -603,8 +645,15 @@ function drawMap() {
   ctx.save(); ctx.translate(11, (y0 + Y1) / 2); ctx.rotate(-Math.PI / 2);
   ctx.fillText(label(m.y.param), 0, 0); ctx.restore();
   ctx.textAlign = 'left';
-  $('map-legend').innerHTML = m.outcome_names.map((n, k) =>
-    `<span><i style="background:${OUTCOME_COLOURS[k]}"></i>${n.replace(/_/g, ' ')}</span>`).join('');
+  const present = new Set(m.outcome.flat());
+  const entries = m.outcome_names.map((n, k) => [n, k]).filter(([, k]) => present.has(k))
+    .map(([n, k]) => `<span><i style="background:${OUTCOME_COLOURS[k]}"></i>${n.replace(/_/g, ' ')}</span>`);
+  if (present.has(-1)) entries.push('<span><i style="background:#eeeeee"></i>not computed yet</span>');
+  if (m.unstable && m.unstable.flat().some((u) => u === 1)) {
+    entries.push('<span class="hatch"><i></i>hatched: steady spin unstable (linear theory)</span>');
+  }
+  if (state.mapEdges) entries.push('<span class="line"><i></i>dashed: where it turns stable</span>');
+  $('map-legend').innerHTML = entries.join('');
 }
 
 function mapCell(ev) {
@@ -630,8 +679,9 @@ $('map-canvas').addEventListener('click', (ev) => {
   if (!cell) return;
   const [i, j] = cell;
   state.marker = [i, j];
-  setBox($(m.x.param), m.x.values[i]);
-  setBox($(m.y.param), m.y.values[j]);
+  // shown to 4 digits (a refined grid's 0.346875 reads 0.3469); the run takes the value
+  setBox($(m.x.param), m.x.values[i], 4);
+  setBox($(m.y.param), m.y.values[j], 4);
   syncSlider();
   state.loadedFromMap = { x: m.x.values[i], y: m.y.values[j], outcome: m.outcome[j][i] };
   drawMap();
@@ -771,6 +821,16 @@ async function fitMeasurement() {
 }
 
 async function init() {
+  const wanted = new URLSearchParams(location.search).get('classroom');
+  setClassroom(wanted !== null && wanted !== '0' && wanted !== 'false');
+  $('classroom').addEventListener('change', () => {
+    setClassroom($('classroom').checked);
+    const url = new URL(location.href);
+    if (state.classroom) url.searchParams.set('classroom', '1');
+    else url.searchParams.delete('classroom');
+    history.replaceState(null, '', url);
+    if (state.run) $('status').textContent = state.classroom ? 'ready' : `run ${state.runs}`;
+  });
   const config = await (await fetch('/api/config')).json();
   state.config = config;
   const preset = $('preset');
@@ -789,6 +849,8 @@ async function init() {
   $('map-x-param').value = 'spin'; $('map-y-param').value = 'delta_deg';
   setAxisRange('x'); setAxisRange('y');
   $('map-x-num').value = 13; $('map-y-num').value = 9;
+  $('map-info').textContent = 'Choose what goes across and up, then press compute map: '
+    + 'each cell is one launch, coloured by what it did; click one to watch it.';
   $('map-levels').value = 1;
   for (const k of ['x', 'y']) $(`map-${k}-param`).addEventListener('change', () => setAxisRange(k));
   const c = config.caps;
