@@ -157,6 +157,10 @@ def test_clicking_a_map_point_loads_its_launch(page, shots):
     # the run view shows that launch: its outcome is the map's at that point
     reversed_run = run["summary"]["n_reversals"] >= 1
     assert reversed_run == (m["outcome"][j][i] in (1, 2))
+    # the map stops at the first reversal; a run that goes on to capsize says so there
+    status = run["summary"]["status"]
+    assert status == "capsized"  # this launch reverses, then capsizes
+    assert "run on, it capsized at" in page.inner_text("#map-note")
     assert not math.isnan(run["summary"]["final_spin"])
     page.wait_for_timeout(300)
     page.screenshot(path=str(shots / "explore-map-click.png"))
@@ -559,4 +563,25 @@ def test_the_map_legend_lists_what_the_map_shows(page):
     unstable = any(u == 1 for row in m["unstable"] for u in row)
     assert unstable  # rolling, misaligned: steady spin is unstable somewhere
     assert ("hatched: steady spin unstable" in legend) == unstable
+    assert page.errors == []
+
+
+def test_the_default_map_works_for_a_preset_body(page):
+    """A preset's misalignment is its own: choosing one turns a map axis over δ into μ,
+    and the map computes."""
+    page.select_option("#map-x-param", "spin")
+    page.select_option("#map-y-param", "delta_deg")
+    page.select_option("#preset", "kane_levinson")
+    assert page.input_value("#map-y-param") == "mu"
+    for sel, value in (("#map-x-num", "5"), ("#map-y-num", "3"), ("#map-levels", "0")):
+        page.fill(sel, value)
+    set_control(page, "#t_end", "1")
+    page.click("#map-go")
+    page.wait_for_function(
+        "window.explorer.map && window.explorer.map.done && "
+        "window.explorer.map.y.param === 'mu'",
+        timeout=60_000,
+    )
+    assert page.inner_text("#err-map") == ""
+    page.select_option("#preset", "custom")
     assert page.errors == []

@@ -172,6 +172,25 @@ function loadRun(data) {
   frameView(data);
   for (const c of plots) drawPlotBase(c);
   showFrame(0);
+  explainMapPoint(s);
+}
+
+// the map stops each launch at its first reversal; the run goes on to its end: a point the
+// map calls reversed whose run later capsizes or lifts off says so under the map too
+function explainMapPoint(s) {
+  const from = state.loadedFromMap, m = state.map;
+  state.loadedFromMap = null;
+  if (!from || !m) return;
+  const name = (m.outcome_names[from.outcome] || '').replace(/_/g, ' ');
+  const note = $('map-note');
+  note.textContent = m.boundary_note || '';
+  if (name.includes('reversed') && s.status !== 'ok' && finite(s.first_reversal_time)) {
+    const end = s.steps * s.dt;
+    note.textContent = `This point is ${name} on the map, which stops each launch at its `
+      + `first reversal (${fixed(s.first_reversal_time, 3)} s); run on, it `
+      + `${s.status.replace(/_/g, ' ')} at ${fixed(end, 3)} s, as the run shows. `
+      + (m.boundary_note || '');
+  }
 }
 
 // the size the view is framed for (m): the body's largest extent, its height counted
@@ -741,6 +760,16 @@ function showPresetBody() {
     $('delta_deg').placeholder = 'preset';
   }
   for (const k of BODY_BOXES) $(k).readOnly = !custom;
+  if (!custom) {
+    // a preset's shape and misalignment are its own: a map axis over them becomes μ (or
+    // the roll, when μ is the other axis), so that the map still works
+    for (const [k, other] of [['x', 'y'], ['y', 'x']]) {
+      if (BODY_BOXES.includes($(`map-${k}-param`).value)) {
+        $(`map-${k}-param`).value = $(`map-${other}-param`).value === 'mu' ? 'roll_deg' : 'mu';
+        setAxisRange(k);
+      }
+    }
+  }
   $('custom-body').style.opacity = custom ? 1 : 0.6;
   $('custom-body').title = custom ? '' : 'the preset body: choose "semi-ellipsoid" to edit';
 }
