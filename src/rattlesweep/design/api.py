@@ -62,9 +62,9 @@ class Design:
             f"above the contact point (limit {pred['com_height_limit'] * 1e3:.3g} mm)",
             f"prefers {self.prefer} (seen from above); spun {pred['bad_sense']} "
             f"(spins {min(self.launches.spins):g}-{max(self.launches.spins):g} rad/s, "
-            f"tilts below 1 deg) it reverses at mu = {self.launches.mu[0]:g} "
-            f"{_span(pred['first_reversal_time_mu_low'], t_end)}; at mu = "
-            f"{self.launches.mu[1]:g} {_span(pred['first_reversal_time_mu_high'], t_end)}",
+            f"tilts below 1 deg) "
+            f"{_reverses(self.launches.mu[0], pred['first_reversal_time_mu_low'], t_end)}; "
+            f"{_reverses(self.launches.mu[1], pred['first_reversal_time_mu_high'], t_end)}",
             f"search: {self.search.launches} launches "
             f"({self.search.table.sizes['candidate']}"
             f" placements, {self.search.levels} refinement levels); "
@@ -92,13 +92,25 @@ class Design:
         return [] if self.robust else not_robust_report(self)
 
 
-def _span(t: dict[str, float], t_end: float) -> str:
-    if not math.isfinite(t["max"]):
+def _reverses(mu: float, t: dict[str, float], t_end: float) -> str:
+    """How the wrong-way launches at friction ``mu`` reverse: after what times, and how
+    many of them do not within ``t_end`` (s)."""
+    if not math.isfinite(t["min"]):
         return (
-            f"after {t['min']:.2g} s at the quickest, but {t['not_reversed']:g} of "
-            f"its {t['launches']:g} launches do not within {t_end:g} s of spinning"
+            f"it does not reverse at mu = {mu:g} within {t_end:g} s of spinning, in any "
+            f"of its {t['launches']:g} launches"
         )
-    return f"after {t['min']:.2g}-{t['max']:.2g} s (median {t['median']:.2g} s) of spinning"
+    if not math.isfinite(t["max"]):
+        verb = "does" if t["not_reversed"] == 1 else "do"
+        return (
+            f"it reverses at mu = {mu:g} after {t['min']:.2g} s at the quickest, but "
+            f"{t['not_reversed']:g} of its {t['launches']:g} launches {verb} not within "
+            f"{t_end:g} s of spinning"
+        )
+    return (
+        f"it reverses at mu = {mu:g} after {t['min']:.2g}-{t['max']:.2g} s (median "
+        f"{t['median']:.2g} s) of spinning"
+    )
 
 
 def _count(mask: np.ndarray) -> str:
@@ -149,7 +161,8 @@ def not_robust_report(d: Design) -> list[str]:
                 f"the axis for a bias; a smaller coin, or a wider shell (e.g. --b "
                 f"{p.b * 1.1:.3g}) gives a stronger one"
             )
-        if pred["com_height"] < 0.9 * pred["com_height_limit"]:
+        if pred["com_height"] < 0.9 * pred["com_height_limit"] and not bool(spurious.any()):
+            # (with right-way reversals too, a heavier coin would make those worse)
             most = pred["max_coin_mass"]
             hints.append(
                 "a heavier coin of the same size biases it more"
@@ -165,15 +178,23 @@ def not_robust_report(d: Design) -> list[str]:
             f"launches ({float(spurious.mean()):.0%}) reversed within {t_end:g} s of "
             "spinning, which it should not"
         )
-        hints.append(
-            "a lighter coin, or coins nearer the long axis: the bias is so strong "
-            "that the right way is unstable too"
-        )
+        if bool(missed.any()):
+            hints.append(
+                "some wrong-way launches do not reverse while some right-way ones do: the "
+                "bias is too weak for the first and too strong for the second, so no coin "
+                "mass mends both; a different shell, or a narrower friction range"
+            )
+        else:
+            hints.append(
+                "a lighter coin (--coin-mass): the bias is so strong that the right way is "
+                "unstable too"
+            )
     if pred["com_height"] >= 0.9 * pred["com_height_limit"]:
+        lighter = "" if bool(missed.any()) else "a lighter coin or "
         hints.append(
             f"G is {pred['com_height'] * 1e3:.3g} mm above the contact point, near its "
-            f"limit of {pred['com_height_limit'] * 1e3:.3g} mm: a lighter coin or a lower "
-            "shell (smaller c) rocks more steadily"
+            f"limit of {pred['com_height_limit'] * 1e3:.3g} mm: {lighter}a lower shell "
+            "(smaller c) rocks more steadily"
         )
     hints.append(
         "a different shell (a, b, c) or coin; the files are written so that you "
