@@ -9,7 +9,15 @@ import xarray as xr
 from matplotlib.figure import Figure
 
 from .labels import axis_label
-from .maps import _axis_values, _edges, _select, is_log_spaced, mpl_cmap, reversal_map
+from .maps import (
+    _axis_values,
+    _edges,
+    _select,
+    is_log_spaced,
+    mpl_cmap,
+    overlay_panel,
+    reversal_map,
+)
 
 if TYPE_CHECKING:
     import numpy as np
@@ -161,12 +169,7 @@ def _growth_on(
         from ..stability import NEUTRAL
 
         growth = growth.where(stability["mode"] != NEUTRAL, 0.0)
-    for dim in (x, y):
-        if dim not in growth.dims:
-            raise ValueError(
-                f"stability: growth_rate has no dimension {dim!r} ({list(growth.dims)})"
-            )
-    growth = _select(growth, {k: v for k, v in where.items() if k in growth.dims})
+    growth = overlay_panel(growth, x, y, where, "stability: growth_rate")
     extra = [d for d in growth.dims if d not in (x, y)]
     if extra:
         growth = growth.isel({d: 0 for d in extra})

@@ -399,18 +399,25 @@ def reversed_fraction(sweep: xr.Dataset) -> xr.DataArray:
     return sweep.outcome.isin([REVERSED, SEVERAL]).astype(float)
 
 
+def overlay_panel(
+    da: xr.DataArray, x: str, y: str, select: Mapping[str, Any], role: str
+) -> xr.DataArray:
+    """What another dataset's ``da`` draws on one panel of a map over ``x`` and ``y``:
+    its values at the panel's ``select`` (on the dimensions it has), any other
+    dimensions left to the caller. A ValueError starting with ``role`` says when it
+    lacks ``x`` or ``y``."""
+    for dim in (x, y):
+        if dim not in da.dims:
+            raise ValueError(f"{role} has no dimension {dim!r} ({list(da.dims)})")
+    return _select(da, {k: v for k, v in select.items() if k in da.dims})
+
+
 def _draw_boundary(
     ax: Axes, sweep: xr.Dataset, x: str, y: str, select: Mapping[str, Any]
 ) -> None:
     import numpy as np
 
-    frac = reversed_fraction(sweep)
-    for dim in (x, y):
-        if dim not in frac.dims:
-            raise ValueError(
-                f"overlay: the sweep has no dimension {dim!r} ({list(frac.dims)})"
-            )
-    frac = _select(frac, {k: v for k, v in select.items() if k in frac.dims})
+    frac = overlay_panel(reversed_fraction(sweep), x, y, select, "overlay: the sweep")
     extra = [d for d in frac.dims if d not in (x, y)]
     if extra:
         frac = frac.mean(extra)
