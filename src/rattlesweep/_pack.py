@@ -1,5 +1,6 @@
 """Packing: a batch's flat per-trajectory inputs and launch state as the kernel's blocks
-of BLOCK lanes, laid out by the model's row tables, and back."""
+of BLOCK lanes, laid out by the model's row tables (:meth:`Prepared.per_trajectory
+<rattlesweep._model.Prepared.per_trajectory>` reads them back)."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from ._model import Model, Prepared
 from ._core.rows import Rows
 from ._core.workspace import BLOCK
 
-__all__ = ["blocked", "pack", "prepared", "unblock"]
+__all__ = ["blocked", "pack", "prepared"]
 
 
 def blocked(rows: np.ndarray, n: int) -> np.ndarray:
@@ -37,11 +38,6 @@ def pack(table: Rows, columns: Mapping[str, np.ndarray], n: int) -> np.ndarray:
         )
         rows[table.slice(row.name)] = values.reshape(n, row.width).T
     return blocked(rows, n)
-
-
-def unblock(arr: np.ndarray, n: int) -> np.ndarray:
-    """(n_blocks, n_rows, BLOCK) → (n_rows, n)."""
-    return arr.transpose(1, 0, 2).reshape(arr.shape[1], -1)[:, :n]
 
 
 def prepared(
