@@ -25,6 +25,7 @@ from ._model import Model, Prepared
 from ._pack import prepared
 
 __all__ = [
+    "DISPLACEMENT",
     "INTERVAL",
     "SHORT_RUN",
     "check_rolling",

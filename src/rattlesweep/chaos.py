@@ -14,6 +14,8 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from .rattleback.launch import up_vector
+
 __all__ = ["SECTION_VARIABLES", "poincare_section"]
 
 SECTION_VARIABLES = (
@@ -45,9 +47,7 @@ def _series(run: xr.Dataset) -> dict[str, tuple[np.ndarray, dict[str, Any]]]:
         np.gradient(tilt, t) if t.size > 1 else np.full(t.size, np.nan),
         {"units": "rad s-1", "long_name": "rate of change of the tilt"},
     )
-    q = run["quaternion"].values
-    w, x, y, z = (q[:, k] for k in range(4))
-    gamma = (2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y))
+    gamma = up_vector(run["quaternion"].values).T
     for k, axis in enumerate("xyz"):
         out[f"omega_{axis}"] = (
             run["omega"].values[:, k],

@@ -13,6 +13,7 @@ from .maps import (
     _axis_values,
     _edges,
     _select,
+    centred_limit,
     is_log_spaced,
     mpl_cmap,
     overlay_panel,
@@ -142,7 +143,7 @@ def _shown_regions(
         return (False, False, False)
     if reduce == "mean":  # the drawn means lie within the values' range
         values = np.array([values.min(), values.max(), values.mean()])
-    m = float(np.percentile(np.abs(values), 95)) or 1.0
+    m = centred_limit(values)
     return (
         bool((values > 0.1 * m).any()),
         bool((np.abs(values) <= 0.1 * m).any()),

@@ -245,7 +245,7 @@ def reversal_map(
         finite = da.values[np.isfinite(da.values)]
         norm = Normalize(*(finite.min(), finite.max()) if finite.size else (0, 1))
         if centred and finite.size:
-            m = float(np.percentile(np.abs(finite), 95)) or 1.0
+            m = centred_limit(finite)
             norm = Normalize(-m, m)
     xs, xlabels = _axis_values(da, x)
     ys, ylabels = _axis_values(da, y)
@@ -397,6 +397,14 @@ def reversed_fraction(sweep: xr.Dataset) -> xr.DataArray:
     from ..sweep._outputs.outcomes import REVERSED, SEVERAL
 
     return sweep.outcome.isin([REVERSED, SEVERAL]).astype(float)
+
+
+def centred_limit(finite: np.ndarray) -> float:
+    """The end m of a centred colour scale, -m to m, over finite values: the 95th
+    percentile of their magnitudes (1 when all are zero)."""
+    import numpy as np
+
+    return float(np.percentile(np.abs(finite), 95)) or 1.0
 
 
 def overlay_panel(
